@@ -1,0 +1,139 @@
+"""Scene -> kernel buffers (structure of arrays, fixed dtypes)."""
+import numpy as np
+
+from .buffers import N_MAT_PARAMS, Geometry, f64, i64
+from .errors import RaytraceError
+from .scene import Mesh, Plane, Sphere
+
+# A triangle whose doubled area is below this fraction of its longest edge
+# squared is degenerate (zero area, collinear, or a repeated vertex): it has
+# no normal, so it is dropped at load and counted.  1e-14 is ~50 ulps of
+# float64 -- rounding in the cross product, not a real sliver (a 1e-6 aspect
+# sliver keeps a ratio of ~1e-6 and stays).
+DEGENERATE_RATIO = 1e-14
+
+
+def degenerate_mask(v0, v1, v2):
+    e1 = v1 - v0
+    e2 = v2 - v0
+    e3 = v2 - v1
+    area2 = np.linalg.norm(np.cross(e1, e2), axis=1)
+    longest2 = np.max([np.einsum("ij,ij->i", e, e) for e in (e1, e2, e3)], axis=0)
+    return ~(area2 > DEGENERATE_RATIO * longest2)
+
+
+def _check_finite(name, arr):
+    if not np.all(np.isfinite(arr)):
+        raise RaytraceError(f"{name}: coordinates contain NaN or inf")
+
+
+def mesh_triangles(mesh):
+    """(v0, v1, v2, n0, n1, n2, n_dropped) of a mesh, degenerates removed."""
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    f = np.asarray(mesh.faces)
+    if v.ndim != 2 or v.shape[1] != 3:
+        raise RaytraceError(f"{mesh.name}: vertices must have shape (n, 3), got {v.shape}")
+    if f.size and (f.ndim != 2 or f.shape[1] != 3):
+        raise RaytraceError(f"{mesh.name}: faces must have shape (m, 3), got {f.shape}")
+    f = f.reshape(-1, 3)
+    if f.size and not np.issubdtype(f.dtype, np.integer):
+        raise RaytraceError(f"{mesh.name}: face indices must be integers")
+    f = f.astype(np.int64)
+    if f.size and (f.min() < 0 or f.max() >= len(v)):
+        raise RaytraceError(
+            f"{mesh.name}: face index out of range (mesh has {len(v)} vertices, "
+            f"indices span {f.min()}..{f.max()})")
+    _check_finite(mesh.name, v)
+    v0, v1, v2 = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    keep = ~degenerate_mask(v0, v1, v2)
+    v0, v1, v2, f = v0[keep], v1[keep], v2[keep], f[keep]
+    if mesh.normals is not None:
+        nrm = np.asarray(mesh.normals, dtype=np.float64)
+        n0, n1, n2 = nrm[f[:, 0]], nrm[f[:, 1]], nrm[f[:, 2]]
+    else:
+        fn = np.cross(v1 - v0, v2 - v0)
+        fn /= np.linalg.norm(fn, axis=1, keepdims=True)
+        n0 = n1 = n2 = fn
+    return v0, v1, v2, n0, n1, n2, int((~keep).sum())
+
+
+def flatten(scene):
+    """Returns (Geometry, obj_ranges, info).
+
+    obj_ranges[j] = (first unified primitive id, count) of bounded object j
+    (each mesh, each sphere), for per-object bounding volumes.  info holds
+    counts for the statistics (triangles, dropped degenerates, ...).
+    """
+    materials, mat_index = [], {}
+
+    def mat_id(m):
+        if id(m) not in mat_index:
+            mat_index[id(m)] = len(materials)
+            materials.append(m)
+        return mat_index[id(m)]
+
+    tris = [[] for _ in range(6)]
+    tri_mat, obj_ranges = [], []
+    spheres, planes = [], []
+    dropped = n_tris = 0
+    for obj in scene.objects:
+        if isinstance(obj, Mesh):
+            *parts, nd = mesh_triangles(obj)
+            dropped += nd
+            k = len(parts[0])
+            if k:
+                for dst, src in zip(tris, parts):
+                    dst.append(src)
+                tri_mat.append(np.full(k, mat_id(obj.material)))
+                obj_ranges.append((n_tris, k))
+                n_tris += k
+        elif isinstance(obj, Sphere):
+            _check_finite("sphere", np.array([*obj.center, obj.radius], dtype=float))
+            if not obj.radius > 0:
+                raise RaytraceError(f"sphere radius must be positive, got {obj.radius}")
+            spheres.append(obj)
+        elif isinstance(obj, Plane):
+            n = np.asarray(obj.normal, dtype=float)
+            _check_finite("plane", np.concatenate([n, np.asarray(obj.point, dtype=float)]))
+            if not np.linalg.norm(n) > 0:
+                raise RaytraceError("plane normal must be non-zero")
+            planes.append(obj)
+        else:
+            raise RaytraceError(f"unknown scene object {type(obj).__name__}")
+    for j, s in enumerate(spheres):
+        obj_ranges.append((n_tris + j, 1))
+
+    def cat(parts):
+        return f64(np.concatenate(parts) if parts else np.zeros((0, 3)), 3)
+
+    if not materials:
+        mat_id(scene.objects[0].material if scene.objects else _default_material())
+    pl_n = np.array([p.normal for p in planes], dtype=float).reshape(-1, 3)
+    if len(pl_n):
+        pl_n /= np.linalg.norm(pl_n, axis=1, keepdims=True)
+    tri_n = [cat(tris[k]) for k in (3, 4, 5)]
+    for n in tri_n:  # renormalise shading normals; zero ones fall back later
+        ln = np.linalg.norm(n, axis=1, keepdims=True)
+        np.divide(n, ln, out=n, where=ln > 0)
+    geo = Geometry(
+        tri_v0=cat(tris[0]), tri_v1=cat(tris[1]), tri_v2=cat(tris[2]),
+        tri_n0=tri_n[0], tri_n1=tri_n[1], tri_n2=tri_n[2],
+        tri_mat=i64(np.concatenate(tri_mat) if tri_mat else []),
+        sph_center=f64([s.center for s in spheres], 3),
+        sph_radius=f64([s.radius for s in spheres]).reshape(-1),
+        sph_mat=i64([mat_id(s.material) for s in spheres]),
+        pl_point=f64([p.point for p in planes], 3),
+        pl_normal=f64(pl_n, 3),
+        pl_mat=i64([mat_id(p.material) for p in planes]),
+        mat_color=f64([m.color for m in materials], 3),
+        mat_param=f64([[m.ambient, m.diffuse, m.specular, m.shininess, m.checker]
+                       for m in materials], N_MAT_PARAMS),
+    )
+    info = {"triangles": n_tris, "degenerate_dropped": dropped,
+            "spheres": len(spheres), "planes": len(planes), "objects": len(obj_ranges)}
+    return geo, np.array(obj_ranges, dtype=np.int64).reshape(-1, 2), info
+
+
+def _default_material():
+    from .scene import Material
+    return Material()

@@ -1,0 +1,197 @@
+"""Ray-primitive intersection tests: the innermost loops of every structure.
+
+Every structure (brute force, bounding volumes, BVH, grid) calls these same
+functions, so a triangle is hit or missed identically whichever structure
+found it; that is what makes the images bit-identical.
+
+All geometry is float64 (see README, design notes).  Kernels are compiled with
+``error_model="numpy"`` so 1/0 gives inf instead of raising, which the slab
+test relies on, and without fastmath, which would let LLVM assume no inf/NaN.
+"""
+import numpy as np
+from numba import njit
+
+JIT = dict(cache=True, error_model="numpy")
+
+# gamma(n) = n*u / (1 - n*u) with u = 2**-53, the unit roundoff of float64
+# (pbrt-v4, "Floating-point error").  Ize 2013 shows that widening the slab
+# test's far bound by 1 + 2*gamma(3) makes it conservative: rounding can never
+# cull a box the ray truly touches.
+_U = 2.0 ** -53
+GAMMA3 = 3.0 * _U / (1.0 - 3.0 * _U)
+BOX_FAR_SCALE = 1.0 + 2.0 * GAMMA3
+
+
+@njit(**JIT)
+def make_ray(ox, oy, oz, dx, dy, dz):
+    """Per-ray constants shared by every test along the ray.
+
+    Returns (ox, oy, oz, dx, dy, dz, idx, idy, idz, kx, ky, kz, sx, sy, sz):
+    the inverse direction for slab tests (a zero component gives +-inf) and
+    the axis permutation and shear of the watertight triangle test
+    (Woop, Benthin & Wald 2013, "Watertight Ray/Triangle Intersection").
+    """
+    idx = 1.0 / dx
+    idy = 1.0 / dy
+    idz = 1.0 / dz
+    ax, ay, az = abs(dx), abs(dy), abs(dz)
+    # kz: the dominant axis, so the shear divides by the largest component.
+    if ax > ay:
+        kz = 0 if ax > az else 2
+    else:
+        kz = 1 if ay > az else 2
+    kx = kz + 1
+    if kx == 3:
+        kx = 0
+    ky = kx + 1
+    if ky == 3:
+        ky = 0
+    d = (dx, dy, dz)
+    dkz = d[kz]
+    # Swapping kx, ky when the dominant component is negative keeps the
+    # winding, so the sign of the edge functions means the same thing.
+    if dkz < 0.0:
+        kx, ky = ky, kx
+    sx = d[kx] / dkz
+    sy = d[ky] / dkz
+    sz = 1.0 / dkz
+    return (ox, oy, oz, dx, dy, dz, idx, idy, idz, kx, ky, kz, sx, sy, sz)
+
+
+@njit(**JIT)
+def ray_aabb(ray, lo, hi, i, t_max):
+    """Slab test of ray against box i of (n, 3) arrays lo, hi.
+
+    Returns the entry distance (clamped to 0) or inf on a miss.  Written so
+    that a NaN from 0 * inf (ray in the slab's plane, parallel to it) is
+    ignored by the comparisons, i.e. counted as inside: conservative.
+    """
+    t0 = 0.0
+    t1 = t_max
+    o = (ray[0], ray[1], ray[2])
+    inv = (ray[6], ray[7], ray[8])
+    for a in range(3):
+        tn = (lo[i, a] - o[a]) * inv[a]
+        tf = (hi[i, a] - o[a]) * inv[a]
+        if tn > tf:
+            tn, tf = tf, tn
+        tf *= BOX_FAR_SCALE
+        if tn > t0:
+            t0 = tn
+        if tf < t1:
+            t1 = tf
+        if t0 > t1:
+            return np.inf
+    return t0
+
+
+@njit(**JIT)
+def ray_triangle(ray, v0, v1, v2, i, t_max):
+    """Watertight ray-triangle test (Woop, Benthin & Wald 2013; pbrt-v4).
+
+    Returns (t, b1, b2): distance and the barycentric weights of v1 and v2,
+    or (inf, 0, 0) on a miss.  Hits need 0 < t < t_max.  Rays through a
+    shared edge or vertex hit at least one of the triangles sharing it,
+    because the edge functions are evaluated identically on both sides.
+    """
+    ox, oy, oz = ray[0], ray[1], ray[2]
+    kx, ky, kz = ray[9], ray[10], ray[11]
+    sx, sy, sz = ray[12], ray[13], ray[14]
+    o = (ox, oy, oz)
+    ax = v0[i, kx] - o[kx]
+    ay = v0[i, ky] - o[ky]
+    az = v0[i, kz] - o[kz]
+    bx = v1[i, kx] - o[kx]
+    by = v1[i, ky] - o[ky]
+    bz = v1[i, kz] - o[kz]
+    cx = v2[i, kx] - o[kx]
+    cy = v2[i, ky] - o[ky]
+    cz = v2[i, kz] - o[kz]
+    # Shear so the ray runs along +z through the origin.
+    ax -= sx * az
+    ay -= sy * az
+    bx -= sx * bz
+    by -= sy * bz
+    cx -= sx * cz
+    cy -= sy * cz
+    # Scaled barycentrics: 2D edge functions.
+    e0 = bx * cy - by * cx
+    e1 = cx * ay - cy * ax
+    e2 = ax * by - ay * bx
+    if (e0 < 0.0 or e1 < 0.0 or e2 < 0.0) and (e0 > 0.0 or e1 > 0.0 or e2 > 0.0):
+        return np.inf, 0.0, 0.0
+    det = e0 + e1 + e2
+    if det == 0.0:
+        return np.inf, 0.0, 0.0
+    az *= sz
+    bz *= sz
+    cz *= sz
+    t_scaled = e0 * az + e1 * bz + e2 * cz
+    if det < 0.0:
+        if t_scaled >= 0.0 or t_scaled <= t_max * det:
+            return np.inf, 0.0, 0.0
+    else:
+        if t_scaled <= 0.0 or t_scaled >= t_max * det:
+            return np.inf, 0.0, 0.0
+    inv_det = 1.0 / det
+    t = t_scaled * inv_det
+    if not (t > 0.0 and t < t_max):
+        return np.inf, 0.0, 0.0
+    return t, e1 * inv_det, e2 * inv_det
+
+
+@njit(**JIT)
+def ray_sphere(ray, center, radius, i, t_max):
+    """Nearest root of |o + t d - c| = r with 0 < t < t_max, else inf.
+
+    Uses the discriminant form of Ray Tracing Gems ch. 7 ("Precision
+    Improvements for Ray/Sphere Intersection"): r^2 - |f - (f.d/d.d) d|^2
+    instead of b^2 - 4ac, which cancels catastrophically for small spheres
+    far from the origin, and the stable quadratic for the roots.
+    """
+    dx, dy, dz = ray[3], ray[4], ray[5]
+    fx = ray[0] - center[i, 0]
+    fy = ray[1] - center[i, 1]
+    fz = ray[2] - center[i, 2]
+    r = radius[i]
+    a = dx * dx + dy * dy + dz * dz
+    b = fx * dx + fy * dy + fz * dz  # half of the usual b
+    s = b / a
+    lx = fx - s * dx
+    ly = fy - s * dy
+    lz = fz - s * dz
+    h = a * (r * r - (lx * lx + ly * ly + lz * lz))
+    if h < 0.0:
+        return np.inf
+    c = fx * fx + fy * fy + fz * fz - r * r
+    sq = np.sqrt(h)
+    q = -(b + sq) if b >= 0.0 else -(b - sq)
+    if q == 0.0:
+        return np.inf
+    t0 = c / q
+    t1 = q / a
+    if t0 > t1:
+        t0, t1 = t1, t0
+    if t0 > 0.0 and t0 < t_max:
+        return t0
+    if t1 > 0.0 and t1 < t_max:
+        return t1
+    return np.inf
+
+
+@njit(**JIT)
+def ray_plane(ray, point, normal, i, t_max):
+    """Distance to infinite plane i with 0 < t < t_max, else inf.
+
+    A ray parallel to the plane (n.d == 0) misses, even one lying in it:
+    a plane seen edge-on has no area to shade.
+    """
+    nx, ny, nz = normal[i, 0], normal[i, 1], normal[i, 2]
+    den = nx * ray[3] + ny * ray[4] + nz * ray[5]
+    if den == 0.0:
+        return np.inf
+    num = nx * (point[i, 0] - ray[0]) + ny * (point[i, 1] - ray[1]) + nz * (point[i, 2] - ray[2])
+    t = num / den
+    if t > 0.0 and t < t_max:
+        return t
+    return np.inf
