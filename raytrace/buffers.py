@@ -91,3 +91,14 @@ def prim_bounds(geo):
     lo = np.concatenate([v.min(axis=0), geo.sph_center - r])
     hi = np.concatenate([v.max(axis=0), geo.sph_center + r])
     return f64(lo, 3), f64(hi, 3)
+
+Lights = namedtuple(
+    "Lights",
+    [
+        "pos",      # (L, 3) centre
+        "color",    # (L, 3) colour times intensity
+        "u", "v",   # (L, 3) edge vectors of the square area light (zero: point)
+        "samples",  # (L,) shadow rays per shading point
+        "side",     # (L,) sqrt(samples) for the square patterns
+    ],
+)

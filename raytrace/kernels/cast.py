@@ -3,42 +3,43 @@ reference the tests compare structures with."""
 import numpy as np
 from numba import njit, prange
 
-from .counters import N_COUNTERS
-from .intersect import JIT, make_ray
+from .intersect import KERNEL, make_ray
 from .query import closest_hit, occluded
 
-PJIT = dict(JIT, parallel=True)
+STACK_SIZE = 64  # BVH traversal stack entries (depth is bounded well below)
 
 
-@njit(**PJIT)
-def cast_closest(geo, acc, origins, dirs, t_max, out_t, out_prim, out_u, out_v, cnt_rows):
+@njit(**KERNEL)
+def cast_closest(geo, acc, origins, dirs, t_max, out_t, out_prim, out_u, out_v, cnt_rows, stacks):
     """Closest hit of ray i = (origins[i], dirs[i]) with 0 < t < t_max[i].
 
-    cnt_rows has one counter row per ray block so threads never share one.
+    cnt_rows (blocks, N_COUNTERS) and stacks (blocks, STACK_SIZE) give each
+    block of rays its own counters and traversal stack, so threads never
+    share one (and the kernel, compiled without the NRT, allocates nothing).
     """
     n = origins.shape[0]
     n_blocks = cnt_rows.shape[0]
     for b in prange(n_blocks):
-        cnt = np.zeros(N_COUNTERS, np.int64)
+        cnt = cnt_rows[b]
+        stack = stacks[b]
         for i in range(b * n // n_blocks, (b + 1) * n // n_blocks):
             ray = make_ray(origins[i, 0], origins[i, 1], origins[i, 2],
                            dirs[i, 0], dirs[i, 1], dirs[i, 2])
-            t, p, u, v = closest_hit(geo, acc, ray, t_max[i], cnt)
+            t, p, u, v = closest_hit(geo, acc, ray, t_max[i], cnt, stack)
             out_t[i] = t
             out_prim[i] = p
             out_u[i] = u
             out_v[i] = v
-        cnt_rows[b, :] = cnt
 
 
-@njit(**PJIT)
-def cast_occluded(geo, acc, origins, dirs, t_max, out_hit, cnt_rows):
+@njit(**KERNEL)
+def cast_occluded(geo, acc, origins, dirs, t_max, out_hit, cnt_rows, stacks):
     n = origins.shape[0]
     n_blocks = cnt_rows.shape[0]
     for b in prange(n_blocks):
-        cnt = np.zeros(N_COUNTERS, np.int64)
+        cnt = cnt_rows[b]
+        stack = stacks[b]
         for i in range(b * n // n_blocks, (b + 1) * n // n_blocks):
             ray = make_ray(origins[i, 0], origins[i, 1], origins[i, 2],
                            dirs[i, 0], dirs[i, 1], dirs[i, 2])
-            out_hit[i] = occluded(geo, acc, ray, t_max[i], cnt)
-        cnt_rows[b, :] = cnt
+            out_hit[i] = occluded(geo, acc, ray, t_max[i], cnt, stack)

@@ -6,21 +6,28 @@ Conventions every structure follows (so all give the same answer):
   caller keeps the closest with ``closer`` (ties -> smaller unified id);
 - box tests get the best t so far, inclusive, so a box is skipped only if
   it starts strictly beyond the best hit.
+
+Two Numba rules, measured on the bvol shadow query (4 boxes, no hits):
+- early exit with ``while ... and not hit`` loops, never ``break`` or
+  ``return`` inside a ``for ... in range`` loop: 127 ns a ray against 10 ns;
+- read namedtuple fields into locals once, before any loop, and keep loops
+  in the traversal function itself: a helper holding a loop, even inlined,
+  measured 250 ns a call against 10 ns written out.
 """
 import numpy as np
 from numba import njit
 
 from .counters import BOX_TESTS, PRIM_HITS, PRIM_TESTS
-from .intersect import JIT, ray_aabb, ray_plane, ray_sphere, ray_triangle
+from .intersect import INLINE, JIT, ray_aabb, ray_plane, ray_sphere, ray_triangle
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def closer(t, p, best_t, best_p):
     """Canonical order of hits: by distance, then by primitive id."""
     return t < best_t or (t == best_t and p < best_p)
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def test_prim(geo, ray, p, t_max):
     """Test bounded primitive p (triangle or sphere); returns (t, b1, b2)."""
     n_tris = geo.tri_v0.shape[0]
@@ -30,7 +37,7 @@ def test_prim(geo, ray, p, t_max):
     return t, 0.0, 0.0
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def planes_closest(geo, ray, t_max, best_t, best_p, best_u, best_v, cnt):
     """Infinite planes have no box: every structure tests them all."""
     base = geo.tri_v0.shape[0] + geo.sph_center.shape[0]
@@ -44,20 +51,26 @@ def planes_closest(geo, ray, t_max, best_t, best_p, best_u, best_v, cnt):
     return best_t, best_p, best_u, best_v
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def planes_occluded(geo, ray, t_max, cnt):
-    for k in range(geo.pl_point.shape[0]):
+    point, normal = geo.pl_point, geo.pl_normal
+    n = point.shape[0]
+    hit = False
+    k = 0
+    while k < n and not hit:
         cnt[PRIM_TESTS] += 1
-        if ray_plane(ray, geo.pl_point, geo.pl_normal, k, t_max) < np.inf:
+        if ray_plane(ray, point, normal, k, t_max) < np.inf:
             cnt[PRIM_HITS] += 1
-            return True
-    return False
+            hit = True
+        k += 1
+    return hit
 
 
-@njit(**JIT)
-def range_closest(geo, ray, first, count, t_max, best_t, best_p, best_u, best_v, cnt):
-    """Closest hit among unified ids first .. first+count-1."""
-    for p in range(first, first + count):
+@njit(**INLINE)
+def brute_closest(geo, ray, t_max, cnt):
+    n = geo.tri_v0.shape[0] + geo.sph_center.shape[0]
+    best_t, best_p, best_u, best_v = np.inf, -1, 0.0, 0.0
+    for p in range(n):
         cnt[PRIM_TESTS] += 1
         t, u, v = test_prim(geo, ray, p, t_max)
         if t < np.inf:
@@ -67,46 +80,55 @@ def range_closest(geo, ray, first, count, t_max, best_t, best_p, best_u, best_v,
     return best_t, best_p, best_u, best_v
 
 
-@njit(**JIT)
-def range_occluded(geo, ray, first, count, t_max, cnt):
-    for p in range(first, first + count):
+@njit(**INLINE)
+def brute_occluded(geo, ray, t_max, cnt):
+    n = geo.tri_v0.shape[0] + geo.sph_center.shape[0]
+    hit = False
+    p = 0
+    while p < n and not hit:
         cnt[PRIM_TESTS] += 1
         t, u, v = test_prim(geo, ray, p, t_max)
         if t < np.inf:
             cnt[PRIM_HITS] += 1
-            return True
-    return False
+            hit = True
+        p += 1
+    return hit
 
 
-@njit(**JIT)
-def brute_closest(geo, ray, t_max, cnt):
-    n = geo.tri_v0.shape[0] + geo.sph_center.shape[0]
-    return range_closest(geo, ray, 0, n, t_max, np.inf, -1, 0.0, 0.0, cnt)
-
-
-@njit(**JIT)
-def brute_occluded(geo, ray, t_max, cnt):
-    n = geo.tri_v0.shape[0] + geo.sph_center.shape[0]
-    return range_occluded(geo, ray, 0, n, t_max, cnt)
-
-
-@njit(**JIT)
+@njit(**INLINE)
 def bvol_closest(geo, acc, ray, t_max, cnt):
+    lo, hi, start, count = acc.obj_lo, acc.obj_hi, acc.obj_start, acc.obj_count
     best_t, best_p, best_u, best_v = np.inf, -1, 0.0, 0.0
-    for j in range(acc.obj_start.shape[0]):
+    for j in range(start.shape[0]):
         cnt[BOX_TESTS] += 1
-        if ray_aabb(ray, acc.obj_lo, acc.obj_hi, j, min(best_t, t_max)) < np.inf:
-            best_t, best_p, best_u, best_v = range_closest(
-                geo, ray, acc.obj_start[j], acc.obj_count[j], t_max,
-                best_t, best_p, best_u, best_v, cnt)
+        if ray_aabb(ray, lo, hi, j, min(best_t, t_max)) < np.inf:
+            for p in range(start[j], start[j] + count[j]):
+                cnt[PRIM_TESTS] += 1
+                t, u, v = test_prim(geo, ray, p, t_max)
+                if t < np.inf:
+                    cnt[PRIM_HITS] += 1
+                    if closer(t, p, best_t, best_p):
+                        best_t, best_p, best_u, best_v = t, p, u, v
     return best_t, best_p, best_u, best_v
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def bvol_occluded(geo, acc, ray, t_max, cnt):
-    for j in range(acc.obj_start.shape[0]):
+    lo, hi, start, count = acc.obj_lo, acc.obj_hi, acc.obj_start, acc.obj_count
+    hit = False
+    j = 0
+    n = start.shape[0]
+    while j < n and not hit:
         cnt[BOX_TESTS] += 1
-        if ray_aabb(ray, acc.obj_lo, acc.obj_hi, j, t_max) < np.inf:
-            if range_occluded(geo, ray, acc.obj_start[j], acc.obj_count[j], t_max, cnt):
-                return True
-    return False
+        if ray_aabb(ray, lo, hi, j, t_max) < np.inf:
+            p = start[j]
+            end = p + count[j]
+            while p < end and not hit:
+                cnt[PRIM_TESTS] += 1
+                t, u, v = test_prim(geo, ray, p, t_max)
+                if t < np.inf:
+                    cnt[PRIM_HITS] += 1
+                    hit = True
+                p += 1
+        j += 1
+    return hit

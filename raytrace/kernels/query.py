@@ -11,12 +11,15 @@ from numba import njit
 from ..buffers import ACCEL_BVOL, ACCEL_NONE
 from .flat import (brute_closest, brute_occluded, bvol_closest, bvol_occluded,
                    planes_closest, planes_occluded)
-from .intersect import JIT
+from .intersect import INLINE
 
 
-@njit(**JIT)
-def closest_hit(geo, acc, ray, t_max, cnt):
-    """Returns (t, prim, b1, b2); prim is -1 and t inf on a miss."""
+@njit(**INLINE)
+def closest_hit(geo, acc, ray, t_max, cnt, stack):
+    """Returns (t, prim, b1, b2); prim is -1 and t inf on a miss.
+
+    cnt: the caller's counter row; stack: its scratch traversal stack.
+    """
     mode = acc.mode
     if mode == ACCEL_NONE:
         t, p, u, v = brute_closest(geo, ray, t_max, cnt)
@@ -27,15 +30,15 @@ def closest_hit(geo, acc, ray, t_max, cnt):
     return planes_closest(geo, ray, t_max, t, p, u, v, cnt)
 
 
-@njit(**JIT)
-def occluded(geo, acc, ray, t_max, cnt):
+@njit(**INLINE)
+def occluded(geo, acc, ray, t_max, cnt, stack):
     """Any hit with 0 < t < t_max; stops at the first occluder found."""
     # Planes first: one test each, and the ground blocks many shadow rays.
-    if planes_occluded(geo, ray, t_max, cnt):
-        return True
-    mode = acc.mode
-    if mode == ACCEL_NONE:
-        return brute_occluded(geo, ray, t_max, cnt)
-    if mode == ACCEL_BVOL:
-        return bvol_occluded(geo, acc, ray, t_max, cnt)
-    return False
+    hit = planes_occluded(geo, ray, t_max, cnt)
+    if not hit:
+        mode = acc.mode
+        if mode == ACCEL_NONE:
+            hit = brute_occluded(geo, ray, t_max, cnt)
+        elif mode == ACCEL_BVOL:
+            hit = bvol_occluded(geo, acc, ray, t_max, cnt)
+    return hit

@@ -1,0 +1,227 @@
+"""Render driver: options -> buffers -> structure -> kernel bands -> result.
+
+Python owns validation and dtype casting; the kernels see only arrays.
+"""
+import math
+import os
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .buffers import ACCEL_NAMES, Lights, f64, i64
+from .errors import RaytraceError
+
+SHADOW_CHOICES = ("none", "hard", "soft")
+PATTERN_CHOICES = ("grid", "random", "stratified", "halton")
+MAX_SPP = 4096
+MAX_LIGHT_SAMPLES = 65536
+# Bytes a pixel costs while rendering: float32 RGB + uint8 RGB, and with AOVs
+# depth f32, normal 3xf32, prim id i64, cost i64.
+BYTES_PER_PIXEL = 12 + 3
+BYTES_PER_PIXEL_AOV = 4 + 12 + 8 + 8
+
+
+@dataclass
+class RenderOptions:
+    accel: str = "bvh"
+    shadows: str = "hard"
+    light_samples: int = 81
+    pattern: str = "stratified"
+    width: int = None            # None: the scene camera's
+    height: int = None
+    spp: int = 1
+    seed: int = 0
+    threads: int = None          # None: all cores
+    aov: bool = False
+    progress: object = None      # callable(rows_done, rows_total) or None
+
+
+@dataclass
+class RenderResult:
+    image: np.ndarray            # (h, w, 3) uint8 sRGB
+    linear: np.ndarray           # (h, w, 3) float32 linear radiance
+    stats: dict
+    aovs: dict = field(default_factory=dict)
+
+
+def _check_int(name, value, lo, hi):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise RaytraceError(f"{name} must be an integer, got {value!r}")
+    if not lo <= value <= hi:
+        raise RaytraceError(f"{name} must be between {lo} and {hi}, got {value}")
+
+
+def available_memory():
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return 8 << 30
+
+
+def validate(opts, scene):
+    """Raise RaytraceError for any option the render cannot honour."""
+    if opts.accel not in ACCEL_NAMES:
+        raise RaytraceError(f"unknown acceleration structure {opts.accel!r} "
+                            f"(choose from {', '.join(ACCEL_NAMES)})")
+    if opts.shadows not in SHADOW_CHOICES:
+        raise RaytraceError(f"unknown shadow mode {opts.shadows!r}")
+    if opts.pattern not in PATTERN_CHOICES:
+        raise RaytraceError(f"unknown sampling pattern {opts.pattern!r}")
+    w = scene.camera.width if opts.width is None else opts.width
+    h = scene.camera.height if opts.height is None else opts.height
+    _check_int("width", w, 1, 1 << 20)
+    _check_int("height", h, 1, 1 << 20)
+    _check_int("spp", opts.spp, 1, MAX_SPP)
+    _check_int("light samples", opts.light_samples, 1, MAX_LIGHT_SAMPLES)
+    _check_int("seed", opts.seed, 0, 2 ** 63 - 1)
+    if opts.pattern in ("grid", "stratified") and opts.shadows == "soft":
+        side = math.isqrt(opts.light_samples)
+        if side * side != opts.light_samples:
+            raise RaytraceError(f"the {opts.pattern} pattern needs a square number of light samples "
+                                f"(got {opts.light_samples}; try {side * side} or {(side + 1) ** 2})")
+    if opts.threads is not None:
+        import numba
+        _check_int("threads", opts.threads, 1, numba.config.NUMBA_NUM_THREADS)
+    need = w * h * (BYTES_PER_PIXEL + (BYTES_PER_PIXEL_AOV if opts.aov else 0))
+    if need > available_memory():
+        raise RaytraceError(f"a {w}x{h} image needs {need / 2**30:.1f} GiB of memory, "
+                            f"more than the {available_memory() / 2**30:.1f} GiB available")
+    return w, h
+
+
+def camera_buffer(cam, width, height):
+    """eye, forward, right and up, the last two scaled to the image plane."""
+    eye = np.asarray(cam.eye, dtype=float)
+    fwd = np.asarray(cam.look_at, dtype=float) - eye
+    up = np.asarray(cam.up, dtype=float)
+    if not np.all(np.isfinite(np.concatenate([eye, fwd, up]))):
+        raise RaytraceError("camera position, look-at and up must be finite")
+    if not np.linalg.norm(fwd) > 0:
+        raise RaytraceError("camera look-at must differ from its position")
+    if not 0 < cam.fov < 180:
+        raise RaytraceError(f"camera field of view must be between 0 and 180 degrees, got {cam.fov}")
+    fwd /= np.linalg.norm(fwd)
+    right = np.cross(fwd, up)
+    if not np.linalg.norm(right) > 1e-12:
+        raise RaytraceError("camera up vector is parallel to the view direction")
+    right /= np.linalg.norm(right)
+    true_up = np.cross(right, fwd)
+    half_h = math.tan(math.radians(cam.fov) / 2)
+    half_w = half_h * width / height
+    return f64(np.concatenate([eye, fwd, right * half_w, true_up * half_h]))
+
+
+def light_buffers(scene, shadows, light_samples):
+    """Area lights are sampled only with soft shadows; otherwise every light
+    is a point at its centre, one shadow ray (hard) or none."""
+    pos, col, us, vs, ns = [], [], [], [], []
+    for L in scene.lights:
+        p = np.asarray(L.position, dtype=float)
+        if not np.all(np.isfinite(p)):
+            raise RaytraceError("light position must be finite")
+        pos.append(p)
+        col.append(np.asarray(L.color, dtype=float) * L.intensity)
+        if shadows == "soft" and L.size > 0:
+            n = np.asarray(L.direction, dtype=float)
+            n /= np.linalg.norm(n)
+            a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
+            u = np.cross(n, a)
+            u /= np.linalg.norm(u)
+            v = np.cross(n, u)
+            us.append(u * L.size)
+            vs.append(v * L.size)
+            ns.append(L.samples or light_samples)
+        else:
+            us.append(np.zeros(3))
+            vs.append(np.zeros(3))
+            ns.append(1)
+    samples = i64(ns)
+    return Lights(pos=f64(pos, 3), color=f64(col, 3), u=f64(us, 3), v=f64(vs, 3),
+                  samples=samples, side=i64([math.isqrt(int(n)) for n in samples]))
+
+
+def to_srgb8(linear):
+    """Clamp and encode with the sRGB curve (IEC 61966-2-1)."""
+    c = np.clip(linear, 0.0, 1.0)
+    s = np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
+    return (s * 255.0 + 0.5).astype(np.uint8)
+
+
+def render(scene, opts=None, **kw):
+    """Render a Scene; returns a RenderResult (image, linear, stats, aovs).
+
+    Keyword arguments override fields of RenderOptions, e.g.
+    ``render(scene, accel="bvol", shadows="soft", width=320, height=240)``.
+    """
+    opts = opts or RenderOptions()
+    for k, v in kw.items():
+        if not hasattr(opts, k):
+            raise TypeError(f"render() got an unknown option {k!r}")
+        setattr(opts, k, v)
+    width, height = validate(opts, scene)
+
+    t_start = time.perf_counter()
+    import numba  # deferred: `raytrace scenes` and --help never pay for it
+
+    from .accel import build_accel
+    from .flatten import flatten
+    from .kernels.cast import STACK_SIZE
+    from .kernels.counters import N_COUNTERS
+    from .kernels.render import SHADOW_MODES, render_rows
+    from .kernels.sampling import PATTERN_NAMES
+    from .stats import counters_from_rows, derive
+
+    threads = opts.threads or numba.config.NUMBA_NUM_THREADS
+    numba.set_num_threads(threads)
+    geo, obj_ranges, info = flatten(scene)
+    cam = camera_buffer(scene.camera, width, height)
+    lights = light_buffers(scene, opts.shadows, opts.light_samples)
+    background = f64(scene.background)
+    t_import = time.perf_counter() - t_start
+
+    acc, t_build = build_accel(opts.accel, geo, obj_ranges)
+
+    image = np.zeros((height, width, 3), np.float32)
+    stats_rows = np.zeros((height, N_COUNTERS), np.int64)
+    stacks = np.zeros((height, STACK_SIZE), np.int64)
+    if opts.aov:
+        aovs = dict(depth=np.full((height, width), np.inf, np.float32),
+                    normal=np.zeros((height, width, 3), np.float32),
+                    primid=np.full((height, width), -1, np.int64),
+                    cost=np.zeros((height, width), np.int64))
+    else:  # not needed: zero-size arrays of the same types, never written
+        aovs = dict(depth=np.zeros((0, 0), np.float32), normal=np.zeros((0, 0, 3), np.float32),
+                    primid=np.zeros((0, 0), np.int64), cost=np.zeros((0, 0), np.int64))
+    args = (geo, acc, cam, lights, background, width, height)
+    tail = (opts.spp, SHADOW_MODES[opts.shadows], PATTERN_NAMES[opts.pattern], opts.seed,
+            image, stats_rows, stacks, opts.aov, aovs["depth"], aovs["normal"], aovs["primid"], aovs["cost"])
+
+    # An empty band compiles the kernel (or loads it from Numba's cache)
+    # without rendering anything, so that time is reported apart.
+    t0 = time.perf_counter()
+    render_rows(*args, 0, 0, *tail)
+    t_compile = time.perf_counter() - t0
+
+    # Bands of rows let a progress bar move; ~32 bands cost < 1 ms of calls.
+    band = max(1, height // 32) if opts.progress else height
+    t0 = time.perf_counter()
+    for y0 in range(0, height, band):
+        y1 = min(height, y0 + band)
+        render_rows(*args, y0, y1, *tail)
+        if opts.progress:
+            opts.progress(y1, height)
+    t_render = time.perf_counter() - t0
+
+    stats = {
+        "scene": scene.name, "accel": opts.accel, "shadows": opts.shadows,
+        "light_samples": int(lights.samples.max()) if len(lights.samples) else 0,
+        "pattern": opts.pattern, "width": width, "height": height, "spp": opts.spp,
+        "seed": opts.seed, "threads": threads,
+        **info,
+        "time": {"render_s": t_render, "build_s": t_build, "compile_s": t_compile,
+                 "setup_s": t_import},
+        "counters": counters_from_rows(stats_rows),
+    }
+    result_aovs = {k: v for k, v in aovs.items()} if opts.aov else {}
+    return RenderResult(image=to_srgb8(image), linear=image, stats=derive(stats), aovs=result_aovs)

@@ -1,0 +1,83 @@
+"""Render statistics: names, meanings, the table and the JSON form."""
+import json
+
+from .kernels import counters as C
+
+# (key, label, meaning) -- the README's statistics section is this list.
+COUNTERS = [
+    ("primary_rays", "Primary rays", "camera rays cast (width x height x spp)", C.PRIMARY_RAYS),
+    ("shadow_rays", "Shadow rays", "any-hit rays towards a light (sample)", C.SHADOW_RAYS),
+    ("prim_tests", "Ray-primitive tests", "calls of the triangle/sphere/plane intersection test", C.PRIM_TESTS),
+    ("prim_hits", "Ray-primitive hits", "tests that returned a hit inside the ray's interval", C.PRIM_HITS),
+    ("box_tests", "Ray-box tests", "slab tests against object boxes, BVH nodes or grid bounds", C.BOX_TESTS),
+    ("nodes_visited", "BVH nodes visited", "BVH nodes taken off the traversal stack", C.NODES_VISITED),
+    ("cells_visited", "Grid cells visited", "grid cells stepped through by the 3D-DDA", C.CELLS_VISITED),
+    ("shading_points", "Shading points", "camera rays that hit a surface", C.SHADING_POINTS),
+    ("shadow_points", "Shadow points", "(shading point, light) pairs that cast shadow rays", C.SHADOW_POINTS),
+    ("occluded_rays", "Occluded shadow rays", "shadow rays that found an occluder", C.OCCLUDED_RAYS),
+]
+
+
+def counters_from_rows(rows):
+    total = rows.sum(axis=0)
+    return {key: int(total[idx]) for key, _, _, idx in COUNTERS}
+
+
+def derive(stats):
+    """Per-ray figures and throughput, from the counters and times."""
+    c = stats["counters"]
+    rays = c["primary_rays"] + c["shadow_rays"]
+    render_s = stats["time"]["render_s"]
+    stats["derived"] = {
+        "rays": rays,
+        "mrays_per_s": rays / render_s / 1e6 if render_s > 0 else 0.0,
+        "prim_tests_per_ray": c["prim_tests"] / rays if rays else 0.0,
+        "box_tests_per_ray": c["box_tests"] / rays if rays else 0.0,
+        "nodes_per_ray": c["nodes_visited"] / rays if rays else 0.0,
+        "cells_per_ray": c["cells_visited"] / rays if rays else 0.0,
+    }
+    return stats
+
+
+def _fmt(v):
+    if isinstance(v, float):
+        return f"{v:,.3f}"
+    if isinstance(v, int):
+        return f"{v:,}"
+    return str(v)
+
+
+def format_table(stats):
+    """Two aligned columns; small enough that a table library buys nothing."""
+    t = stats["time"]
+    d = stats["derived"]
+    c = stats["counters"]
+    rows = [
+        ("Scene", f"{stats['scene']} ({stats['triangles']:,} triangles, {stats['spheres']} spheres, "
+                  f"{stats['planes']} planes)"),
+        ("Acceleration", stats["accel"]),
+        ("Shadows", stats["shadows"] + (f" ({stats['light_samples']} samples, {stats['pattern']})"
+                                        if stats["shadows"] == "soft" else "")),
+        ("Image", f"{stats['width']}x{stats['height']}, {stats['spp']} spp, {stats['threads']} threads"),
+        ("Degenerate triangles dropped", stats["degenerate_dropped"]),
+        ("Render time (s)", t["render_s"]),
+        ("Build time (s)", t["build_s"]),
+        ("Compile/load time (s)", t["compile_s"]),
+        ("Rays cast", d["rays"]),
+    ]
+    rows += [(label, c[key]) for key, label, _, _ in COUNTERS]
+    rows += [
+        ("Primitive tests per ray", d["prim_tests_per_ray"]),
+        ("Box tests per ray", d["box_tests_per_ray"]),
+        ("Mrays/s", d["mrays_per_s"]),
+    ]
+    width = max(len(k) for k, _ in rows)
+    vals = [_fmt(v) for _, v in rows]
+    vwidth = max(len(v) for v in vals)
+    lines = [f"{k:<{width}}  {v:>{vwidth}}" for (k, _), v in zip(rows, vals)]
+    rule = "-" * (width + 2 + vwidth)
+    return "\n".join([rule, *lines, rule])
+
+
+def to_json(stats):
+    return json.dumps(stats, indent=2, sort_keys=False)
