@@ -20,7 +20,7 @@ def teapot(detail=4):
     body = Material(color=(0.80, 0.22, 0.12), ambient=0.12, diffuse=0.8, specular=0.5, shininess=48.0)
     return Scene(
         name="teapot",
-        camera=Camera(eye=(3.2, 4.6, 7.8), look_at=(0.25, 1.25, 0.0), fov=60.0),
+        camera=Camera(eye=(2.4, 3.7, 5.6), look_at=(0.2, 1.2, 0.0), fov=60.0),
         objects=[Mesh(v @ swap, f, body, normals=n @ swap, name="teapot"),
                  Plane(point=(0, 0, 0), normal=(0, 1, 0), material=GROUND)],
         lights=[Light(position=(-4.0, 9.0, 5.0), intensity=1.0, size=3.0)],

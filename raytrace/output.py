@@ -1,0 +1,37 @@
+"""Image output: PNGs are written atomically so no run leaves half a file."""
+import os
+import tempfile
+from pathlib import Path
+
+from .errors import RaytraceError
+
+
+def check_writable(path):
+    """Fail before rendering, not after, if the output cannot be written."""
+    path = Path(path)
+    if path.is_dir():
+        raise RaytraceError(f"{path}: is a directory, not an output file")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise RaytraceError(f"{path}: directory {parent} does not exist")
+    if not os.access(parent, os.W_OK):
+        raise RaytraceError(f"{path}: directory {parent} is not writable")
+
+
+def write_png(path, image):
+    """Write to a temporary file beside ``path``, then rename over it: an
+    interrupted run leaves either the old file or the new one, never a
+    broken PNG."""
+    from PIL import Image
+
+    path = Path(path)
+    check_writable(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            Image.fromarray(image).save(fh, format="PNG")
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise

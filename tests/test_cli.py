@@ -1,0 +1,87 @@
+"""The command line through click's CliRunner: exit codes, JSON, errors."""
+import json
+
+import pytest
+from click.testing import CliRunner
+
+from raytrace.cli import main
+
+SMALL = ["--width", "48", "--height", "36"]
+
+
+@pytest.fixture
+def run(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+
+    def go(*args):
+        return CliRunner().invoke(main, list(args))
+    return go
+
+
+def test_scenes_lists_builtins(run):
+    r = run("scenes")
+    assert r.exit_code == 0
+    assert "teapot" in r.output and "spheres" in r.output
+
+
+def test_render_writes_png_and_prints_table(run, tmp_path):
+    r = run("teapot", "--no-bvol", "--shadows", "none", *SMALL)
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "teapot.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    for label in ("Render time", "Compile/load time", "Primary rays", "Ray-primitive tests",
+                  "Ray-primitive hits", "Ray-box tests", "Mrays/s"):
+        assert label in r.output
+    assert not list(tmp_path.glob("*.tmp"))
+
+
+def test_workshop_command_line_works(run, tmp_path):
+    r = run("teapot", "--shadows", "soft", "--no-bvol", "--light-samples", "4", *SMALL, "-o", "soft.png")
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "soft.png").exists()
+
+
+def test_json_parses_and_counts(run):
+    r = run("spheres", "--bvol", "--shadows", "hard", "--json", *SMALL)
+    assert r.exit_code == 0, r.output
+    stats = json.loads(r.output)
+    assert stats["accel"] == "bvol"
+    assert stats["counters"]["primary_rays"] == 48 * 36
+    assert stats["time"]["render_s"] > 0
+    assert "compile_s" in stats["time"] and "build_s" in stats["time"]
+
+
+def test_bvol_flags_map_to_accel(run):
+    assert json.loads(run("spheres", "--no-bvol", "--json", *SMALL).output)["accel"] == "none"
+    r = run("spheres", "--no-bvol", "--accel", "bvol", *SMALL)
+    assert r.exit_code == 2 and "contradicts" in r.output
+
+
+@pytest.mark.parametrize("args, code, text", [
+    (["nosuchscene"], 2, "unknown scene 'nosuchscene'"),
+    (["teapot", "--width", "0"], 2, "--width"),
+    (["teapot", "--height", "-5"], 2, "--height"),
+    (["teapot", "--light-samples", "-4"], 2, "--light-samples"),
+    (["teapot", "--shadows", "soft", "--light-samples", "10"], 1, "square number"),
+    (["teapot", "--accel", "kdtree"], 2, "--accel"),
+    (["teapot", "--frobnicate"], 2, "No such option"),
+    (["teapot", "--width", "1048576", "--height", "1048576"], 1, "GiB"),
+    (["teapot", "-o", "missing_dir/out.png"], 1, "does not exist"),
+    (["spheres", "--detail", "8"], 2, "teapot scene only"),
+])
+def test_bad_input_is_one_line_no_traceback_no_file(run, tmp_path, args, code, text):
+    r = run(*args)
+    assert r.exit_code == code, r.output
+    assert text in r.output
+    assert "Traceback" not in r.output
+    error_lines = [ln for ln in r.output.splitlines() if ln.startswith("Error")]
+    assert len(error_lines) == 1
+    assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob(".*.tmp"))
+    assert r.exception is None or isinstance(r.exception, SystemExit)
+
+
+def test_existing_output_untouched_on_failure(run, tmp_path):
+    out = tmp_path / "keep.png"
+    out.write_bytes(b"old")
+    r = run("teapot", "--width", "0", "-o", str(out))
+    assert r.exit_code == 2
+    assert out.read_bytes() == b"old"

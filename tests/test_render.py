@@ -1,0 +1,101 @@
+"""Whole renders: structures agree, counters are exact, options behave."""
+import numpy as np
+import pytest
+
+from raytrace.errors import RaytraceError
+from raytrace.render import render
+
+from .conftest import H, W
+
+SHADOWS = ["none", "hard", "soft"]
+
+
+@pytest.mark.parametrize("shadows", SHADOWS)
+@pytest.mark.parametrize("scene", ["teapot_scene", "spheres_scene"])
+def test_bvol_matches_brute_force(request, render_small, scene, shadows):
+    sc = request.getfixturevalue(scene)
+    kw = dict(shadows=shadows, light_samples=16)
+    a = render_small(sc, accel="none", **kw)
+    b = render_small(sc, accel="bvol", **kw)
+    assert np.array_equal(a.linear, b.linear)
+    assert np.array_equal(a.image, b.image)
+    ca, cb = a.stats["counters"], b.stats["counters"]
+    for key in ("primary_rays", "shadow_rays", "shading_points", "occluded_rays"):
+        assert ca[key] == cb[key], key
+    assert cb["prim_tests"] < ca["prim_tests"]
+    assert ca["box_tests"] == 0 and cb["box_tests"] > 0
+
+
+def test_teapot_is_in_the_picture(render_small, teapot_scene):
+    r = render_small(teapot_scene, accel="bvol", shadows="none", aov=True)
+    prim = r.aovs["primid"]
+    n_tris = r.stats["triangles"]
+    on_teapot = (prim >= 0) & (prim < n_tris)
+    # The teapot fills a good part of the frame, and the ground the rest.
+    assert 0.15 < on_teapot.mean() < 0.6
+    assert (prim == n_tris).sum() > 0.2 * prim.size
+
+
+def test_primary_rays_exact_without_shadows(render_small, teapot_scene):
+    c = render_small(teapot_scene, accel="bvol", shadows="none").stats["counters"]
+    assert c["primary_rays"] == W * H
+    assert c["shadow_rays"] == 0 and c["shadow_points"] == 0
+
+
+@pytest.mark.parametrize("shadows, samples", [("hard", 1), ("soft", 16), ("soft", 81)])
+def test_shadow_rays_are_points_times_samples(render_small, teapot_scene, shadows, samples):
+    r = render_small(teapot_scene, accel="bvol", shadows=shadows, light_samples=samples)
+    c = r.stats["counters"]
+    assert c["shadow_points"] > 0
+    assert c["shadow_rays"] == c["shadow_points"] * samples
+    # Points facing away from the light cast no shadow rays at all.
+    assert c["shadow_points"] < c["shading_points"]
+    assert 0 < c["occluded_rays"] < c["shadow_rays"]
+
+
+def test_spp_multiplies_primary_rays(render_small, spheres_scene):
+    r = render_small(spheres_scene, accel="bvol", shadows="none", spp=4)
+    assert r.stats["counters"]["primary_rays"] == 4 * W * H
+
+
+def test_shadows_darken_without_changing_lit_pixels(render_small, teapot_scene):
+    none = render_small(teapot_scene, accel="bvol", shadows="none").linear
+    hard = render_small(teapot_scene, accel="bvol", shadows="hard").linear
+    assert np.all(hard <= none)
+    assert (hard < none).any(axis=2).mean() > 0.02   # a visible shadow
+    assert (hard == none).all(axis=2).mean() > 0.5   # most pixels unchanged
+
+
+def test_soft_shadow_has_penumbra(render_small, teapot_scene):
+    none = render_small(teapot_scene, accel="bvol", shadows="none").linear
+    hard = render_small(teapot_scene, accel="bvol", shadows="hard").linear
+    soft = render_small(teapot_scene, accel="bvol", shadows="soft", light_samples=16).linear
+    frac = lambda img: (img < none).any(axis=2) & (img > 0.02 + 0 * none).any(axis=2)  # noqa: E731
+    # Partially lit pixels: darker than unshadowed, brighter than umbra.
+    partial_soft = ((soft < none - 1e-6) & (soft > hard + 1e-6)).any(axis=2).sum()
+    assert partial_soft > 20
+    assert frac(soft).sum() >= frac(hard).sum()
+
+
+def test_same_seed_same_image_across_threads(teapot_scene):
+    kw = dict(accel="bvol", shadows="soft", light_samples=16, pattern="random", width=48, height=36, seed=7)
+    a = render(teapot_scene, threads=1, **kw)
+    b = render(teapot_scene, threads=2, **kw)
+    assert np.array_equal(a.image, b.image)
+    assert a.stats["counters"] == b.stats["counters"]
+    c = render(teapot_scene, threads=2, **dict(kw, seed=8))
+    assert not np.array_equal(a.linear, c.linear)
+
+
+@pytest.mark.parametrize("kw, message", [
+    (dict(width=0), "width"),
+    (dict(height=-3), "height"),
+    (dict(light_samples=-1), "light samples"),
+    (dict(spp=0), "spp"),
+    (dict(accel="octree"), "acceleration"),
+    (dict(shadows="soft", light_samples=50), "square"),
+    (dict(width=1 << 20, height=1 << 20), "GiB"),
+])
+def test_bad_options_raise_one_clear_error(teapot_scene, kw, message):
+    with pytest.raises(RaytraceError, match=message):
+        render(teapot_scene, **kw)
