@@ -18,20 +18,33 @@ def check_writable(path):
         raise RaytraceError(f"{path}: directory {parent} is not writable")
 
 
-def write_png(path, image):
-    """Write to a temporary file beside ``path``, then rename over it: an
-    interrupted run leaves either the old file or the new one, never a
-    broken PNG."""
-    from PIL import Image
+def _umask():
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
+
+def write_atomic(path, write):
+    """Call write(fileobj) on a temporary file beside ``path``, then rename it
+    over ``path``: an interrupted run leaves the old file or the new one,
+    never a broken one."""
     path = Path(path)
     check_writable(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
     try:
         with os.fdopen(fd, "wb") as fh:
-            Image.fromarray(image).save(fh, format="PNG")
+            write(fh)
+        # mkstemp makes the file private (0600); give it the usual mode.
+        os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+def write_png(path, image):
+    """Write an (h, w, 3) uint8 image as PNG, atomically."""
+    from PIL import Image
+
+    write_atomic(path, lambda fh: Image.fromarray(image).save(fh, format="PNG"))

@@ -85,3 +85,12 @@ def test_existing_output_untouched_on_failure(run, tmp_path):
     r = run("teapot", "--width", "0", "-o", str(out))
     assert r.exit_code == 2
     assert out.read_bytes() == b"old"
+
+
+def test_output_file_has_the_usual_permissions(run, tmp_path):
+    import os
+    r = run("spheres", "--shadows", "none", *SMALL, "-o", "perm.png")
+    assert r.exit_code == 0, r.output
+    mask = os.umask(0)
+    os.umask(mask)
+    assert (tmp_path / "perm.png").stat().st_mode & 0o777 == 0o666 & ~mask
