@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .buffers import ACCEL_NAMES, Lights, f64, i64
+from .buffers import ACCEL_NAMES, STACK_SIZE, Lights, f64, i64
 from .errors import RaytraceError
 
 SHADOW_CHOICES = ("none", "hard", "soft")
@@ -166,7 +166,6 @@ def render(scene, opts=None, **kw):
 
     from .accel import build_accel
     from .flatten import flatten
-    from .kernels.cast import STACK_SIZE
     from .kernels.counters import N_COUNTERS
     from .kernels.render import SHADOW_MODES, render_rows
     from .kernels.sampling import PATTERN_NAMES

@@ -10,15 +10,21 @@ from .conftest import H, W
 SHADOWS = ["none", "hard", "soft"]
 
 
+ACCELS = ["bvol", "grid"]
+
+
+@pytest.mark.parametrize("accel", ACCELS)
 @pytest.mark.parametrize("shadows", SHADOWS)
 @pytest.mark.parametrize("scene", ["teapot_scene", "spheres_scene"])
-def test_bvol_matches_brute_force(request, render_small, scene, shadows):
+def test_structures_match_brute_force(request, render_small, scene, shadows, accel):
     sc = request.getfixturevalue(scene)
-    kw = dict(shadows=shadows, light_samples=16)
+    kw = dict(shadows=shadows, light_samples=16, aov=True)
     a = render_small(sc, accel="none", **kw)
-    b = render_small(sc, accel="bvol", **kw)
+    b = render_small(sc, accel=accel, **kw)
     assert np.array_equal(a.linear, b.linear)
     assert np.array_equal(a.image, b.image)
+    assert np.array_equal(a.aovs["primid"], b.aovs["primid"])
+    assert np.array_equal(a.aovs["depth"], b.aovs["depth"])
     ca, cb = a.stats["counters"], b.stats["counters"]
     for key in ("primary_rays", "shadow_rays", "shading_points", "occluded_rays"):
         assert ca[key] == cb[key], key

@@ -6,7 +6,8 @@ import time
 
 import numpy as np
 
-from ..buffers import ACCEL_BVOL, ACCEL_NAMES, empty_accel, f64, i64, prim_bounds
+from ..buffers import ACCEL_BVOL, ACCEL_GRID, ACCEL_NAMES, empty_accel, f64, i64, prim_bounds
+from .grid import build_grid
 
 
 def build_bvol(geo, obj_ranges, acc):
@@ -28,4 +29,8 @@ def build_accel(name, geo, obj_ranges):
     acc = empty_accel(mode)
     if mode == ACCEL_BVOL:
         acc = build_bvol(geo, obj_ranges, acc)
+    elif mode == ACCEL_GRID:
+        g_lo, g_hi, g_cell, g_res, c_start, c_items = build_grid(*prim_bounds(geo))
+        acc = acc._replace(grid_lo=g_lo, grid_hi=g_hi, grid_cell=g_cell, grid_res=g_res,
+                           cell_start=c_start, cell_items=c_items)
     return acc, time.perf_counter() - t0

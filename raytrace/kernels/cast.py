@@ -6,8 +6,6 @@ from numba import njit, prange
 from .intersect import KERNEL, make_ray
 from .query import closest_hit, occluded
 
-STACK_SIZE = 64  # BVH traversal stack entries (depth is bounded well below)
-
 
 @njit(**KERNEL)
 def cast_closest(geo, acc, origins, dirs, t_max, out_t, out_prim, out_u, out_v, cnt_rows, stacks):

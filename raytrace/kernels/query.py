@@ -8,9 +8,10 @@ cache keys).
 import numpy as np
 from numba import njit
 
-from ..buffers import ACCEL_BVOL, ACCEL_NONE
+from ..buffers import ACCEL_BVOL, ACCEL_GRID, ACCEL_NONE
 from .flat import (brute_closest, brute_occluded, bvol_closest, bvol_occluded,
                    planes_closest, planes_occluded)
+from .grid import grid_closest, grid_occluded
 from .intersect import INLINE
 
 
@@ -25,6 +26,8 @@ def closest_hit(geo, acc, ray, t_max, cnt, stack):
         t, p, u, v = brute_closest(geo, ray, t_max, cnt)
     elif mode == ACCEL_BVOL:
         t, p, u, v = bvol_closest(geo, acc, ray, t_max, cnt)
+    elif mode == ACCEL_GRID:
+        t, p, u, v = grid_closest(geo, acc, ray, t_max, cnt)
     else:
         t, p, u, v = np.inf, -1, 0.0, 0.0
     return planes_closest(geo, ray, t_max, t, p, u, v, cnt)
@@ -41,4 +44,6 @@ def occluded(geo, acc, ray, t_max, cnt, stack):
             hit = brute_occluded(geo, ray, t_max, cnt)
         elif mode == ACCEL_BVOL:
             hit = bvol_occluded(geo, acc, ray, t_max, cnt)
+        elif mode == ACCEL_GRID:
+            hit = grid_occluded(geo, acc, ray, t_max, cnt)
     return hit

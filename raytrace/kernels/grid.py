@@ -1,0 +1,226 @@
+"""Uniform grid traversal by 3D-DDA (Amanatides & Woo 1987, "A Fast Voxel
+Traversal Algorithm for Ray Tracing"): clip the ray to the grid, find the
+start cell, then repeatedly step into the neighbour across whichever cell
+face the ray crosses first.
+
+Why the answer equals brute force bit for bit
+---------------------------------------------
+Primitive tests are the same calls as brute force's (``test_prim`` with the
+ray's own t_max) and hits merge with ``closer`` (distance, then smaller
+id), so the grid's answer is brute force's as soon as the brute-force winner
+p* (hit distance t*) is among the primitives tested.  A primitive spanning
+several cells may be hit outside the cell being visited, so we keep the best
+hit over everything tested and only stop once the next cell starts beyond
+it.  Two kinds of rounding could still make us miss p*:
+
+1. Where the DDA thinks the ray is.  The crossing distances are rounded and
+   the start cell comes from a rounded point, so near a cell face (or an
+   edge or corner, where the order of two crossings can flip) the DDA may
+   assign the ray's points to a neighbouring cell.  Each crossing is
+   recomputed from its face's coordinate (never accumulated), so along
+   each axis the error is a few ulps of the coordinates and of the ray's
+   travel: the cell the DDA assigns to any t on the walk is within
+   ~10 ulps of max(|origin|, |grid coordinates|) of the true point o + t d.
+2. Where the hit is.  The computed t* is rounded too, so o + t* d can lie a
+   few ulps outside p*'s box (the watertight test's t is accurate to a few
+   ulps unless the ray is within ~1e-9 rad of the triangle's plane).
+
+Conservative insertion absorbs both: the build lists each primitive in
+every cell its box *widened by grid_eps* overlaps (accel/grid.py;
+grid_eps >= 1e-7 of the scene, far above both errors).  So the cell the DDA
+assigns to t* lists p*.  The cells are visited in order of their t-ranges,
+and we stop only after a cell whose computed exit distance exceeds
+min(best_t, t_max) >= t*, so that cell was visited and p* tested.  The
+comparison is against the same computed crossings that define the cells'
+t-ranges, so no t margin is needed for the argument; STOP_SCALE adds a
+2^-32 relative one anyway, which costs an extra cell only for hits within
+2^-32 of a face.  Occlusion is the same argument with t* the distance of
+any occluder.
+
+The error bound in (1) grows with the distance of the ray origin, so rays
+starting more than ~1e6 scene sizes away (or with NaN/inf/subnormal
+components) skip the DDA and test every primitive: still brute force's
+answer, just slow.  Not covered: a ray lying exactly in a triangle's plane,
+where the watertight test's verdict is itself rounding noise and may report
+a "hit" anywhere along the triangle's extent.
+"""
+import numpy as np
+from numba import njit
+
+from ..accel.grid import grid_eps
+from .counters import BOX_TESTS, CELLS_VISITED, PRIM_HITS, PRIM_TESTS
+from .flat import brute_closest, brute_occluded, closer, test_prim
+from .intersect import INLINE, ray_aabb
+
+# Keep stepping until the next cell starts beyond best_t by this relative
+# margin (see the module docstring: belt and braces, ~free).
+STOP_SCALE = 1.0 - 2.0 ** -32
+# Rays are walked only if GUARD_ULPS ulps of their origin's and the grid's
+# largest coordinate stay within grid_eps: 1024 is ~100x the DDA's and the
+# hit point's rounding (~10 ulps), and with grid_eps >= 1e-7 of the scene it
+# admits every origin within ~1e6 scene sizes.
+GUARD_ULPS = 1024.0
+_U = 2.0 ** -53
+
+_MISS, _WALK, _ALL = 0, 1, 2
+
+
+@njit(**INLINE)
+def _crossing(o, inv, glo, cell, i, step):
+    """Distance at which the ray leaves cell i through its face on this
+    axis, from the face's coordinate (not accumulated, so the error does not
+    grow with the number of steps)."""
+    k = i + 1 if step > 0 else i
+    return (glo + k * cell - o) * inv
+
+
+@njit(**INLINE)
+def _axis_start(o, d, inv, t0, glo, cell, res):
+    """Start cell index, step and first face crossing along one axis.
+
+    An axis with d == 0.0 or -0.0 (inverse +-inf) is never stepped: its
+    crossing is inf, not the NaN that 0 * inf would give on a face.
+    """
+    f = ((o + t0 * d) - glo) / cell
+    if f >= 0.0:
+        i = int(f) if f < res else res - 1
+    else:
+        i = 0
+    if d == 0.0:
+        return i, 0, np.inf
+    step = 1 if d > 0.0 else -1
+    return i, step, _crossing(o, inv, glo, cell, i, step)
+
+
+@njit(**INLINE)
+def _grid_enter(acc, ray, t_max, cnt):
+    """Clip the ray to the grid and set up the DDA.
+
+    Returns (status, ix, iy, iz, sx, sy, sz, tx, ty, tz): _MISS (nothing to
+    do), _ALL (test every primitive, see GUARD_ULPS) or _WALK with the start
+    cell, the steps and the first crossing along each axis.
+    """
+    if acc.cell_items.shape[0] == 0:
+        return _MISS, 0, 0, 0, 0, 0, 0, 0.0, 0.0, 0.0
+    glo = acc.grid_lo
+    ghi = acc.grid_hi
+    cnt[BOX_TESTS] += 1
+    t0 = ray_aabb(ray, glo.reshape(1, 3), ghi.reshape(1, 3), 0, t_max)
+    if t0 == np.inf:
+        return _MISS, 0, 0, 0, 0, 0, 0, 0.0, 0.0, 0.0
+    mag = max(abs(ray[0]), abs(ray[1]), abs(ray[2]),
+              abs(glo[0]), abs(glo[1]), abs(glo[2]),
+              abs(ghi[0]), abs(ghi[1]), abs(ghi[2]))
+    # Written so that NaN fails every test.  A subnormal direction component
+    # has an infinite inverse although the ray does move along that axis.
+    walk = (GUARD_ULPS * _U * mag <= grid_eps(glo, ghi)
+            and (ray[3] == 0.0 or abs(ray[6]) < np.inf)
+            and (ray[4] == 0.0 or abs(ray[7]) < np.inf)
+            and (ray[5] == 0.0 or abs(ray[8]) < np.inf))
+    if not walk:
+        return _ALL, 0, 0, 0, 0, 0, 0, 0.0, 0.0, 0.0
+    cell = acc.grid_cell
+    res = acc.grid_res
+    ix, sx, tx = _axis_start(ray[0], ray[3], ray[6], t0, glo[0], cell[0], res[0])
+    iy, sy, ty = _axis_start(ray[1], ray[4], ray[7], t0, glo[1], cell[1], res[1])
+    iz, sz, tz = _axis_start(ray[2], ray[5], ray[8], t0, glo[2], cell[2], res[2])
+    return _WALK, ix, iy, iz, sx, sy, sz, tx, ty, tz
+
+
+@njit(**INLINE)
+def grid_closest(geo, acc, ray, t_max, cnt):
+    """Closest hit among the bounded primitives; returns (t, prim, b1, b2)."""
+    best_t, best_p, best_u, best_v = np.inf, -1, 0.0, 0.0
+    status, ix, iy, iz, sx, sy, sz, tx, ty, tz = _grid_enter(acc, ray, t_max, cnt)
+    if status == _MISS:
+        return best_t, best_p, best_u, best_v
+    if status == _ALL:
+        return brute_closest(geo, ray, t_max, cnt)
+    rx, ry, rz = acc.grid_res[0], acc.grid_res[1], acc.grid_res[2]
+    glo, cell = acc.grid_lo, acc.grid_cell
+    cell_start, cell_items = acc.cell_start, acc.cell_items
+    # Mailbox: the last four primitives tested.  A triangle spanning
+    # neighbouring cells is tested once; a retest would give the same
+    # (t, id), which `closer` rejects, so skipping it changes nothing.
+    m0 = m1 = m2 = m3 = -1
+    inside = True
+    while inside:
+        cnt[CELLS_VISITED] += 1
+        c = ix + rx * (iy + ry * iz)
+        for k in range(cell_start[c], cell_start[c + 1]):
+            p = cell_items[k]
+            if p != m0 and p != m1 and p != m2 and p != m3:
+                m3, m2, m1, m0 = m2, m1, m0, p
+                cnt[PRIM_TESTS] += 1
+                t, u, v = test_prim(geo, ray, p, t_max)
+                if t < np.inf:
+                    cnt[PRIM_HITS] += 1
+                    if closer(t, p, best_t, best_p):
+                        best_t, best_p, best_u, best_v = t, p, u, v
+        t_exit = min(tx, ty, tz)
+        if t_exit == np.inf or t_exit * STOP_SCALE > min(best_t, t_max):
+            inside = False
+        elif tx == t_exit:
+            ix += sx
+            inside = 0 <= ix < rx
+            tx = _crossing(ray[0], ray[6], glo[0], cell[0], ix, sx)
+        elif ty == t_exit:
+            iy += sy
+            inside = 0 <= iy < ry
+            ty = _crossing(ray[1], ray[7], glo[1], cell[1], iy, sy)
+        else:
+            iz += sz
+            inside = 0 <= iz < rz
+            tz = _crossing(ray[2], ray[8], glo[2], cell[2], iz, sz)
+    return best_t, best_p, best_u, best_v
+
+
+@njit(**INLINE)
+def grid_occluded(geo, acc, ray, t_max, cnt):
+    """Any bounded primitive hit with 0 < t < t_max; stops at the first.
+
+    Early exits are loop conditions, not break/return inside a for loop
+    (see flat.py: the latter measured an order of magnitude slower).
+    """
+    status, ix, iy, iz, sx, sy, sz, tx, ty, tz = _grid_enter(acc, ray, t_max, cnt)
+    if status == _MISS:
+        return False
+    if status == _ALL:
+        return brute_occluded(geo, ray, t_max, cnt)
+    rx, ry, rz = acc.grid_res[0], acc.grid_res[1], acc.grid_res[2]
+    glo, cell = acc.grid_lo, acc.grid_cell
+    cell_start, cell_items = acc.cell_start, acc.cell_items
+    m0 = m1 = m2 = m3 = -1  # mailbox, as in grid_closest
+    hit = False
+    inside = True
+    while inside and not hit:
+        cnt[CELLS_VISITED] += 1
+        c = ix + rx * (iy + ry * iz)
+        k = cell_start[c]
+        end = cell_start[c + 1]
+        while k < end and not hit:
+            p = cell_items[k]
+            if p != m0 and p != m1 and p != m2 and p != m3:
+                m3, m2, m1, m0 = m2, m1, m0, p
+                cnt[PRIM_TESTS] += 1
+                t, u, v = test_prim(geo, ray, p, t_max)
+                if t < np.inf:
+                    cnt[PRIM_HITS] += 1
+                    hit = True
+            k += 1
+        t_exit = min(tx, ty, tz)
+        if t_exit == np.inf or t_exit * STOP_SCALE > t_max:
+            inside = False
+        elif tx == t_exit:
+            ix += sx
+            inside = 0 <= ix < rx
+            tx = _crossing(ray[0], ray[6], glo[0], cell[0], ix, sx)
+        elif ty == t_exit:
+            iy += sy
+            inside = 0 <= iy < ry
+            ty = _crossing(ray[1], ray[7], glo[1], cell[1], iy, sy)
+        else:
+            iz += sz
+            inside = 0 <= iz < rz
+            tz = _crossing(ray[2], ray[8], glo[2], cell[2], iz, sz)
+    return hit
