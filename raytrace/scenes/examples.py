@@ -1,0 +1,39 @@
+"""The shipped assets: example scene files and the data built-in scenes use."""
+from importlib import resources
+from pathlib import Path
+
+# A file only raytrace's own assets folder holds, so an unrelated top-level
+# "assets" directory is never mistaken for it.
+_MARKER = "teapot_patches.json"
+
+
+def assets_dir():
+    """The assets folder.
+
+    In a source checkout (an editable install, or a worktree run with
+    PYTHONPATH) that is ``assets/`` beside the package, so a checkout reads
+    its own files and never those of whichever copy happens to be installed;
+    otherwise the installed ``raytrace.assets`` package.
+    """
+    beside = Path(__file__).resolve().parents[2] / "assets"
+    if (beside / _MARKER).is_file():
+        return beside
+    return Path(str(resources.files("raytrace.assets")))
+
+
+def describe(path):
+    """The ``description`` line of a scene file, or "" (read without a full
+    parse, so listing never fails on a broken file)."""
+    try:
+        for line in Path(path).read_text(encoding="utf-8").splitlines():
+            key, sep, value = line.partition("=")
+            if sep and key.strip() == "description":
+                return value.strip().strip('"').strip("'")
+    except (OSError, UnicodeDecodeError):
+        pass
+    return ""
+
+
+def example_files():
+    """[(path, description)] of the shipped example scene files, by name."""
+    return [(p, describe(p)) for p in sorted(assets_dir().glob("*.toml"))]
