@@ -120,7 +120,7 @@ def render_cmd(scene, accel, bvol, shadows, light_samples, pattern, detail, widt
     output = output or f"{scene}.png"
     try:
         from .output import check_writable, write_png
-        from .render import RenderOptions, render
+        from .driver import RenderOptions, render
         from .stats import format_table, to_json
 
         check_writable(output)

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from raytrace.errors import RaytraceError
-from raytrace.render import render
+from raytrace.driver import render
 
 from .conftest import H, W
 

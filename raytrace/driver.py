@@ -90,6 +90,17 @@ def validate(opts, scene):
     return w, h
 
 
+def check_accel_built(name, geo, acc):
+    """Refuse a structure this build does not construct yet: its arrays
+    would stay empty and every bounded primitive would silently be missed."""
+    from .buffers import ACCEL_BVH, ACCEL_GRID, n_bounded
+    if n_bounded(geo) == 0:
+        return
+    if (acc.mode == ACCEL_BVH and acc.node_lo.shape[0] == 0
+            or acc.mode == ACCEL_GRID and not np.all(acc.grid_res > 0)):
+        raise RaytraceError(f"acceleration structure {name!r} is not available in this build")
+
+
 def camera_buffer(cam, width, height):
     """eye, forward, right and up, the last two scaled to the image plane."""
     eye = np.asarray(cam.eye, dtype=float)
@@ -181,6 +192,7 @@ def render(scene, opts=None, **kw):
     t_import = time.perf_counter() - t_start
 
     acc, t_build = build_accel(opts.accel, geo, obj_ranges)
+    check_accel_built(opts.accel, geo, acc)
 
     image = np.zeros((height, width, 3), np.float32)
     stats_rows = np.zeros((height, N_COUNTERS), np.int64)
