@@ -80,6 +80,14 @@ def validate(opts, scene):
         if side * side != opts.light_samples:
             raise RaytraceError(f"the {opts.pattern} pattern needs a square number of light samples "
                                 f"(got {opts.light_samples}; try {side * side} or {(side + 1) ** 2})")
+    if opts.shadows == "soft":
+        for k, light in enumerate(scene.lights):
+            if light.samples:  # a light's own count overrides light_samples
+                _check_int(f"light {k} samples", light.samples, 1, MAX_LIGHT_SAMPLES)
+                side = math.isqrt(light.samples)
+                if opts.pattern in ("grid", "stratified") and side * side != light.samples:
+                    raise RaytraceError(f"the {opts.pattern} pattern needs a square number of "
+                                        f"light samples (light {k} has {light.samples})")
     if opts.threads is not None:
         import numba
         _check_int("threads", opts.threads, 1, numba.config.NUMBA_NUM_THREADS)
@@ -123,6 +131,16 @@ def camera_buffer(cam, width, height):
     return f64(np.concatenate([eye, fwd, right * half_w, true_up * half_h]))
 
 
+def light_size(light):
+    """(first, second) edge lengths: ``size`` is one number for a square
+    light or a (first, second) pair for a rectangle."""
+    size = light.size
+    if np.ndim(size) == 0:
+        return float(size), float(size)
+    first, second = size
+    return float(first), float(second)
+
+
 def light_buffers(scene, shadows, light_samples):
     """Area lights are sampled only with soft shadows; otherwise every light
     is a point at its centre, one shadow ray (hard) or none."""
@@ -133,15 +151,16 @@ def light_buffers(scene, shadows, light_samples):
             raise RaytraceError("light position must be finite")
         pos.append(p)
         col.append(np.asarray(L.color, dtype=float) * L.intensity)
-        if shadows == "soft" and L.size > 0:
+        size_u, size_v = light_size(L)
+        if shadows == "soft" and size_u > 0 and size_v > 0:
             n = np.asarray(L.direction, dtype=float)
             n /= np.linalg.norm(n)
             a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
             u = np.cross(n, a)
             u /= np.linalg.norm(u)
             v = np.cross(n, u)
-            us.append(u * L.size)
-            vs.append(v * L.size)
+            us.append(u * size_u)
+            vs.append(v * size_v)
             ns.append(L.samples or light_samples)
         else:
             us.append(np.zeros(3))

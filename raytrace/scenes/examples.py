@@ -22,16 +22,15 @@ def assets_dir():
 
 
 def describe(path):
-    """The ``description`` line of a scene file, or "" (read without a full
-    parse, so listing never fails on a broken file)."""
+    """The ``description`` of a scene file, or "" if it cannot be read (a
+    listing never fails on a broken file)."""
+    from ..errors import RaytraceError
+    from ..io.scenefile import parse_toml
     try:
-        for line in Path(path).read_text(encoding="utf-8").splitlines():
-            key, sep, value = line.partition("=")
-            if sep and key.strip() == "description":
-                return value.strip().strip('"').strip("'")
-    except (OSError, UnicodeDecodeError):
-        pass
-    return ""
+        text = parse_toml(path).get("description", "")
+    except RaytraceError:
+        return ""
+    return text if isinstance(text, str) else ""
 
 
 def example_files():
