@@ -1,4 +1,4 @@
-"""Image output: PNGs are written atomically so no run leaves half a file."""
+"""Output files are written atomically so no run leaves half a file."""
 import os
 import tempfile
 from pathlib import Path
@@ -18,20 +18,30 @@ def check_writable(path):
         raise RaytraceError(f"{path}: directory {parent} is not writable")
 
 
-def write_png(path, image):
-    """Write to a temporary file beside ``path``, then rename over it: an
-    interrupted run leaves either the old file or the new one, never a
-    broken PNG."""
-    from PIL import Image
-
+def write_atomic(path, write):
+    """Call write(binary file) on a temporary file beside ``path``, then
+    rename it over ``path``: an interrupted run leaves either the old file
+    or the new one, never a broken one."""
     path = Path(path)
     check_writable(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
     try:
         with os.fdopen(fd, "wb") as fh:
-            Image.fromarray(image).save(fh, format="PNG")
+            write(fh)
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+def write_png(path, image):
+    """An (h, w, 3) uint8 image as a PNG, atomically."""
+    from PIL import Image
+    write_atomic(path, lambda fh: Image.fromarray(image).save(fh, format="PNG"))
+
+
+def write_npz(path, arrays):
+    """A dict of arrays as an uncompressed .npz (np.load reads it), atomically."""
+    import numpy as np
+    write_atomic(path, lambda fh: np.savez(fh, **arrays))
