@@ -2,7 +2,7 @@
 
     >>> import raytrace
     >>> scene = raytrace.load_scene("teapot")             # or "model.obj", "scene.toml"
-    >>> result = raytrace.render(scene, width=320, height=240)
+    >>> result = raytrace.render(scene, accel="bvol", width=320, height=240)
     >>> result.image.shape, result.stats["counters"]["primary_rays"]
     ((240, 320, 3), 76800)
 
