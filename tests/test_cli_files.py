@@ -158,3 +158,17 @@ def test_no_progress_bar_without_a_terminal_or_with_quiet(run, monkeypatch):
     assert r.exit_code == 0 and "rendering" in r.output          # the control: it can show
     r = run("spheres", *SMALL, "--shadows", "none", "--quiet", "-o", "c.png")
     assert r.exit_code == 0 and r.output == ""
+
+
+def test_listing_and_help_import_neither_numba_nor_trimesh():
+    import subprocess
+    import sys
+    code = ("import sys; from raytrace.cli import main\n"
+            "for args in (['scenes'], ['render', '--help']):\n"
+            "    try: main(args)\n"
+            "    except SystemExit: pass\n"
+            "bad = [m for m in ('numba', 'trimesh') if m in sys.modules]\n"
+            "assert not bad, bad\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert "village.toml" in out.stdout and "--heatmap" in out.stdout
