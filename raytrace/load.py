@@ -60,7 +60,7 @@ def load_scene(name_or_path, *, detail=None, view=None, azimuth=None, elevation=
         vertices, faces = read_mesh(path)
         extra = {k: v for k, v in dict(fov=fov, width=width, height=height).items() if v is not None}
         return mesh_scene(vertices, faces, name=path.stem, up=up or "y", view=view,
-                          azimuth=azimuth, elevation=elevation, **extra)
+                          azimuth=azimuth, elevation=elevation, source=path, **extra)
     if kind == "builtin":
         from .scenes.builtin import BUILTIN
         factory = BUILTIN[str(name_or_path)][0]

@@ -72,6 +72,7 @@ def bad_mesh_files(tmp_path):
         "inf.off": (b"OFF\n3 1 0\n0 0 0\ninf 0 0\n0 1 0\n3 0 1 2\n", "NaN or infinite"),
         "range.obj": (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", ""),
         "range.off": (b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n", "range"),
+        "point.obj": (b"v 1 1 1\nv 1 1 1\nv 1 1 1\nf 1 2 3\n", None),
         "range.ply": (b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
                       b"property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
                       b"end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", "out of range"),
@@ -92,6 +93,8 @@ def bad_dir(tmp_path):
 def test_bad_mesh_files_raise_naming_the_file(bad_dir):
     d, files = bad_dir
     for name, words in files.items():
+        if words is None:      # reads, but cannot be shown (see test_cli_files)
+            continue
         with pytest.raises(RaytraceError) as info:
             read_mesh(d / name)
         msg = str(info.value)

@@ -61,10 +61,12 @@ def _nice_checker(radius):
 
 
 def mesh_scene(vertices, faces, name="mesh", view=None, azimuth=None, elevation=None,
-               up="y", fov=60.0, width=640, height=480):
+               up="y", fov=60.0, width=640, height=480, source=None):
     """A Scene showing the mesh whole from ``view`` (a name in VIEWS) or
     from an (azimuth, elevation) pair in degrees (either overrides the
-    view's), on a checkered ground at its lowest point along ``up``."""
+    view's), on a checkered ground at its lowest point along ``up``.
+    ``source`` (the file, default ``name``) is what error messages name."""
+    source = source or name
     if view is not None and view not in VIEWS:
         raise RaytraceError(f"unknown view {view!r} (choose from {', '.join(VIEWS)})")
     az, el = VIEWS[view or DEFAULT_VIEW]
@@ -79,7 +81,7 @@ def mesh_scene(vertices, faces, name="mesh", view=None, azimuth=None, elevation=
     center = (lo + hi) / 2
     radius = float(np.linalg.norm(hi - lo)) / 2
     if not radius > 0:
-        raise RaytraceError(f"{name}: the mesh has no extent (all vertices coincide)")
+        raise RaytraceError(f"{source}: the mesh has no extent (all vertices coincide)")
     u, _, _ = axis_frame(up)
     d, cam_up = view_direction(up, az, el)
 
@@ -100,7 +102,7 @@ def mesh_scene(vertices, faces, name="mesh", view=None, azimuth=None, elevation=
     camera = Camera(eye=_tup(eye), look_at=_tup(center), up=_tup(cam_up), fov=fov,
                     width=width, height=height)
 
-    objects = [Mesh(v, faces, Material(**MESH_MATERIAL), name=name)]
+    objects = [Mesh(v, faces, Material(**MESH_MATERIAL), name=str(source))]
     ground_h = float((v @ u).min())
     # From below the ground the plane would hide the model: leave it out.
     if float(eye @ u) > ground_h:
