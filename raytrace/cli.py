@@ -120,6 +120,39 @@ class _Progress:
             self.bar.__exit__(None, None, None)
 
 
+def _view_options(view, up):
+    """--view and --up as load_scene's keyword arguments."""
+    opts = {}
+    if isinstance(view, tuple):
+        opts = dict(azimuth=view[0], elevation=view[1])
+    elif view is not None:
+        opts = dict(view=view)
+    if up is not None:
+        opts["up"] = up
+    return opts
+
+
+def _write_outputs(result, output, aov, aov_out, heatmap):
+    """Write the PNG, then any AOVs and heatmap; record them in the stats
+    and return the lines that report them."""
+    from .output import write_npz, write_png
+    write_png(output, result.image)
+    result.stats["output"] = str(output)
+    notes = []
+    if aov_out is not None:
+        write_npz(aov_out, {k: result.aovs[k] for k in aov})
+        result.stats["aov"] = {"path": str(aov_out), "buffers": list(aov)}
+        notes.append(f"wrote {aov_out} ({', '.join(aov)})")
+    if heatmap is not None:
+        from .heatmap import cost_heatmap
+        img, lo, hi = cost_heatmap(result.aovs["cost"])
+        write_png(heatmap, img)
+        result.stats["heatmap"] = {"path": str(heatmap), "cost_min": lo, "cost_max": hi}
+        notes.append(f"wrote {heatmap} (box + primitive tests per pixel, log scale: "
+                     f"{lo:,} = dark purple to {hi:,} = yellow)")
+    return notes
+
+
 def _up_choices():
     from .scenes.views import UP_AXES
     return UP_AXES
@@ -196,23 +229,17 @@ def render_cmd(scene, accel, bvol, shadows, light_samples, pattern, detail, view
     outputs = [Path(p).resolve() for p in (output, aov_out, heatmap) if p is not None]
     if len(set(outputs)) != len(outputs):
         raise click.UsageError("--heatmap must differ from the output image and its .aov.npz")
-    view_opts = {}
-    if isinstance(view, tuple):
-        view_opts = dict(azimuth=view[0], elevation=view[1])
-    elif view is not None:
-        view_opts = dict(view=view)
-    if up is not None:
-        view_opts["up"] = up
     try:
-        from .load import load_scene
-        from .output import check_writable, write_npz, write_png
         from .driver import RenderOptions, render
+        from .load import load_scene
+        from .output import check_writable
         from .stats import format_table, to_json
 
         for path in (output, aov_out, heatmap):
             if path is not None:
                 check_writable(path)
-        sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height, **view_opts)
+        sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
+                        **_view_options(view, up))
         progress = _Progress(enabled=not quiet)
         opts = RenderOptions(accel=accel, shadows=shadows, light_samples=light_samples,
                              pattern=pattern, spp=spp, seed=seed, threads=threads,
@@ -221,20 +248,7 @@ def render_cmd(scene, accel, bvol, shadows, light_samples, pattern, detail, view
             result = render(sc, opts)
         finally:
             progress.close()
-        write_png(output, result.image)
-        notes = []
-        result.stats["output"] = str(output)
-        if aov_out is not None:
-            write_npz(aov_out, {k: result.aovs[k] for k in aov})
-            result.stats["aov"] = {"path": str(aov_out), "buffers": list(aov)}
-            notes.append(f"wrote {aov_out} ({', '.join(aov)})")
-        if heatmap is not None:
-            from .heatmap import cost_heatmap
-            img, lo, hi = cost_heatmap(result.aovs["cost"])
-            write_png(heatmap, img)
-            result.stats["heatmap"] = {"path": str(heatmap), "cost_min": lo, "cost_max": hi}
-            notes.append(f"wrote {heatmap} (box + primitive tests per pixel, log scale: "
-                         f"{lo:,} = dark purple to {hi:,} = yellow)")
+        notes = _write_outputs(result, output, aov, aov_out, heatmap)
     except RaytraceError as exc:
         raise click.ClickException(str(exc)) from None
     except MemoryError:
