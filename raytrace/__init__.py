@@ -1,0 +1,62 @@
+"""raytrace: a fast, honest, teachable CPU ray tracer.
+
+    >>> import raytrace
+    >>> scene = raytrace.load_scene("teapot")             # or "model.obj", "scene.toml"
+    >>> result = raytrace.render(scene, accel="bvol", width=320, height=240)
+    >>> result.image.shape, result.stats["counters"]["primary_rays"]
+    ((240, 320, 3), 76800)
+
+``cast_rays`` and ``occluded`` trace your own rays against a mesh or a
+scene with the renderer's kernels.  Importing this package is cheap: NumPy,
+Numba and trimesh are imported by the first call that needs them.
+"""
+from .errors import RaytraceError
+
+__all__ = ["load_scene", "render", "cast_rays", "occluded", "RaytraceError"]
+
+
+def load_scene(name_or_path, **opts):
+    """A Scene from a built-in name ("teapot", "spheres"), a mesh file
+    (.obj, .ply, .stl, .off, .glb: framed by an automatic camera, on a
+    ground plane) or a TOML scene file.
+
+    Options: detail (teapot), view / azimuth / elevation / up (mesh files),
+    fov, width, height.  See raytrace.load.load_scene.
+    """
+    from .load import load_scene as _load
+    return _load(name_or_path, **opts)
+
+
+def render(scene, **options):
+    """Render a Scene (or a name or path, loaded with load_scene) and return
+    a RenderResult: ``image`` (h, w, 3) uint8 sRGB, ``linear`` float32,
+    ``stats`` (times and counters, as the CLI's --json), ``aovs`` with
+    aov=True (depth, normal, primid, cost).
+
+    Options are the fields of raytrace.driver.RenderOptions: accel
+    ("none", "bvol", "bvh", "grid"), shadows ("none", "hard", "soft"),
+    light_samples, pattern, width, height, spp, seed, threads, aov.
+    """
+    from .driver import render as _render
+    if isinstance(scene, str):
+        scene = load_scene(scene)
+    return _render(scene, **options)
+
+
+def cast_rays(target, origins, directions, accel="bvh", t_max=None):
+    """Closest hits of rays against ``target``: a (vertices, faces) pair, a
+    trimesh.Trimesh (anything with .vertices and .faces) or a Scene.
+
+    Returns a RayHits with (n,) arrays t, prim_id, u, v, object_id (also
+    ``hits["t"]``); t is in units of each direction's length, inf and -1
+    on a miss.  See raytrace.rays.cast_rays.
+    """
+    from .rays import cast_rays as _cast
+    return _cast(target, origins, directions, accel=accel, t_max=t_max)
+
+
+def occluded(target, origins, directions, t_max, accel="bvh"):
+    """(n,) booleans: is anything hit with 0 < t < t_max along each ray?
+    See raytrace.rays.occluded."""
+    from .rays import occluded as _occluded
+    return _occluded(target, origins, directions, t_max, accel=accel)

@@ -31,37 +31,76 @@ def main():
 
     \b
     raytrace teapot --shadows soft --no-bvol   render a built-in scene
-    raytrace scenes                            list the built-in scenes
+    raytrace model.obj --view front            render a mesh file
+    raytrace scene.toml                        render a scene file
+    raytrace scenes                            list built-in scenes and examples
     raytrace render --help                     every render option
     """
 
 
 @main.command("scenes")
 def scenes_cmd():
-    """List the built-in scenes."""
+    """List the built-in scenes and the example scene files."""
     from .scenes.builtin import BUILTIN
+    from .scenes.examples import example_files
+    click.echo("Built-in scenes (raytrace NAME):")
     for name, (_, desc) in sorted(BUILTIN.items()):
-        click.echo(f"{name:<10} {desc}")
+        click.echo(f"  {name:<10} {desc}")
+    click.echo("Example scene files (raytrace PATH):")
+    for path, desc in example_files():
+        click.echo(f"  {path}")
+        if desc:
+            click.echo(f"      {desc}")
 
 
-def _load_scene(name, detail):
-    from .scenes.builtin import BUILTIN
-    if name not in BUILTIN:
-        raise click.UsageError(f"unknown scene {name!r} (built-in scenes: {', '.join(sorted(BUILTIN))})")
-    factory = BUILTIN[name][0]
-    if detail is not None:
-        if name != "teapot":
-            raise click.UsageError("--detail applies to the teapot scene only")
-        return factory(detail=detail)
-    return factory()
+class ViewType(click.ParamType):
+    """--view: a named view, or AZIMUTH,ELEVATION in degrees."""
+    name = "view"
+
+    def convert(self, value, param, ctx):
+        from .scenes.views import VIEWS
+        if isinstance(value, tuple) or value in VIEWS:
+            return value
+        parts = str(value).split(",")
+        try:
+            if len(parts) != 2:
+                raise ValueError
+            az, el = (float(x) for x in parts)
+        except ValueError:
+            self.fail(f"{value!r} is neither a view ({', '.join(VIEWS)}) nor AZIMUTH,ELEVATION "
+                      "in degrees", param, ctx)
+        if not -90.0 <= el <= 90.0 or az != az:
+            self.fail(f"elevation must be between -90 and 90 degrees, got {el:g}", param, ctx)
+        return (az, el)
+
+
+class AovType(click.ParamType):
+    name = "list"
+
+    def convert(self, value, param, ctx):
+        from .aov import parse_aov_list
+        if isinstance(value, list):
+            return value
+        try:
+            return parse_aov_list(value)
+        except ValueError as exc:
+            self.fail(str(exc), param, ctx)
+
+
+def _is_tty(stream):
+    try:
+        return stream.isatty()
+    except (AttributeError, ValueError):
+        return False
 
 
 class _Progress:
     """A progress bar on stderr, shown only on a terminal and only once the
     render has run for a second (short renders stay quiet)."""
+    DELAY_S = 1.0
 
     def __init__(self, enabled):
-        self.enabled = enabled and sys.stderr.isatty()
+        self.enabled = enabled and _is_tty(sys.stderr)
         self.start = time.perf_counter()
         self.bar = None
         self.done = 0
@@ -69,7 +108,7 @@ class _Progress:
     def __call__(self, rows_done, rows_total):
         if not self.enabled:
             return
-        if self.bar is None and time.perf_counter() - self.start > 1.0:
+        if self.bar is None and time.perf_counter() - self.start >= self.DELAY_S:
             self.bar = click.progressbar(length=rows_total, label="rendering", file=sys.stderr)
             self.bar.__enter__()
         if self.bar is not None:
@@ -79,6 +118,44 @@ class _Progress:
     def close(self):
         if self.bar is not None:
             self.bar.__exit__(None, None, None)
+
+
+def _view_options(view, up):
+    """--view and --up as load_scene's keyword arguments."""
+    opts = {}
+    if isinstance(view, tuple):
+        opts = dict(azimuth=view[0], elevation=view[1])
+    elif view is not None:
+        opts = dict(view=view)
+    if up is not None:
+        opts["up"] = up
+    return opts
+
+
+def _write_outputs(result, output, aov, aov_out, heatmap):
+    """Write the PNG, then any AOVs and heatmap; record them in the stats
+    and return the lines that report them."""
+    from .output import write_npz, write_png
+    write_png(output, result.image)
+    result.stats["output"] = str(output)
+    notes = []
+    if aov_out is not None:
+        write_npz(aov_out, {k: result.aovs[k] for k in aov})
+        result.stats["aov"] = {"path": str(aov_out), "buffers": list(aov)}
+        notes.append(f"wrote {aov_out} ({', '.join(aov)})")
+    if heatmap is not None:
+        from .heatmap import cost_heatmap
+        img, lo, hi = cost_heatmap(result.aovs["cost"])
+        write_png(heatmap, img)
+        result.stats["heatmap"] = {"path": str(heatmap), "cost_min": lo, "cost_max": hi}
+        notes.append(f"wrote {heatmap} (box + primitive tests per pixel, log scale: "
+                     f"{lo:,} = dark purple to {hi:,} = yellow)")
+    return notes
+
+
+def _up_choices():
+    from .scenes.views import UP_AXES
+    return UP_AXES
 
 
 @main.command("render")
@@ -95,6 +172,13 @@ class _Progress:
               default="stratified", show_default=True, help="Area-light sampling pattern.")
 @click.option("--detail", type=click.IntRange(min=1, max=256), default=None,
               help="Teapot tessellation: N x N quads per patch [default: 4, ~1k triangles].")
+@click.option("--view", type=ViewType(), default=None,
+              help="Mesh files: front, back, left, right, top, bottom, iso, or AZIMUTH,ELEVATION "
+                   "in degrees [default: iso].")
+@click.option("--up", type=click.Choice(_up_choices()), default=None,
+              help="Mesh files: the model's up axis [default: y].")
+@click.option("--fov", type=click.FloatRange(min=0, max=180, min_open=True, max_open=True),
+              default=None, help="Vertical field of view in degrees [default: the scene's, 60 for meshes].")
 @click.option("--width", type=click.IntRange(min=1), default=None, help="Image width [default: 640].")
 @click.option("--height", type=click.IntRange(min=1), default=None, help="Image height [default: 480].")
 @click.option("--spp", type=click.IntRange(min=1, max=4096), default=1, show_default=True,
@@ -105,35 +189,66 @@ class _Progress:
               help="Render threads [default: all cores].")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
               help="PNG to write [default: SCENE.png].")
+@click.option("--aov", type=AovType(), default=None,
+              help="Also save these buffers (depth,normal,primid,cost) to OUTPUT's name with .aov.npz.")
+@click.option("--heatmap", type=click.Path(dir_okay=False), default=None,
+              help="Also write a false-colour PNG of per-pixel cost (box + primitive tests).")
 @click.option("--json", "as_json", is_flag=True, help="Print the statistics as JSON on stdout.")
 @click.option("-q", "--quiet", is_flag=True, help="No table, no progress bar.")
-def render_cmd(scene, accel, bvol, shadows, light_samples, pattern, detail, width, height, spp,
-               seed, threads, output, as_json, quiet):
-    """Render SCENE (a built-in scene name; see `raytrace scenes`) to PNG and
-    print the statistics table."""
+def render_cmd(scene, accel, bvol, shadows, light_samples, pattern, detail, view, up, fov, width,
+               height, spp, seed, threads, output, aov, heatmap, as_json, quiet):
+    """Render SCENE to PNG and print the statistics table.
+
+    SCENE is a built-in scene name (see `raytrace scenes`), a TOML scene
+    file, or a mesh file (.obj, .ply, .stl, .off, .glb), which is shown
+    from an automatic camera on a ground plane.
+    """
+    from pathlib import Path
+
+    from .load import scene_kind, unknown_scene_message
+
     if bvol is not None:
         implied = "bvol" if bvol else "none"
         if accel is not None and accel != implied:
             raise click.UsageError(f"--{'bvol' if bvol else 'no-bvol'} contradicts --accel {accel}")
         accel = implied
     accel = accel or DEFAULT_ACCEL
-    output = output or f"{scene}.png"
+    kind = scene_kind(scene)
+    if kind is None:
+        raise click.UsageError(unknown_scene_message(scene))
+    if detail is not None and not (kind == "builtin" and scene == "teapot"):
+        raise click.UsageError("--detail applies to the teapot scene only")
+    for name, value in (("--view", view), ("--up", up)):
+        if value is not None and kind != "mesh":
+            raise click.UsageError(f"{name} applies to mesh files only")
+    output = output or f"{scene if kind == 'builtin' else Path(scene).stem}.png"
+    aov_out = None
+    if aov:
+        from .aov import aov_path
+        aov_out = aov_path(output)
+    outputs = [Path(p).resolve() for p in (output, aov_out, heatmap) if p is not None]
+    if len(set(outputs)) != len(outputs):
+        raise click.UsageError("--heatmap must differ from the output image and its .aov.npz")
     try:
-        from .output import check_writable, write_png
-        from .render import RenderOptions, render
+        from .driver import RenderOptions, render
+        from .load import load_scene
+        from .output import check_writable
         from .stats import format_table, to_json
 
-        check_writable(output)
-        sc = _load_scene(scene, detail)
+        for path in (output, aov_out, heatmap):
+            if path is not None:
+                check_writable(path)
+        sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
+                        **_view_options(view, up))
         progress = _Progress(enabled=not quiet)
         opts = RenderOptions(accel=accel, shadows=shadows, light_samples=light_samples,
-                             pattern=pattern, width=width, height=height, spp=spp, seed=seed,
-                             threads=threads, progress=progress)
+                             pattern=pattern, spp=spp, seed=seed, threads=threads,
+                             aov=bool(aov or heatmap), progress=progress)
         try:
             result = render(sc, opts)
         finally:
             progress.close()
-        write_png(output, result.image)
+        notes = _write_outputs(result, output, aov, aov_out, heatmap)
     except RaytraceError as exc:
         raise click.ClickException(str(exc)) from None
     except MemoryError:
@@ -141,12 +256,13 @@ def render_cmd(scene, accel, bvol, shadows, light_samples, pattern, detail, widt
     except KeyboardInterrupt:
         click.echo("interrupted: no image written", err=True)
         sys.exit(130)
-    result.stats["output"] = str(output)
     if as_json:
         click.echo(to_json(result.stats))
     elif not quiet:
         click.echo(format_table(result.stats))
         click.echo(f"wrote {output}")
+        for note in notes:
+            click.echo(note)
 
 
 if __name__ == "__main__":

@@ -28,7 +28,8 @@ def _check_finite(name, arr):
 
 
 def mesh_triangles(mesh):
-    """(v0, v1, v2, n0, n1, n2, n_dropped) of a mesh, degenerates removed."""
+    """(v0, v1, v2, n0, n1, n2, kept) of a mesh, degenerates removed;
+    kept holds the indices into mesh.faces of the triangles returned."""
     v = np.asarray(mesh.vertices, dtype=np.float64)
     f = np.asarray(mesh.faces)
     if v.ndim != 2 or v.shape[1] != 3:
@@ -54,15 +55,20 @@ def mesh_triangles(mesh):
         fn = np.cross(v1 - v0, v2 - v0)
         fn /= np.linalg.norm(fn, axis=1, keepdims=True)
         n0 = n1 = n2 = fn
-    return v0, v1, v2, n0, n1, n2, int((~keep).sum())
+    return v0, v1, v2, n0, n1, n2, np.flatnonzero(keep)
 
 
-def flatten(scene):
-    """Returns (Geometry, obj_ranges, info).
+def flatten(scene, with_sources=False):
+    """Returns (Geometry, obj_ranges, info), and with ``with_sources`` also
+    (prim_object, prim_index).
 
     obj_ranges[j] = (first unified primitive id, count) of bounded object j
     (each mesh, each sphere), for per-object bounding volumes.  info holds
     counts for the statistics (triangles, dropped degenerates, ...).
+    prim_object[p] is the index in scene.objects of unified primitive p and
+    prim_index[p] its face's index in that mesh's own faces array (0 for a
+    sphere or plane): degenerate faces are dropped here, so kernel ids need
+    this map to name the user's faces.
     """
     materials, mat_index = [], {}
 
@@ -75,16 +81,18 @@ def flatten(scene):
     tris = [[] for _ in range(6)]
     tri_mat, obj_ranges = [], []
     spheres, planes = [], []
+    tri_src, sph_src, pl_src = [], [], []   # (object index, face index) per primitive
     dropped = n_tris = 0
-    for obj in scene.objects:
+    for j, obj in enumerate(scene.objects):
         if isinstance(obj, Mesh):
-            *parts, nd = mesh_triangles(obj)
-            dropped += nd
+            *parts, kept = mesh_triangles(obj)
+            dropped += len(np.asarray(obj.faces).reshape(-1, 3)) - len(kept)
             k = len(parts[0])
             if k:
                 for dst, src in zip(tris, parts):
                     dst.append(src)
                 tri_mat.append(np.full(k, mat_id(obj.material)))
+                tri_src.append(np.stack([np.full(k, j), kept], axis=1))
                 obj_ranges.append((n_tris, k))
                 n_tris += k
         elif isinstance(obj, Sphere):
@@ -92,12 +100,14 @@ def flatten(scene):
             if not obj.radius > 0:
                 raise RaytraceError(f"sphere radius must be positive, got {obj.radius}")
             spheres.append(obj)
+            sph_src.append((j, 0))
         elif isinstance(obj, Plane):
             n = np.asarray(obj.normal, dtype=float)
             _check_finite("plane", np.concatenate([n, np.asarray(obj.point, dtype=float)]))
             if not np.linalg.norm(n) > 0:
                 raise RaytraceError("plane normal must be non-zero")
             planes.append(obj)
+            pl_src.append((j, 0))
         else:
             raise RaytraceError(f"unknown scene object {type(obj).__name__}")
     for j, s in enumerate(spheres):
@@ -131,7 +141,12 @@ def flatten(scene):
     )
     info = {"triangles": n_tris, "degenerate_dropped": dropped,
             "spheres": len(spheres), "planes": len(planes), "objects": len(obj_ranges)}
-    return geo, np.array(obj_ranges, dtype=np.int64).reshape(-1, 2), info
+    ranges = np.array(obj_ranges, dtype=np.int64).reshape(-1, 2)
+    if not with_sources:
+        return geo, ranges, info
+    src = np.concatenate([*tri_src, np.array(sph_src + pl_src, dtype=np.int64).reshape(-1, 2)])
+    src = src.astype(np.int64).reshape(-1, 2)
+    return geo, ranges, info, (src[:, 0].copy(), src[:, 1].copy())
 
 
 def _default_material():

@@ -1,4 +1,4 @@
-"""Image output: PNGs are written atomically so no run leaves half a file."""
+"""Output files are written atomically so no run leaves half a file."""
 import os
 import tempfile
 from pathlib import Path
@@ -48,3 +48,9 @@ def write_png(path, image):
     from PIL import Image
 
     write_atomic(path, lambda fh: Image.fromarray(image).save(fh, format="PNG"))
+
+
+def write_npz(path, arrays):
+    """A dict of arrays as an uncompressed .npz (np.load reads it), atomically."""
+    import numpy as np
+    write_atomic(path, lambda fh: np.savez(fh, **arrays))

@@ -7,8 +7,9 @@ import numpy as np
 
 from .buffers import STACK_SIZE
 
-# Rays are split into this many blocks per thread so prange balances load.
-BLOCKS_PER_THREAD = 8
+# Rays are split into this many blocks per thread, each with its own
+# counter row and traversal stack: enough blocks that uneven rays balance.
+BLOCKS_PER_THREAD = 16
 
 
 def _blocks(n):

@@ -44,11 +44,14 @@ class Plane:
 @dataclass
 class Light:
     """A point light; with ``size`` > 0 also a square area light of that edge
-    length centred on ``position``, facing ``direction`` (used by soft shadows)."""
+    length centred on ``position``, facing ``direction`` (used by soft
+    shadows); ``size`` = (a, b) makes it an a-by-b rectangle whose first
+    edge runs along cross(direction, (1, 0, 0)) -- the z axis for a light
+    facing down -- or cross(direction, (0, 0, 1)) if it faces nearly along x."""
     position: tuple
     color: tuple = (1.0, 1.0, 1.0)
     intensity: float = 1.0
-    size: float = 0.0
+    size: float = 0.0                # or (a, b): a rectangle
     direction: tuple = (0.0, -1.0, 0.0)
     samples: int = 0                 # 0: the render's --light-samples
 

@@ -1,6 +1,6 @@
 import pytest
 
-from raytrace.render import render
+from raytrace.driver import render
 from raytrace.scenes.builtin import spheres, teapot
 
 # Small images keep the suite fast once the kernels are compiled; the

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from raytrace.errors import RaytraceError
-from raytrace.render import render
+from raytrace.driver import render
 
 from .conftest import H, W
 
@@ -105,3 +105,27 @@ def test_same_seed_same_image_across_threads(teapot_scene):
 def test_bad_options_raise_one_clear_error(teapot_scene, kw, message):
     with pytest.raises(RaytraceError, match=message):
         render(teapot_scene, **kw)
+
+
+def test_spp_antialiases_edges():
+    """A red disc on black, lit by its ambient term only: with one centred
+    sample per pixel every pixel is exactly red or exactly black; jittered
+    samples give silhouette pixels the fractions in between."""
+    from raytrace.scene import Camera, Material, Scene, Sphere
+    flat_red = Material(color=(1.0, 0.0, 0.0), ambient=1.0, diffuse=0.0, specular=0.0)
+    scene = Scene("disc", Camera(eye=(0, 0, 5), look_at=(0, 0, 0), fov=40.0),
+                  objects=[Sphere((0, 0, 0), 1.0, flat_red)], background=(0.0, 0.0, 0.0))
+    kw = dict(accel="bvol", shadows="none", width=48, height=36)
+    one = render(scene, spp=1, **kw).linear[..., 0]
+    many = render(scene, spp=16, **kw).linear[..., 0]
+    assert set(np.unique(one)) == {0.0, 1.0}
+    edge = (many > 0) & (many < 1)
+    assert edge.sum() > 20
+    # Intermediate values sit on the silhouette, where spp=1 flips 0 -> 1.
+    flips = np.zeros_like(one, dtype=bool)
+    flips[:, 1:] |= one[:, 1:] != one[:, :-1]
+    flips[:, :-1] |= one[:, 1:] != one[:, :-1]
+    flips[1:] |= one[1:] != one[:-1]
+    flips[:-1] |= one[1:] != one[:-1]
+    assert flips[edge].all()
+    assert np.array_equal(many[~flips], one[~flips])   # flat interior, flat background

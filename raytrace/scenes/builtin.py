@@ -7,21 +7,26 @@ GROUND = Material(color=(0.75, 0.75, 0.72), ambient=0.15, diffuse=0.85, specular
                   shininess=1.0, checker=1.0)
 
 
+def teapot_mesh(detail=4, material=None):
+    """The teapot as a y-up Mesh, standing on y = 0 (scene files use this too)."""
+    from .teapot import tessellate
+    v, f, n = tessellate(detail)
+    # Newell's data is z-up; the renderer is y-up: (x, y, z) -> (x, z, -y).
+    swap = np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0]], dtype=float)
+    return Mesh(v @ swap, f, material or Material(), normals=n @ swap, name="teapot")
+
+
 def teapot(detail=4):
     """The Utah teapot on a checkered ground, lit by one light.
 
     detail=4 gives the workshop's ~1k-triangle model (992 after the pole
     triangles are dropped); detail=43 about 118k triangles.
     """
-    from .teapot import tessellate
-    v, f, n = tessellate(detail)
-    # Newell's data is z-up; the renderer is y-up: (x, y, z) -> (x, z, -y).
-    swap = np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0]], dtype=float)
     body = Material(color=(0.80, 0.22, 0.12), ambient=0.12, diffuse=0.8, specular=0.5, shininess=48.0)
     return Scene(
         name="teapot",
         camera=Camera(eye=(2.4, 3.7, 5.6), look_at=(0.2, 1.2, 0.0), fov=60.0),
-        objects=[Mesh(v @ swap, f, body, normals=n @ swap, name="teapot"),
+        objects=[teapot_mesh(detail, body),
                  Plane(point=(0, 0, 0), normal=(0, 1, 0), material=GROUND)],
         lights=[Light(position=(-4.0, 9.0, 5.0), intensity=1.0, size=3.0)],
     )

@@ -1,13 +1,14 @@
 """Newell's Utah teapot: 32 bicubic Bezier patches tessellated to triangles."""
 import json
-from importlib import resources
 
 import numpy as np
+
+from .examples import assets_dir
 
 
 def load_patches():
     """(patches (32, 16) int, control points (306, 3)) from the bundled JSON (z-up)."""
-    with resources.files("raytrace.assets").joinpath("teapot_patches.json").open() as fh:
+    with (assets_dir() / "teapot_patches.json").open() as fh:
         data = json.load(fh)
     return np.array(data["patches"], dtype=np.int64), np.array(data["vertices"], dtype=np.float64)
 

@@ -80,6 +80,14 @@ def validate(opts, scene):
         if side * side != opts.light_samples:
             raise RaytraceError(f"the {opts.pattern} pattern needs a square number of light samples "
                                 f"(got {opts.light_samples}; try {side * side} or {(side + 1) ** 2})")
+    if opts.shadows == "soft":
+        for k, light in enumerate(scene.lights):
+            if light.samples:  # a light's own count overrides light_samples
+                _check_int(f"light {k} samples", light.samples, 1, MAX_LIGHT_SAMPLES)
+                side = math.isqrt(light.samples)
+                if opts.pattern in ("grid", "stratified") and side * side != light.samples:
+                    raise RaytraceError(f"the {opts.pattern} pattern needs a square number of "
+                                        f"light samples (light {k} has {light.samples})")
     if opts.threads is not None:
         import numba
         _check_int("threads", opts.threads, 1, numba.config.NUMBA_NUM_THREADS)
@@ -88,6 +96,17 @@ def validate(opts, scene):
         raise RaytraceError(f"a {w}x{h} image needs {need / 2**30:.1f} GiB of memory, "
                             f"more than the {available_memory() / 2**30:.1f} GiB available")
     return w, h
+
+
+def check_accel_built(name, geo, acc):
+    """Refuse a structure this build does not construct yet: its arrays
+    would stay empty and every bounded primitive would silently be missed."""
+    from .buffers import ACCEL_BVH, ACCEL_GRID, n_bounded
+    if n_bounded(geo) == 0:
+        return
+    if (acc.mode == ACCEL_BVH and acc.node_lo.shape[0] == 0
+            or acc.mode == ACCEL_GRID and not np.all(acc.grid_res > 0)):
+        raise RaytraceError(f"acceleration structure {name!r} is not available in this build")
 
 
 def camera_buffer(cam, width, height):
@@ -112,6 +131,16 @@ def camera_buffer(cam, width, height):
     return f64(np.concatenate([eye, fwd, right * half_w, true_up * half_h]))
 
 
+def light_size(light):
+    """(first, second) edge lengths: ``size`` is one number for a square
+    light or a (first, second) pair for a rectangle."""
+    size = light.size
+    if np.ndim(size) == 0:
+        return float(size), float(size)
+    first, second = size
+    return float(first), float(second)
+
+
 def light_buffers(scene, shadows, light_samples):
     """Area lights are sampled only with soft shadows; otherwise every light
     is a point at its centre, one shadow ray (hard) or none."""
@@ -122,15 +151,16 @@ def light_buffers(scene, shadows, light_samples):
             raise RaytraceError("light position must be finite")
         pos.append(p)
         col.append(np.asarray(L.color, dtype=float) * L.intensity)
-        if shadows == "soft" and L.size > 0:
+        size_u, size_v = light_size(L)
+        if shadows == "soft" and size_u > 0 and size_v > 0:
             n = np.asarray(L.direction, dtype=float)
             n /= np.linalg.norm(n)
             a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
             u = np.cross(n, a)
             u /= np.linalg.norm(u)
             v = np.cross(n, u)
-            us.append(u * L.size)
-            vs.append(v * L.size)
+            us.append(u * size_u)
+            vs.append(v * size_v)
             ns.append(L.samples or light_samples)
         else:
             us.append(np.zeros(3))
@@ -180,6 +210,7 @@ def render(scene, opts=None, **kw):
     t_import = time.perf_counter() - t_start
 
     acc, t_build = build_accel(opts.accel, geo, obj_ranges)
+    check_accel_built(opts.accel, geo, acc)
 
     image = np.zeros((height, width, 3), np.float32)
     stats_rows = np.zeros((height, N_COUNTERS), np.int64)

@@ -1,0 +1,94 @@
+"""Mesh files (.obj, .ply, .stl, .off, .glb) to (vertices, faces) arrays.
+
+trimesh is imported here only, on first use, so built-in scenes, scene
+files without meshes and ``--help`` never pay for it.  trimesh raises many
+exception types on a damaged file (ValueError, IndexError, KeyError,
+struct.error, ...) or returns an empty mesh for garbage; every one of
+them becomes a RaytraceError naming the file.
+"""
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import RaytraceError
+
+MESH_EXTENSIONS = (".obj", ".ply", ".stl", ".off", ".glb")
+
+
+def is_mesh_path(name):
+    return Path(str(name)).suffix.lower() in MESH_EXTENSIONS
+
+
+def check_readable(path):
+    """Raise the usual one-line errors for a file that cannot be opened."""
+    path = Path(path)
+    if not path.exists():
+        raise RaytraceError(f"{path}: no such file")
+    if path.is_dir():
+        raise RaytraceError(f"{path}: is a directory, not a file")
+    try:
+        with path.open("rb"):
+            pass
+    except OSError as exc:
+        raise RaytraceError(f"{path}: cannot read ({exc.strerror or exc})") from None
+
+
+def check_mesh_arrays(name, vertices, faces):
+    """Validate user or file data: (n, 3) finite coordinates, (m, 3) integer
+    faces indexing them.  Returns (float64 vertices, int64 faces)."""
+    try:
+        v = np.asarray(vertices, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise RaytraceError(f"{name}: vertices are not numbers ({exc})") from None
+    if v.ndim != 2 or v.shape[1] != 3:
+        raise RaytraceError(f"{name}: vertices must have shape (n, 3), got {v.shape}")
+    bad = ~np.isfinite(v).all(axis=1)
+    if bad.any():
+        raise RaytraceError(f"{name}: vertex {int(np.argmax(bad))} has a NaN or infinite "
+                            f"coordinate ({int(bad.sum())} such vertices)")
+    f = np.asarray(faces)
+    if f.ndim != 2 or f.shape[1] != 3:
+        raise RaytraceError(f"{name}: faces must have shape (m, 3), got {f.shape}")
+    if f.size and not np.issubdtype(f.dtype, np.integer):
+        raise RaytraceError(f"{name}: face indices must be integers, got {f.dtype}")
+    f = f.astype(np.int64)
+    if f.size and (f.min() < 0 or f.max() >= len(v)):
+        k = int(np.argmax(((f < 0) | (f >= len(v))).any(axis=1)))
+        raise RaytraceError(f"{name}: face {k} indexes a vertex out of range "
+                            f"({f[k].tolist()}, but there are {len(v)} vertices)")
+    return v, f
+
+
+def read_mesh(path):
+    """(vertices (n, 3) float64, faces (m, 3) int64) of a mesh file; a file
+    holding several meshes (a glTF scene) gives them all, transformed."""
+    path = Path(path)
+    ext = path.suffix.lower()
+    if ext not in MESH_EXTENSIONS:
+        raise RaytraceError(f"{path}: not a mesh file (expected one of {', '.join(MESH_EXTENSIONS)})")
+    check_readable(path)
+    if path.stat().st_size == 0:
+        raise RaytraceError(f"{path}: file is empty")
+    try:
+        import trimesh
+        # process=False: keep the file's vertices and faces as they are
+        # (no merging, no dropping), so errors in them are reported.
+        mesh = trimesh.load_mesh(str(path), file_type=ext[1:], process=False)
+    except RaytraceError:
+        raise
+    except MemoryError:
+        raise RaytraceError(f"{path}: out of memory reading the mesh") from None
+    except Exception as exc:  # noqa: BLE001 -- trimesh's errors have no common base
+        raise RaytraceError(f"{path}: not a readable {ext[1:].upper()} mesh ({_brief(exc)})") from None
+    vertices = getattr(mesh, "vertices", None)
+    faces = getattr(mesh, "faces", None)
+    if vertices is None or faces is None or len(faces) == 0:
+        raise RaytraceError(f"{path}: no triangles found (damaged, or not really {ext[1:].upper()}?)")
+    return check_mesh_arrays(path, vertices, faces)
+
+
+def _brief(exc, limit=100):
+    """The first line of an exception's message, cut to ``limit`` characters."""
+    text = str(exc).strip()
+    text = text.splitlines()[0] if text else type(exc).__name__
+    return text if len(text) <= limit else text[:limit - 3] + "..."

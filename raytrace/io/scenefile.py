@@ -1,0 +1,179 @@
+"""TOML scene files (README, "Scene files") to a Scene.
+
+Parsed with the standard library's tomllib (Python 3.11+; the tomli
+backport is used on 3.10 if installed).  Every key is checked: an unknown
+key or a wrong type is an error naming the file and the key.
+"""
+from pathlib import Path
+
+from ..errors import RaytraceError
+from ..scene import Camera, Light, Material, Plane, Scene, Sphere
+from .fields import Fields
+from .mesh import check_readable
+
+MAX_DETAIL = 256          # teapot tessellation, as on the command line
+MAX_LIGHT_SAMPLES = 65536
+
+TOP_KEYS = ("name", "description", "background", "camera", "materials", "lights", "objects")
+CAMERA_KEYS = ("position", "look_at", "up", "fov", "width", "height")
+MATERIAL_KEYS = ("color", "ambient", "diffuse", "specular", "shininess", "checker")
+LIGHT_KEYS = ("type", "position", "color", "intensity", "size", "direction", "samples")
+AREA_ONLY = ("size", "direction", "samples")
+PLACEMENT = ("translate", "rotate", "scale")
+OBJECT_KEYS = {
+    "mesh": ("type", "file", "material", *PLACEMENT),
+    "teapot": ("type", "detail", "material", *PLACEMENT),
+    "sphere": ("type", "center", "radius", "material"),
+    "plane": ("type", "point", "normal", "material"),
+}
+
+
+def _toml():
+    try:
+        import tomllib
+    except ImportError:  # Python 3.10
+        try:
+            import tomli as tomllib
+        except ImportError:
+            raise RaytraceError("scene files need Python 3.11 or newer "
+                                "(or `pip install tomli` on 3.10)") from None
+    return tomllib
+
+
+def parse_toml(path):
+    """The file's top-level table, or a RaytraceError naming it."""
+    tomllib = _toml()
+    check_readable(path)
+    try:
+        text = Path(path).read_bytes().decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise RaytraceError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise RaytraceError(f"{path}: invalid TOML: {exc}") from None
+
+
+def read_scene_file(path):
+    """A Scene from a TOML scene file; mesh paths are relative to it."""
+    path = Path(path)
+    top = Fields(path, "", parse_toml(path), TOP_KEYS)
+    if not top.has("camera"):
+        top.fail(None, "missing table [camera]")
+    materials = _materials(path, top)
+    default_material = Material()
+
+    def material(f):
+        name = f.string("material")
+        if name is None:
+            return default_material
+        if name not in materials:
+            known = ", ".join(materials) or "none"
+            f.fail("material", f"no material named {name!r} (defined: {known})")
+        return materials[name]
+
+    objects = [_object(path, i, t, material) for i, t in enumerate(top.tables("objects"))]
+    scene = Scene(
+        name=top.string("name", default=path.stem),
+        camera=_camera(path, top.table["camera"]),
+        objects=objects,
+        lights=[_light(path, i, t) for i, t in enumerate(top.tables("lights"))],
+    )
+    top.string("description")
+    if top.has("background"):
+        scene.background = top.color("background")
+    return scene
+
+
+def _camera(path, table):
+    f = Fields(path, "camera", table, CAMERA_KEYS)
+    cam = Camera(eye=f.vec3("position", required=True), look_at=f.vec3("look_at", required=True),
+                 up=f.vec3("up", default=(0.0, 1.0, 0.0), nonzero=True),
+                 fov=f.number("fov", default=60.0, lo=0.0, hi=180.0),
+                 width=f.integer("width", default=640, lo=1, hi=1 << 20),
+                 height=f.integer("height", default=480, lo=1, hi=1 << 20))
+    if not 0.0 < cam.fov < 180.0:
+        f.fail("fov", f"must be between 0 and 180 degrees (exclusive), got {cam.fov:g}")
+    if cam.eye == cam.look_at:
+        f.fail("look_at", "must differ from the camera position")
+    return cam
+
+
+def _materials(path, top):
+    table = top.table.get("materials", {})
+    if not isinstance(table, dict):
+        top.fail("materials", "expected a table of named materials ([materials.NAME])")
+    out = {}
+    for name, t in table.items():
+        f = Fields(path, f"materials.{name}", t, MATERIAL_KEYS)
+        d = Material()
+        out[name] = Material(color=f.color("color", default=d.color),
+                             ambient=f.number("ambient", default=d.ambient, lo=0.0),
+                             diffuse=f.number("diffuse", default=d.diffuse, lo=0.0),
+                             specular=f.number("specular", default=d.specular, lo=0.0),
+                             shininess=f.number("shininess", default=d.shininess, lo=0.0),
+                             checker=f.number("checker", default=d.checker, lo=0.0))
+    return out
+
+
+def _light(path, i, table):
+    f = Fields(path, f"lights[{i}]", table, LIGHT_KEYS)
+    kind = f.string("type", default="point", choices=("point", "area"))
+    light = Light(position=f.vec3("position", required=True),
+                  color=f.color("color", default=(1.0, 1.0, 1.0)),
+                  intensity=f.number("intensity", default=1.0, lo=0.0))
+    if kind == "point":
+        for key in AREA_ONLY:
+            if f.has(key):
+                f.fail(key, "only area lights (type = \"area\") have this key")
+        return light
+    size = f.table.get("size")
+    if size is None:
+        f.fail(None, "missing key 'size' (an area light's edge length, or [width, height])")
+    if isinstance(size, list):
+        light.size = f.numbers("size", 2)
+        for k, s in enumerate(light.size):
+            f.check_number(f"size[{k}]", s, positive=True)
+    else:
+        light.size = f.check_number("size", size, positive=True)
+    light.direction = f.vec3("direction", default=(0.0, -1.0, 0.0), nonzero=True)
+    light.samples = f.integer("samples", default=0, lo=1, hi=MAX_LIGHT_SAMPLES)
+    return light
+
+
+def _object(path, i, table, material):
+    where = f"objects[{i}]"
+    # The type decides which keys are allowed, so it is checked first.
+    kind = Fields(path, where, {"type": table.get("type")}, ("type",)).string(
+        "type", choices=tuple(OBJECT_KEYS)) if "type" in table else None
+    if kind is None:
+        Fields(path, where, {}, ()).fail(None, f"missing key 'type' (one of: {', '.join(OBJECT_KEYS)})")
+    f = Fields(path, where, table, OBJECT_KEYS[kind])
+    if kind == "sphere":
+        return Sphere(center=f.vec3("center", required=True),
+                      radius=f.number("radius", required=True, positive=True),
+                      material=material(f))
+    if kind == "plane":
+        return Plane(point=f.vec3("point", default=(0.0, 0.0, 0.0)),
+                     normal=f.vec3("normal", default=(0.0, 1.0, 0.0), nonzero=True),
+                     material=material(f))
+    if kind == "teapot":
+        from ..scenes.builtin import teapot_mesh
+        mesh = teapot_mesh(f.integer("detail", default=4, lo=1, hi=MAX_DETAIL), material(f))
+    else:
+        from ..scene import Mesh
+        from .mesh import read_mesh
+        file = f.string("file", required=True)
+        mesh_path = path.parent / file
+        try:
+            vertices, faces = read_mesh(mesh_path)
+        except RaytraceError as exc:
+            f.fail("file", str(exc))
+        mesh = Mesh(vertices, faces, material(f), name=str(mesh_path))
+    place = dict(translate=f.vec3("translate", default=(0.0, 0.0, 0.0)),
+                 rotate=f.vec3("rotate", default=(0.0, 0.0, 0.0)),
+                 scale=f.scale3("scale"))
+    if place != dict(translate=(0.0,) * 3, rotate=(0.0,) * 3, scale=(1.0,) * 3):
+        from ..transform import transform_mesh
+        mesh.vertices, mesh.normals = transform_mesh(mesh.vertices, mesh.normals, **place)
+    return mesh

@@ -1,0 +1,77 @@
+"""One entry point for every kind of scene: a built-in name, a mesh file or
+a TOML scene file."""
+from pathlib import Path
+
+from .errors import RaytraceError
+from .io.mesh import MESH_EXTENSIONS, is_mesh_path
+
+SCENE_EXTENSIONS = (".toml",)
+MESH_ONLY = ("view", "azimuth", "elevation", "up")
+
+
+def scene_kind(name):
+    """"builtin", "mesh", "toml", or None for a name that is none of them."""
+    from .scenes.builtin import BUILTIN
+    name = str(name)
+    if name in BUILTIN:
+        return "builtin"
+    if is_mesh_path(name):
+        return "mesh"
+    if Path(name).suffix.lower() in SCENE_EXTENSIONS:
+        return "toml"
+    return None
+
+
+def unknown_scene_message(name):
+    from .scenes.builtin import BUILTIN
+    return (f"unknown scene {str(name)!r} (built-in scenes: {', '.join(sorted(BUILTIN))}; "
+            f"or a .toml scene file, or a mesh file: {', '.join(MESH_EXTENSIONS)})")
+
+
+def load_scene(name_or_path, *, detail=None, view=None, azimuth=None, elevation=None, up=None,
+               fov=None, width=None, height=None):
+    """A Scene from a built-in name ("teapot"), a mesh file or a .toml file.
+
+    detail: teapot tessellation (built-in teapot only).
+    view, azimuth, elevation, up: how a mesh file is framed (mesh files
+    only): a named view (front, back, left, right, top, bottom, iso), or an
+    azimuth/elevation pair in degrees, about the up axis (x, y, z, -x, -y,
+    -z; default y).
+    fov, width, height: override the camera's field of view (degrees) and
+    image size; a mesh file's camera is framed for them.
+    """
+    kind = scene_kind(name_or_path)
+    if kind is None:
+        raise RaytraceError(unknown_scene_message(name_or_path))
+    mesh_opts = dict(view=view, azimuth=azimuth, elevation=elevation, up=up)
+    given = [k for k, v in mesh_opts.items() if v is not None]
+    if given and kind != "mesh":
+        raise RaytraceError(f"{given[0]} applies to mesh files only ({', '.join(MESH_EXTENSIONS)})")
+    if detail is not None:
+        if not (kind == "builtin" and str(name_or_path) == "teapot"):
+            raise RaytraceError("detail applies to the teapot scene only")
+        if isinstance(detail, bool) or not isinstance(detail, int) or not 1 <= detail <= 256:
+            raise RaytraceError(f"detail must be an integer from 1 to 256, got {detail!r}")
+
+    if kind == "mesh":
+        from .io.mesh import read_mesh
+        from .scenes.framing import mesh_scene
+        path = Path(name_or_path)
+        vertices, faces = read_mesh(path)
+        extra = {k: v for k, v in dict(fov=fov, width=width, height=height).items() if v is not None}
+        return mesh_scene(vertices, faces, name=path.stem, up=up or "y", view=view,
+                          azimuth=azimuth, elevation=elevation, source=path, **extra)
+    if kind == "builtin":
+        from .scenes.builtin import BUILTIN
+        factory = BUILTIN[str(name_or_path)][0]
+        scene = factory(detail=detail) if detail is not None else factory()
+    else:
+        from .io.scenefile import read_scene_file
+        scene = read_scene_file(name_or_path)
+    if fov is not None:
+        scene.camera.fov = fov
+    if width is not None:
+        scene.camera.width = width
+    if height is not None:
+        scene.camera.height = height
+    return scene

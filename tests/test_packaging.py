@@ -1,0 +1,25 @@
+"""What a non-editable install ships: every subpackage and every asset."""
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def setuptools_config():
+    tomllib = pytest.importorskip("tomllib" if sys.version_info >= (3, 11) else "tomli")
+    return tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+
+
+def test_every_subpackage_is_listed(setuptools_config):
+    found = {".".join(p.parent.relative_to(ROOT).parts) for p in (ROOT / "raytrace").rglob("__init__.py")}
+    assert found | {"raytrace.assets"} == set(setuptools_config["packages"])
+
+
+def test_every_asset_type_is_package_data(setuptools_config):
+    patterns = setuptools_config["package-data"]["raytrace.assets"]
+    for path in (ROOT / "assets").iterdir():
+        if path.name != "__init__.py" and path.suffix != ".png" and path.is_file():
+            assert any(path.match(p) for p in patterns), path.name

@@ -1,0 +1,33 @@
+"""The README's Python example runs and prints what it says."""
+import contextlib
+import io
+import re
+from pathlib import Path
+
+import numpy as np
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def python_blocks():
+    return re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.S)
+
+
+def test_readme_python_example_runs(tmp_path, monkeypatch):
+    blocks = python_blocks()
+    assert blocks
+    monkeypatch.chdir(tmp_path)
+    for code in blocks:
+        ns = {}
+        out = io.StringIO()
+        with contextlib.redirect_stdout(out):
+            exec(compile(code, str(README), "exec"), ns)
+        printed = out.getvalue().splitlines()
+        # Each print's output is written in the comment after it.
+        expected = [c.split("  (")[0].strip() for c in re.findall(r"print\(.*\)\s*#\s*(.*)", code)]
+        expected += [ln[1:].strip() for ln in code.splitlines() if ln.startswith("# [")]
+        got = [re.sub(r"\s+", " ", p).strip() for p in printed]
+        for want in expected:
+            assert re.sub(r"\s+", " ", want) in got, (want, got)
+    hits = ns["hits"]
+    assert np.allclose(hits.u[:2], [0.25, 0.5]) and np.allclose(hits.v[:2], [0.5, 0.25])
