@@ -128,6 +128,32 @@ def _grid_enter(acc, ray, t_max, cnt):
 
 
 @njit(**INLINE)
+def _dda_step(ray, glo, cell, rx, ry, rz, ix, iy, iz, sx, sy, sz, tx, ty, tz, t_stop):
+    """Step into the neighbour across the nearest face, unless the next cell
+    starts beyond t_stop or the ray leaves the grid.
+
+    Returns (inside, ix, iy, iz, tx, ty, tz); inside False ends the walk.
+    """
+    t_exit = min(tx, ty, tz)
+    inside = True
+    if t_exit == np.inf or t_exit * STOP_SCALE > t_stop:
+        inside = False
+    elif tx == t_exit:
+        ix += sx
+        inside = 0 <= ix < rx
+        tx = _crossing(ray[0], ray[6], glo[0], cell[0], ix, sx)
+    elif ty == t_exit:
+        iy += sy
+        inside = 0 <= iy < ry
+        ty = _crossing(ray[1], ray[7], glo[1], cell[1], iy, sy)
+    else:
+        iz += sz
+        inside = 0 <= iz < rz
+        tz = _crossing(ray[2], ray[8], glo[2], cell[2], iz, sz)
+    return inside, ix, iy, iz, tx, ty, tz
+
+
+@njit(**INLINE)
 def grid_closest(geo, acc, ray, t_max, cnt):
     """Closest hit among the bounded primitives; returns (t, prim, b1, b2)."""
     best_t, best_p, best_u, best_v = np.inf, -1, 0.0, 0.0
@@ -157,21 +183,8 @@ def grid_closest(geo, acc, ray, t_max, cnt):
                     cnt[PRIM_HITS] += 1
                     if closer(t, p, best_t, best_p):
                         best_t, best_p, best_u, best_v = t, p, u, v
-        t_exit = min(tx, ty, tz)
-        if t_exit == np.inf or t_exit * STOP_SCALE > min(best_t, t_max):
-            inside = False
-        elif tx == t_exit:
-            ix += sx
-            inside = 0 <= ix < rx
-            tx = _crossing(ray[0], ray[6], glo[0], cell[0], ix, sx)
-        elif ty == t_exit:
-            iy += sy
-            inside = 0 <= iy < ry
-            ty = _crossing(ray[1], ray[7], glo[1], cell[1], iy, sy)
-        else:
-            iz += sz
-            inside = 0 <= iz < rz
-            tz = _crossing(ray[2], ray[8], glo[2], cell[2], iz, sz)
+        inside, ix, iy, iz, tx, ty, tz = _dda_step(ray, glo, cell, rx, ry, rz, ix, iy, iz,
+                                                   sx, sy, sz, tx, ty, tz, min(best_t, t_max))
     return best_t, best_p, best_u, best_v
 
 
@@ -208,19 +221,6 @@ def grid_occluded(geo, acc, ray, t_max, cnt):
                     cnt[PRIM_HITS] += 1
                     hit = True
             k += 1
-        t_exit = min(tx, ty, tz)
-        if t_exit == np.inf or t_exit * STOP_SCALE > t_max:
-            inside = False
-        elif tx == t_exit:
-            ix += sx
-            inside = 0 <= ix < rx
-            tx = _crossing(ray[0], ray[6], glo[0], cell[0], ix, sx)
-        elif ty == t_exit:
-            iy += sy
-            inside = 0 <= iy < ry
-            ty = _crossing(ray[1], ray[7], glo[1], cell[1], iy, sy)
-        else:
-            iz += sz
-            inside = 0 <= iz < rz
-            tz = _crossing(ray[2], ray[8], glo[2], cell[2], iz, sz)
+        inside, ix, iy, iz, tx, ty, tz = _dda_step(ray, glo, cell, rx, ry, rz, ix, iy, iz,
+                                                   sx, sy, sz, tx, ty, tz, t_max)
     return hit
