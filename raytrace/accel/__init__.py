@@ -6,7 +6,8 @@ import time
 
 import numpy as np
 
-from ..buffers import ACCEL_BVOL, ACCEL_NAMES, empty_accel, f64, i64, prim_bounds
+from ..buffers import ACCEL_BVH, ACCEL_BVOL, ACCEL_NAMES, empty_accel, f64, i64, prim_bounds
+from .bvh import build_bvh
 
 
 def build_bvol(geo, obj_ranges, acc):
@@ -21,6 +22,14 @@ def build_bvol(geo, obj_ranges, acc):
                         obj_start=starts, obj_count=counts)
 
 
+def build_bvh_accel(geo, acc):
+    """Binned-SAH BVH over every bounded primitive (planes have no box and
+    are tested separately by every structure)."""
+    node_lo, node_hi, node_start, node_count, prim_ids = build_bvh(*prim_bounds(geo))
+    return acc._replace(node_lo=node_lo, node_hi=node_hi, node_start=node_start,
+                        node_count=node_count, prim_ids=prim_ids)
+
+
 def build_accel(name, geo, obj_ranges):
     """Returns (Accel, build seconds) for structure ``name``."""
     mode = ACCEL_NAMES[name]
@@ -28,4 +37,6 @@ def build_accel(name, geo, obj_ranges):
     acc = empty_accel(mode)
     if mode == ACCEL_BVOL:
         acc = build_bvol(geo, obj_ranges, acc)
+    elif mode == ACCEL_BVH:
+        acc = build_bvh_accel(geo, acc)
     return acc, time.perf_counter() - t0
