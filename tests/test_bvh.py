@@ -181,12 +181,19 @@ def test_build_coincident_centroids():
 
 def test_build_depth_capped():
     """Boxes at exponentially growing distances make SAH trees a chain;
-    depth stays within the traversal stack."""
-    x = 2.0 ** np.arange(200)
+    depth stays within the traversal stack, and traversal stays exact."""
+    x = 3.0 ** np.arange(200)
     lo = np.stack([x, np.zeros_like(x), np.zeros_like(x)], axis=1)
     hi = lo + 0.5
     depth = tree_check(lo, hi, build_bvh(lo, hi))
-    assert depth <= MAX_DEPTH
+    assert depth == MAX_DEPTH
+    tri = np.array([[0.0, -1, -1], [0.0, 1, -1], [0.5, 0, 1]])
+    geo, ranges = make_scene(x[:, None, None] * [1, 0, 0] + tri)
+    rng = np.random.default_rng(9)
+    o = np.column_stack([-np.ones(300), rng.random((300, 2)) - 0.5])
+    d = np.tile([1.0, 0.0, 0.0], (300, 1))
+    d[::2, 1:] = rng.standard_normal((150, 2)) * 1e-3
+    assert_same_as_brute(geo, ranges, o, d, rng.random(300) * 1e3)
 
 
 def test_build_accel_fields():
@@ -270,7 +277,9 @@ def closed_mesh(nu, nv):
 def test_closed_mesh_vertices_and_edges():
     """Rays aimed exactly at shared vertices and edge midpoints of a closed
     mesh, from outside and from the centre: hits on shared features tie
-    between triangles and must resolve the same way (smaller id)."""
+    between triangles and must resolve the same way (smaller id).  Rays from
+    the centre to the poles run along (-0.0, 1, 0) etc. inside the x = 0 and
+    z = 0 face planes of the pole triangles' boxes."""
     v, f = closed_mesh(16, 32)
     geo, ranges, _ = flatten(Scene("m", Camera((0, 0, 5), (0, 0, 0)), [Mesh(v, f)]))
     targets = np.concatenate([v, 0.5 * (v[f[:, 0]] + v[f[:, 1]]), 0.5 * (v[f[:, 1]] + v[f[:, 2]])])

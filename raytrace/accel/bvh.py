@@ -35,14 +35,14 @@ TRAVERSAL_COST = 1.0
 # pending far child per level at most) can never overflow.  Balanced SAH
 # trees over 10^6 primitives are ~30 deep; only adversarial inputs get here.
 MAX_DEPTH = 60
-# Node boxes are widened by this fraction of the largest coordinate
+# Node boxes are widened by this fraction of their largest coordinate
 # magnitude.  Exact bounds are not enough for the BVH to equal brute force on
-# rays through shared vertices and edges: the box entry distance, rounded,
-# can exceed the hit distance the triangle test computes for a hit on the
-# box's boundary (by ~1e-16 relative), and a ray with a -0.0 direction
-# component whose origin lies on a box face gets NaN and -inf slab distances
-# and is culled by ray_aabb.  1e-9 covers rounding for ray origins up to
-# ~1e5 scene sizes away while growing boxes by a negligible amount.
+# rays through shared vertices and edges: the rounded box entry distance can
+# exceed the hit distance the triangle test computes for a hit on the box's
+# boundary (by ~1e-16 relative), and ray_aabb culls a ray with a -0.0
+# direction component whose origin lies on a box face (NaN and -inf slab
+# distances).  1e-9 is ~10^7 ulps: it covers rounding for ray origins up to
+# ~10^6 times the node's coordinates away, and grows boxes negligibly.
 BOX_PAD = 1e-9
 
 
@@ -72,12 +72,6 @@ def build_bvh_kernel(lo, hi):
     for i in range(n):
         for a in range(3):
             cen[a, i] = 0.5 * (lo[i, a] + hi[i, a])
-
-    scale = 0.0
-    for i in range(n):
-        for a in range(3):
-            scale = max(scale, abs(lo[i, a]), abs(hi[i, a]))
-    pad = BOX_PAD * scale
 
     bin_count = np.empty((3, N_BINS), np.int64)
     bin_lo = np.empty((3, N_BINS, 3), np.float64)
@@ -121,8 +115,9 @@ def build_bvh_kernel(lo, hi):
             cx1 = max(cx1, x)
             cy1 = max(cy1, y)
             cz1 = max(cz1, z)
-        # One pad for every node, so padded children stay inside padded
-        # parents (rounding is monotonic).
+        # A parent's largest magnitude is at least its children's, so padded
+        # children stay inside padded parents (rounding is monotonic).
+        pad = BOX_PAD * max(abs(bx0), abs(by0), abs(bz0), abs(bx1), abs(by1), abs(bz1))
         node_lo[node, 0] = bx0 - pad
         node_lo[node, 1] = by0 - pad
         node_lo[node, 2] = bz0 - pad

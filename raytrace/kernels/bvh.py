@@ -53,14 +53,15 @@ def _frame_array(typingctx, size, dtype):
     return arrty(size, dtype), codegen
 
 
-# The traversal loops run without Numba's reference counting (_nrt=False),
-# with the shared intersection routines inlined into them from the same
-# source.  As ordinary calls, every call increments and decrements the count
-# of each array argument -- atomics on memory all threads share, 15 of each
-# per flat.test_prim call -- which measured slower than the intersection
-# itself (2-3x fewer rays/s).  The loops only read arrays their caller keeps
-# alive, so counting is unnecessary.  Same code, same float operations (no
-# fastmath), so hits stay bit-identical to flat.py's.
+# Everything below is inlined at Numba-IR level (inline="always"): into
+# bvh_closest/bvh_occluded, and through query.closest_hit/occluded into the
+# caller's ray loop.  An ordinary call per ray copies its array arguments
+# (the 31 arrays of geo and acc are ~270 words) and, with reference counting,
+# increments and decrements each one; the shared intersection routines are
+# recompiled from the same source (py_func) to be inlined the same way.
+# Same code, same float operations (no fastmath): hits stay bit-identical to
+# flat.py's.  Compiled standalone, nothing here counts references (_nrt=False):
+# it only reads arrays its caller keeps alive.
 NOREF = dict(_nrt=False, error_model="numpy")
 _ray_aabb = njit(inline="always", **NOREF)(ray_aabb.py_func)
 _ray_triangle = njit(inline="always", **NOREF)(ray_triangle.py_func)
@@ -78,10 +79,25 @@ def _test_prim(tri_v0, tri_v1, tri_v2, sph_center, sph_radius, ray, p, t_max):
     return t, 0.0, 0.0
 
 
-@njit(cache=True, **NOREF)
+@njit(inline="always", **NOREF)
+def _pop(stack, stack_t, sp, best_t):
+    """Nearest-last postponed subtree whose entry (measured when it was
+    pushed) does not lie beyond best_t; (-1, 0) when none is left."""
+    while sp > 0:
+        sp -= 1
+        if stack_t[sp] <= best_t:
+            return stack[sp], sp
+    return -1, 0
+
+
+# The loops are inlined into bvh_closest/bvh_occluded, next to the stack
+# arrays: as a separate function taking the stack as an argument, LLVM must
+# assume stack stores may alias the node arrays and reloads them (measured
+# 250 vs 175 ns per ray on a 1k-triangle mesh).
+@njit(inline="always", **NOREF)
 def _closest_loop(node_lo, node_hi, node_start, node_count, prim_ids,
                   tri_v0, tri_v1, tri_v2, sph_center, sph_radius,
-                  ray, t_max, stack, cnt):
+                  ray, t_max, stack, stack_t, cnt):
     best_t, best_p, best_u, best_v = np.inf, -1, 0.0, 0.0
     if node_start.shape[0] == 0:
         return best_t, best_p, best_u, best_v
@@ -89,52 +105,44 @@ def _closest_loop(node_lo, node_hi, node_start, node_count, prim_ids,
     n_nodes = 0
     n_tests = 0
     n_hits = 0
-    if _ray_aabb(ray, node_lo, node_hi, 0, t_max) < np.inf:
-        sp = 0
-        node = 0
-        while True:
-            n_nodes += 1
-            c = node_count[node]
-            if c > 0:
-                s = node_start[node]
-                for k in range(s, s + c):
-                    p = prim_ids[k]
-                    n_tests += 1
-                    t, u, v = _test_prim(tri_v0, tri_v1, tri_v2, sph_center, sph_radius,
-                                         ray, p, t_max)
-                    if t < np.inf:
-                        n_hits += 1
-                        if _closer(t, p, best_t, best_p):
-                            best_t, best_p, best_u, best_v = t, p, u, v
-                if sp == 0:
-                    break
-                sp -= 1
-                node = stack[sp]
+    node = 0 if _ray_aabb(ray, node_lo, node_hi, 0, t_max) < np.inf else -1
+    sp = 0
+    while node >= 0:
+        n_nodes += 1
+        c = node_count[node]
+        if c > 0:
+            s = node_start[node]
+            for k in range(s, s + c):
+                p = prim_ids[k]
+                n_tests += 1
+                t, u, v = _test_prim(tri_v0, tri_v1, tri_v2, sph_center, sph_radius,
+                                     ray, p, t_max)
+                if t < np.inf:
+                    n_hits += 1
+                    if _closer(t, p, best_t, best_p):
+                        best_t, best_p, best_u, best_v = t, p, u, v
+            node, sp = _pop(stack, stack_t, sp, best_t)
+        else:
+            left = node + 1
+            right = node_start[node]
+            tb = min(best_t, t_max)
+            dl = _ray_aabb(ray, node_lo, node_hi, left, tb)
+            dr = _ray_aabb(ray, node_lo, node_hi, right, tb)
+            n_box += 2
+            # Written so LLVM can use selects: the near/far order is a coin
+            # flip for the branch predictor.
+            if dr < dl:
+                near, far, d_near, d_far = right, left, dr, dl
             else:
-                left = node + 1
-                right = node_start[node]
-                tb = min(best_t, t_max)
-                dl = _ray_aabb(ray, node_lo, node_hi, left, tb)
-                dr = _ray_aabb(ray, node_lo, node_hi, right, tb)
-                n_box += 2
-                if dl < np.inf:
-                    if dr < np.inf:
-                        if dr < dl:
-                            stack[sp] = left
-                            node = right
-                        else:
-                            stack[sp] = right
-                            node = left
-                        sp += 1
-                    else:
-                        node = left
-                elif dr < np.inf:
-                    node = right
-                else:
-                    if sp == 0:
-                        break
-                    sp -= 1
-                    node = stack[sp]
+                near, far, d_near, d_far = left, right, dl, dr
+            if d_near < np.inf:
+                stack[sp] = far  # kept only if the far child was hit too
+                stack_t[sp] = d_far
+                if d_far < np.inf:
+                    sp += 1
+                node = near
+            else:
+                node, sp = _pop(stack, stack_t, sp, best_t)
     cnt[BOX_TESTS] += n_box
     cnt[NODES_VISITED] += n_nodes
     cnt[PRIM_TESTS] += n_tests
@@ -142,7 +150,7 @@ def _closest_loop(node_lo, node_hi, node_start, node_count, prim_ids,
     return best_t, best_p, best_u, best_v
 
 
-@njit(cache=True, **NOREF)
+@njit(inline="always", **NOREF)
 def _occluded_loop(node_lo, node_hi, node_start, node_count, prim_ids,
                    tri_v0, tri_v1, tri_v2, sph_center, sph_radius,
                    ray, t_max, stack, cnt):
@@ -153,52 +161,47 @@ def _occluded_loop(node_lo, node_hi, node_start, node_count, prim_ids,
     n_tests = 0
     n_hits = 0
     hit = False
-    if _ray_aabb(ray, node_lo, node_hi, 0, t_max) < np.inf:
-        sp = 0
-        node = 0
-        while True:
-            n_nodes += 1
-            c = node_count[node]
-            if c > 0:
-                s = node_start[node]
-                for k in range(s, s + c):
-                    n_tests += 1
-                    t, u, v = _test_prim(tri_v0, tri_v1, tri_v2, sph_center, sph_radius,
-                                         ray, prim_ids[k], t_max)
-                    if t < np.inf:
-                        n_hits += 1
-                        hit = True
-                        break
-                if hit or sp == 0:
+    node = 0 if _ray_aabb(ray, node_lo, node_hi, 0, t_max) < np.inf else -1
+    sp = 0
+    while node >= 0:
+        n_nodes += 1
+        c = node_count[node]
+        if c > 0:
+            s = node_start[node]
+            for k in range(s, s + c):
+                n_tests += 1
+                t, u, v = _test_prim(tri_v0, tri_v1, tri_v2, sph_center, sph_radius,
+                                     ray, prim_ids[k], t_max)
+                if t < np.inf:
+                    n_hits += 1
+                    hit = True
                     break
+            if hit or sp == 0:
+                break
+            sp -= 1
+            node = stack[sp]
+        else:
+            # Any hit ends the search; near-first still tends to find a
+            # blocker sooner, and both tests cull misses before a push.
+            left = node + 1
+            right = node_start[node]
+            dl = _ray_aabb(ray, node_lo, node_hi, left, t_max)
+            dr = _ray_aabb(ray, node_lo, node_hi, right, t_max)
+            n_box += 2
+            if dr < dl:
+                near, far, d_near, d_far = right, left, dr, dl
+            else:
+                near, far, d_near, d_far = left, right, dl, dr
+            if d_near < np.inf:
+                stack[sp] = far
+                if d_far < np.inf:
+                    sp += 1
+                node = near
+            elif sp > 0:
                 sp -= 1
                 node = stack[sp]
             else:
-                # Any hit ends the search; near-first still tends to find a
-                # blocker sooner, and both tests cull misses before a push.
-                left = node + 1
-                right = node_start[node]
-                dl = _ray_aabb(ray, node_lo, node_hi, left, t_max)
-                dr = _ray_aabb(ray, node_lo, node_hi, right, t_max)
-                n_box += 2
-                if dl < np.inf:
-                    if dr < np.inf:
-                        if dr < dl:
-                            stack[sp] = left
-                            node = right
-                        else:
-                            stack[sp] = right
-                            node = left
-                        sp += 1
-                    else:
-                        node = left
-                elif dr < np.inf:
-                    node = right
-                else:
-                    if sp == 0:
-                        break
-                    sp -= 1
-                    node = stack[sp]
+                node = -1
     cnt[BOX_TESTS] += n_box
     cnt[NODES_VISITED] += n_nodes
     cnt[PRIM_TESTS] += n_tests
@@ -206,17 +209,18 @@ def _occluded_loop(node_lo, node_hi, node_start, node_count, prim_ids,
     return hit
 
 
-@njit(**JIT)
+@njit(inline="always", **NOREF)
 def bvh_closest(geo, acc, ray, t_max, cnt):
     """Closest bounded primitive hit with 0 < t < t_max: (t, prim, b1, b2),
     (inf, -1, 0, 0) on a miss or an empty tree."""
     stack = _frame_array(STACK_SIZE, np.int64)
+    stack_t = _frame_array(STACK_SIZE, np.float64)
     return _closest_loop(acc.node_lo, acc.node_hi, acc.node_start, acc.node_count,
                          acc.prim_ids, geo.tri_v0, geo.tri_v1, geo.tri_v2,
-                         geo.sph_center, geo.sph_radius, ray, t_max, stack, cnt)
+                         geo.sph_center, geo.sph_radius, ray, t_max, stack, stack_t, cnt)
 
 
-@njit(**JIT)
+@njit(inline="always", **NOREF)
 def bvh_occluded(geo, acc, ray, t_max, cnt):
     """Any bounded primitive hit with 0 < t < t_max; stops at the first."""
     stack = _frame_array(STACK_SIZE, np.int64)
