@@ -57,16 +57,16 @@ def _frame_array(typingctx, size, dtype):
 # bvh_closest/bvh_occluded, and through query.closest_hit/occluded into the
 # caller's ray loop.  An ordinary call per ray copies its array arguments
 # (the 31 arrays of geo and acc are ~270 words) and, with reference counting,
-# increments and decrements each one; the shared intersection routines are
-# recompiled from the same source (py_func) to be inlined the same way.
-# Same code, same float operations (no fastmath): hits stay bit-identical to
-# flat.py's.  Compiled standalone, nothing here counts references (_nrt=False):
-# it only reads arrays its caller keeps alive.
+# increments and decrements each one.  The triangle and sphere tests are
+# recompiled from the shared source (py_func) to be inlined the same way
+# (as calls: 172 vs 145 ns per ray, 1k triangles); ray_aabb and closer are
+# small enough for LLVM to inline as they are.  Same code, same float
+# operations (no fastmath): hits stay bit-identical to flat.py's.  Compiled
+# standalone, nothing here counts references (_nrt=False): it only reads
+# arrays its caller keeps alive.
 NOREF = dict(_nrt=False, error_model="numpy")
-_ray_aabb = njit(inline="always", **NOREF)(ray_aabb.py_func)
 _ray_triangle = njit(inline="always", **NOREF)(ray_triangle.py_func)
 _ray_sphere = njit(inline="always", **NOREF)(ray_sphere.py_func)
-_closer = njit(inline="always", **NOREF)(closer.py_func)
 
 
 @njit(inline="always", **NOREF)
@@ -105,7 +105,7 @@ def _closest_loop(node_lo, node_hi, node_start, node_count, prim_ids,
     n_nodes = 0
     n_tests = 0
     n_hits = 0
-    node = 0 if _ray_aabb(ray, node_lo, node_hi, 0, t_max) < np.inf else -1
+    node = 0 if ray_aabb(ray, node_lo, node_hi, 0, t_max) < np.inf else -1
     sp = 0
     while node >= 0:
         n_nodes += 1
@@ -119,15 +119,15 @@ def _closest_loop(node_lo, node_hi, node_start, node_count, prim_ids,
                                      ray, p, t_max)
                 if t < np.inf:
                     n_hits += 1
-                    if _closer(t, p, best_t, best_p):
+                    if closer(t, p, best_t, best_p):
                         best_t, best_p, best_u, best_v = t, p, u, v
             node, sp = _pop(stack, stack_t, sp, best_t)
         else:
             left = node + 1
             right = node_start[node]
             tb = min(best_t, t_max)
-            dl = _ray_aabb(ray, node_lo, node_hi, left, tb)
-            dr = _ray_aabb(ray, node_lo, node_hi, right, tb)
+            dl = ray_aabb(ray, node_lo, node_hi, left, tb)
+            dr = ray_aabb(ray, node_lo, node_hi, right, tb)
             n_box += 2
             # Written so LLVM can use selects: the near/far order is a coin
             # flip for the branch predictor.
@@ -161,7 +161,7 @@ def _occluded_loop(node_lo, node_hi, node_start, node_count, prim_ids,
     n_tests = 0
     n_hits = 0
     hit = False
-    node = 0 if _ray_aabb(ray, node_lo, node_hi, 0, t_max) < np.inf else -1
+    node = 0 if ray_aabb(ray, node_lo, node_hi, 0, t_max) < np.inf else -1
     sp = 0
     while node >= 0:
         n_nodes += 1
@@ -185,8 +185,8 @@ def _occluded_loop(node_lo, node_hi, node_start, node_count, prim_ids,
             # blocker sooner, and both tests cull misses before a push.
             left = node + 1
             right = node_start[node]
-            dl = _ray_aabb(ray, node_lo, node_hi, left, t_max)
-            dr = _ray_aabb(ray, node_lo, node_hi, right, t_max)
+            dl = ray_aabb(ray, node_lo, node_hi, left, t_max)
+            dr = ray_aabb(ray, node_lo, node_hi, right, t_max)
             n_box += 2
             if dr < dl:
                 near, far, d_near, d_far = right, left, dr, dl
