@@ -46,8 +46,11 @@ def assert_same_as_brute(target, o, d, t_max=None):
 
 # --- compile options ---------------------------------------------------------
 
-KERNEL_MODULES = ["raytrace.kernels." + m for m in
-                  ("intersect", "flat", "query", "grid", "shade", "sampling", "render", "cast")]
+def package_modules(package):
+    """Every module of a package, so kernels added later are checked too."""
+    import pkgutil
+    pkg = importlib.import_module(package)
+    return [f"{package}.{m.name}" for m in pkgutil.iter_modules(pkg.__path__)]
 
 
 def dispatchers(module_names):
@@ -63,14 +66,14 @@ def test_kernels_use_numpy_errors_and_no_fastmath():
     """error_model="numpy": 1/0 is inf (the slab test relies on it), not a
     ZeroDivisionError.  No fastmath: it lets LLVM assume there are no inf
     or NaN, and the slab test and the watertight test use both."""
-    found = dict(dispatchers(KERNEL_MODULES))
+    found = dict(dispatchers(package_modules("raytrace.kernels")))
     assert {"raytrace.kernels.intersect.ray_triangle", "raytrace.kernels.intersect.ray_aabb",
             "raytrace.kernels.cast.cast_closest", "raytrace.kernels.render.render_rows"} <= set(found)
     for name, disp in found.items():
         opts = disp.targetoptions
         assert not opts.get("fastmath"), name
         assert opts.get("error_model") == "numpy", name
-    for name, disp in dispatchers(["raytrace.accel.grid"]):
+    for name, disp in dispatchers(package_modules("raytrace.accel")):
         assert not disp.targetoptions.get("fastmath"), name
     # The batch kernels: parallel, without the reference-counting runtime.
     for name in ("raytrace.kernels.cast.cast_closest", "raytrace.kernels.cast.cast_occluded",
