@@ -20,6 +20,8 @@ MAX_LIGHT_SAMPLES = 65536
 # depth f32, normal 3xf32, prim id i64, cost i64.
 BYTES_PER_PIXEL = 12 + 3
 BYTES_PER_PIXEL_AOV = 4 + 12 + 8 + 8
+# Values converted to sRGB at a time (to_srgb8): a few MB of temporaries.
+SRGB_BAND_VALUES = 1 << 18
 
 
 @dataclass
@@ -91,7 +93,11 @@ def validate(opts, scene):
     if opts.threads is not None:
         import numba
         _check_int("threads", opts.threads, 1, numba.config.NUMBA_NUM_THREADS)
-    need = w * h * (BYTES_PER_PIXEL + (BYTES_PER_PIXEL_AOV if opts.aov else 0))
+    # Each row also has an int64 counter row: little, but a 1-pixel-wide
+    # image of a million rows needs 80 MB of them.
+    from .kernels.counters import N_COUNTERS
+    need = (w * h * (BYTES_PER_PIXEL + (BYTES_PER_PIXEL_AOV if opts.aov else 0))
+            + h * 8 * N_COUNTERS)
     if need > available_memory():
         raise RaytraceError(f"a {w}x{h} image needs {need / 2**30:.1f} GiB of memory, "
                             f"more than the {available_memory() / 2**30:.1f} GiB available")
@@ -161,10 +167,20 @@ def light_buffers(scene, shadows, light_samples):
 
 
 def to_srgb8(linear):
-    """Clamp and encode with the sRGB curve (IEC 61966-2-1)."""
-    c = np.clip(linear, 0.0, 1.0)
-    s = np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
-    return (s * 255.0 + 0.5).astype(np.uint8)
+    """Clamp and encode with the sRGB curve (IEC 61966-2-1).
+
+    A band of rows at a time: on the whole image the float temporaries
+    measured 64 bytes a pixel at their peak, four times what the memory
+    check in validate() counts, so a big render that passed the check
+    could fail here, after all its work.
+    """
+    out = np.empty(linear.shape, np.uint8)
+    band = max(1, SRGB_BAND_VALUES // max(1, linear[0].size)) if len(linear) else 1
+    for y0 in range(0, len(linear), band):
+        c = np.clip(linear[y0:y0 + band], 0.0, 1.0)
+        s = np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
+        out[y0:y0 + band] = (s * 255.0 + 0.5).astype(np.uint8)
+    return out
 
 
 def render(scene, opts=None, **kw):

@@ -8,7 +8,7 @@ Only hits with 0 < t < t_max count.
 import numpy as np
 
 from .errors import RaytraceError
-from .io.mesh import check_mesh_arrays
+from .io.mesh import MAX_COORD, check_mesh_arrays
 from .scene import Mesh, Scene
 
 class RayHits:
@@ -81,6 +81,10 @@ def _as_rows(name, a):
     if bad.any():
         raise RaytraceError(f"{name}[{int(np.argmax(bad))}]: NaN or infinite value "
                             f"({int(bad.sum())} such rows)")
+    big = ~(np.abs(arr) <= MAX_COORD).all(axis=1)
+    if big.any():
+        raise RaytraceError(f"{name}[{int(np.argmax(big))}]: a value beyond {MAX_COORD:g} "
+                            f"(products of such values overflow; {int(big.sum())} such rows)")
     return np.ascontiguousarray(arr)
 
 

@@ -6,6 +6,7 @@ exception types on a damaged file (ValueError, IndexError, KeyError,
 struct.error, ...) or returns an empty mesh for garbage; every one of
 them becomes a RaytraceError naming the file.
 """
+import re
 from pathlib import Path
 
 import numpy as np
@@ -14,9 +15,32 @@ from ..errors import RaytraceError
 
 MESH_EXTENSIONS = (".obj", ".ply", ".stl", ".off", ".glb")
 
+# Largest coordinate accepted.  The watertight triangle test multiplies
+# three coordinate differences (each up to twice the largest coordinate)
+# and the sphere test squares lengths; 1e100 keeps (2e100)^3 far below
+# float64's 1.8e308.  Beyond it products overflow to inf and NaN: a file
+# of 1e300s framed a camera at infinity and failed without naming the file.
+MAX_COORD = 1e100
+
 
 def is_mesh_path(name):
     return Path(str(name)).suffix.lower() in MESH_EXTENSIONS
+
+
+# An OBJ face corner whose vertex index is 0: OBJ counts from 1 (negative
+# counts back from the last vertex), so 0 is out of range -- the usual sign
+# of an exporter writing 0-based indices.  trimesh does not reject it: it
+# quietly builds a different, smaller mesh.
+_OBJ_ZERO_INDEX = re.compile(rb"(?m)^[ \t]*f[ \t](?:[^\r\n]*[ \t])?[+-]?0+(?=[/ \t\r\n]|$)")
+
+
+def check_obj_indices(path, data):
+    """Raise for an OBJ face that uses vertex index 0."""
+    m = _OBJ_ZERO_INDEX.search(data)
+    if m:
+        line = data.count(b"\n", 0, m.start()) + 1
+        raise RaytraceError(f"{path}: line {line}: face uses vertex index 0, out of range "
+                            "(OBJ indices start at 1)")
 
 
 def check_readable(path):
@@ -46,6 +70,12 @@ def check_mesh_arrays(name, vertices, faces):
     if bad.any():
         raise RaytraceError(f"{name}: vertex {int(np.argmax(bad))} has a NaN or infinite "
                             f"coordinate ({int(bad.sum())} such vertices)")
+    big = ~(np.abs(v) <= MAX_COORD).all(axis=1)
+    if big.any():
+        k = int(np.argmax(big))
+        raise RaytraceError(f"{name}: vertex {k} has a coordinate of {np.abs(v[k]).max():.3g}, beyond "
+                            f"the {MAX_COORD:g} the intersection tests can multiply without "
+                            f"overflow ({int(big.sum())} such vertices)")
     f = np.asarray(faces)
     if f.ndim != 2 or f.shape[1] != 3:
         raise RaytraceError(f"{name}: faces must have shape (m, 3), got {f.shape}")
@@ -69,6 +99,8 @@ def read_mesh(path):
     check_readable(path)
     if path.stat().st_size == 0:
         raise RaytraceError(f"{path}: file is empty")
+    if ext == ".obj":
+        check_obj_indices(path, path.read_bytes())
     try:
         import trimesh
         # process=False: keep the file's vertices and faces as they are

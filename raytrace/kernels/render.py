@@ -15,10 +15,16 @@ SHADOW_MODES = {"none": SHADOWS_NONE, "hard": SHADOWS_HARD, "soft": SHADOWS_SOFT
 
 # Shadow rays start this far off the surface, relative to the magnitude of
 # the hit point's coordinates.  The point is rebuilt from the primitive, so
-# its error is a few float64 ulps (~1e-16 relative, pbrt-v4 ch. 6.8); 2^-32
-# (~2.3e-10) clears that by six orders of magnitude while staying far below
-# any feature a 640x480 image can show, at any scene scale.
-RAY_OFFSET = 2.0 ** -32
+# its error is a few float64 ulps of that magnitude (pbrt-v4 ch. 6.8 bounds
+# it by gamma(7) ~ 7.8e-16).  Measured (bench/ray_offset.py): shadow rays
+# re-hit their own sphere, triangle or plane at offsets up to 2^-52 (~2
+# ulps), never from 2^-50 on, at scales 1e-4 to 1e4 and 1e5 from the
+# origin; 2^-44 (~5.7e-14) keeps a factor 64 over that.  The offset is
+# also a gap the shadow ray skips, so it must stay small against the
+# scene: the former 2^-32 was 23% of a 1e-4 scene placed 1e5 from the
+# origin, and let light through a slab 1% of the scene's size above the
+# ground (tests/test_self_intersection.py).
+RAY_OFFSET = 2.0 ** -44
 
 
 @njit(**INLINE)

@@ -1,0 +1,62 @@
+"""The same command with the same --seed writes the same PNG, byte for
+byte, and reports the same counters: run after run, in another process,
+and on one thread or two (random numbers are hashes of seed, pixel,
+sample and dimension, never a generator's state; counters are per row)."""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from raytrace.cli import main
+
+from .structures import STRUCTURES
+
+ROOT = Path(__file__).resolve().parents[1]
+ARGS = ["teapot", "--shadows", "soft", "--light-samples", "16", "--spp", "4",
+        "--width", "48", "--height", "36", "--seed", "2024", "--json"]
+
+
+def run(tmp_path, *args):
+    r = CliRunner().invoke(main, [*ARGS, *args])
+    assert r.exit_code == 0, r.output
+    stats = json.loads(r.output)
+    return Path(stats["output"]).read_bytes(), stats
+
+
+@pytest.mark.parametrize("pattern", ["random", "stratified", "halton"])
+def test_same_seed_same_png_and_counters_on_any_number_of_threads(tmp_path, monkeypatch, pattern):
+    monkeypatch.chdir(tmp_path)
+    runs = [run(tmp_path, "--pattern", pattern, "--threads", str(threads), "-o", f"{k}.png")
+            for k, threads in enumerate((1, 2, 1, 2))]
+    png, stats = runs[0]
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    for other_png, other in runs[1:]:
+        assert other_png == png
+        assert other["counters"] == stats["counters"]
+    assert [s["threads"] for _, s in runs] == [1, 2, 1, 2]
+    assert stats["counters"]["primary_rays"] == 48 * 36 * 4
+    assert 0 < stats["counters"]["occluded_rays"] < stats["counters"]["shadow_rays"]
+    # The seed does matter: another one gives another picture.
+    other_png, _ = run(tmp_path, "--pattern", pattern, "--seed", "2025", "-o", "seed.png")
+    assert other_png != png
+
+
+def test_same_png_in_a_fresh_process_and_from_every_structure(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    png, stats = run(tmp_path, "--pattern", "halton", "-o", "here.png")
+    out = subprocess.run([sys.executable, "-m", "raytrace", *ARGS, "--pattern", "halton",
+                          "--threads", "1", "-o", "there.png"],
+                         cwd=tmp_path, capture_output=True, text=True,
+                         env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert out.returncode == 0, out.stderr
+    assert (tmp_path / "there.png").read_bytes() == png
+    assert json.loads(out.stdout)["counters"] == stats["counters"]
+    for accel in STRUCTURES:
+        other, s = run(tmp_path, "--pattern", "halton", "--accel", accel, "-o", f"{accel}.png")
+        assert other == png, accel
+        for key in ("primary_rays", "shadow_rays", "shading_points", "shadow_points", "occluded_rays"):
+            assert s["counters"][key] == stats["counters"][key], (accel, key)
