@@ -48,10 +48,6 @@ Accel = namedtuple(
 )
 
 ACCEL_NONE, ACCEL_BVOL, ACCEL_BVH, ACCEL_GRID = range(4)
-
-# Entries of a BVH traversal stack.  Each pop pushes at most two, so the
-# stack holds at most depth + 1 entries; builds stay far below 64 levels.
-STACK_SIZE = 64
 ACCEL_NAMES = {"none": ACCEL_NONE, "bvol": ACCEL_BVOL, "bvh": ACCEL_BVH, "grid": ACCEL_GRID}
 
 

@@ -11,7 +11,7 @@ import click
 from .errors import RaytraceError
 
 ACCEL_CHOICES = ("none", "bvol", "bvh", "grid")
-DEFAULT_ACCEL = "bvol"
+DEFAULT_ACCEL = "bvh"
 
 
 class DefaultRenderGroup(click.Group):

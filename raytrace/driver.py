@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .buffers import ACCEL_NAMES, STACK_SIZE, Lights, f64, i64
+from .buffers import ACCEL_NAMES, Lights, f64, i64
 from .errors import RaytraceError
 
 SHADOW_CHOICES = ("none", "hard", "soft")
@@ -96,17 +96,6 @@ def validate(opts, scene):
         raise RaytraceError(f"a {w}x{h} image needs {need / 2**30:.1f} GiB of memory, "
                             f"more than the {available_memory() / 2**30:.1f} GiB available")
     return w, h
-
-
-def check_accel_built(name, geo, acc):
-    """Refuse a structure this build does not construct yet: its arrays
-    would stay empty and every bounded primitive would silently be missed."""
-    from .buffers import ACCEL_BVH, ACCEL_GRID, n_bounded
-    if n_bounded(geo) == 0:
-        return
-    if (acc.mode == ACCEL_BVH and acc.node_lo.shape[0] == 0
-            or acc.mode == ACCEL_GRID and not np.all(acc.grid_res > 0)):
-        raise RaytraceError(f"acceleration structure {name!r} is not available in this build")
 
 
 def camera_buffer(cam, width, height):
@@ -210,11 +199,9 @@ def render(scene, opts=None, **kw):
     t_import = time.perf_counter() - t_start
 
     acc, t_build = build_accel(opts.accel, geo, obj_ranges)
-    check_accel_built(opts.accel, geo, acc)
 
     image = np.zeros((height, width, 3), np.float32)
     stats_rows = np.zeros((height, N_COUNTERS), np.int64)
-    stacks = np.zeros((height, STACK_SIZE), np.int64)
     if opts.aov:
         aovs = dict(depth=np.full((height, width), np.inf, np.float32),
                     normal=np.zeros((height, width, 3), np.float32),
@@ -225,7 +212,7 @@ def render(scene, opts=None, **kw):
                     primid=np.zeros((0, 0), np.int64), cost=np.zeros((0, 0), np.int64))
     args = (geo, acc, cam, lights, background, width, height)
     tail = (opts.spp, SHADOW_MODES[opts.shadows], PATTERN_NAMES[opts.pattern], opts.seed,
-            image, stats_rows, stacks, opts.aov, aovs["depth"], aovs["normal"], aovs["primid"], aovs["cost"])
+            image, stats_rows, opts.aov, aovs["depth"], aovs["normal"], aovs["primid"], aovs["cost"])
 
     # An empty band compiles the kernel (or loads it from Numba's cache)
     # without rendering anything, so that time is reported apart.

@@ -1,14 +1,12 @@
 """Batch ray casting glue: arrays in, per-ray results and counters out.
 
-The kernels take per-block counter rows and traversal stacks (they cannot
-allocate); this module allocates them and sums the counters.
+The kernels take per-block counter rows (they cannot allocate); this module
+allocates them and sums the counters.
 """
 import numpy as np
 
-from .buffers import STACK_SIZE
-
 # Rays are split into this many blocks per thread, each with its own
-# counter row and traversal stack: enough blocks that uneven rays balance.
+# counter row: enough blocks that uneven rays balance.
 BLOCKS_PER_THREAD = 16
 
 
@@ -25,10 +23,9 @@ def closest(geo, acc, origins, dirs, t_max):
     out = (np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n))
     b = _blocks(n)
     cnt = np.zeros((b, N_COUNTERS), np.int64)
-    stacks = np.zeros((b, STACK_SIZE), np.int64)
     cast_closest(geo, acc, np.ascontiguousarray(origins, np.float64),
                  np.ascontiguousarray(dirs, np.float64), np.ascontiguousarray(t_max, np.float64),
-                 *out, cnt, stacks)
+                 *out, cnt)
     return out, cnt.sum(axis=0)
 
 
@@ -40,8 +37,7 @@ def any_hit(geo, acc, origins, dirs, t_max):
     hit = np.empty(n, np.bool_)
     b = _blocks(n)
     cnt = np.zeros((b, N_COUNTERS), np.int64)
-    stacks = np.zeros((b, STACK_SIZE), np.int64)
     cast_occluded(geo, acc, np.ascontiguousarray(origins, np.float64),
                   np.ascontiguousarray(dirs, np.float64), np.ascontiguousarray(t_max, np.float64),
-                  hit, cnt, stacks)
+                  hit, cnt)
     return hit, cnt.sum(axis=0)

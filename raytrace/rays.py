@@ -124,10 +124,8 @@ def _prepare(target, accel):
     scene = _target_scene(target)
     from .accel import build_accel
     from .flatten import flatten
-    from .driver import check_accel_built
     geo, obj_ranges, _, sources = flatten(scene, with_sources=True)
     acc, _ = build_accel(accel, geo, obj_ranges)
-    check_accel_built(accel, geo, acc)
     return geo, acc, sources
 
 

@@ -139,3 +139,13 @@ N = np.array([[0.0, 1.0, 0.0]])
 ])
 def test_ray_plane_cases(o, d, expect):
     assert ray_plane(ray(o, d), P, N, 0, INF) == expect
+
+
+def test_ray_aabb_in_face_plane_with_either_zero_sign():
+    # Origin exactly on the face x = 0, moving parallel to it: the ray
+    # touches the box, whichever sign its zero component has.
+    lo = np.array([[0.0, 0.0, 0.0]])
+    hi = np.array([[1.0, 1.0, 1.0]])
+    for dx in (0.0, -0.0):
+        assert ray_aabb(ray((0, -1, 0.5), (dx, 1, 0)), lo, hi, 0, INF) == 1.0
+        assert ray_aabb(ray((1, -1, 0.5), (dx, 1, 0)), lo, hi, 0, INF) == 1.0

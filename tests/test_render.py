@@ -10,7 +10,7 @@ from .conftest import H, W
 SHADOWS = ["none", "hard", "soft"]
 
 
-ACCELS = ["bvol", "grid"]
+ACCELS = ["bvol", "bvh", "grid"]
 
 
 @pytest.mark.parametrize("accel", ACCELS)

@@ -6,7 +6,9 @@ import time
 
 import numpy as np
 
-from ..buffers import ACCEL_BVOL, ACCEL_GRID, ACCEL_NAMES, empty_accel, f64, i64, prim_bounds
+from ..buffers import (ACCEL_BVH, ACCEL_BVOL, ACCEL_GRID, ACCEL_NAMES, empty_accel, f64, i64,
+                       prim_bounds)
+from .bvh import build_bvh
 from .grid import build_grid
 
 
@@ -22,6 +24,14 @@ def build_bvol(geo, obj_ranges, acc):
                         obj_start=starts, obj_count=counts)
 
 
+def build_bvh_accel(geo, acc):
+    """Binned-SAH BVH over every bounded primitive (planes have no box and
+    are tested separately by every structure)."""
+    node_lo, node_hi, node_start, node_count, prim_ids = build_bvh(*prim_bounds(geo))
+    return acc._replace(node_lo=node_lo, node_hi=node_hi, node_start=node_start,
+                        node_count=node_count, prim_ids=prim_ids)
+
+
 def build_accel(name, geo, obj_ranges):
     """Returns (Accel, build seconds) for structure ``name``."""
     mode = ACCEL_NAMES[name]
@@ -29,6 +39,8 @@ def build_accel(name, geo, obj_ranges):
     acc = empty_accel(mode)
     if mode == ACCEL_BVOL:
         acc = build_bvol(geo, obj_ranges, acc)
+    elif mode == ACCEL_BVH:
+        acc = build_bvh_accel(geo, acc)
     elif mode == ACCEL_GRID:
         g_lo, g_hi, g_cell, g_res, c_start, c_items = build_grid(*prim_bounds(geo))
         acc = acc._replace(grid_lo=g_lo, grid_hi=g_hi, grid_cell=g_cell, grid_res=g_res,

@@ -23,7 +23,7 @@ RAY_OFFSET = 2.0 ** -32
 
 @njit(**INLINE)
 def shade_pixel_sample(geo, acc, cam, lights, background, shadow_mode, pattern, seed,
-                       pixel, sample, fx, fy, cnt, stack):
+                       pixel, sample, fx, fy, cnt):
     """Colour of one camera ray through film position (fx, fy) in [0,1]^2.
 
     Returns (r, g, b, t, prim, nx, ny, nz) -- the extra fields feed the AOVs.
@@ -39,7 +39,7 @@ def shade_pixel_sample(geo, acc, cam, lights, background, shadow_mode, pattern, 
     dx, dy, dz = dx / ln, dy / ln, dz / ln
     ray = make_ray(cam[0], cam[1], cam[2], dx, dy, dz)
     cnt[PRIMARY_RAYS] += 1
-    t, prim, b1, b2 = closest_hit(geo, acc, ray, np.inf, cnt, stack)
+    t, prim, b1, b2 = closest_hit(geo, acc, ray, np.inf, cnt)
     if prim < 0:
         # Sky: a slight gradient with the ray's elevation.
         k = 0.8 + 0.2 * max(-1.0, min(1.0, dy))
@@ -95,7 +95,7 @@ def shade_pixel_sample(geo, acc, cam, lights, background, shadow_mode, pattern, 
                 # so nothing beyond the light is ever tested.
                 sray = make_ray(ox, oy, oz, tx - ox, ty - oy, tz - oz)
                 cnt[SHADOW_RAYS] += 1
-                if occluded(geo, acc, sray, 1.0, cnt, stack):
+                if occluded(geo, acc, sray, 1.0, cnt):
                     cnt[OCCLUDED_RAYS] += 1
                 else:
                     free += 1
@@ -109,17 +109,16 @@ def shade_pixel_sample(geo, acc, cam, lights, background, shadow_mode, pattern, 
 
 @njit(**KERNEL)
 def render_rows(geo, acc, cam, lights, background, width, height, y0, y1, spp,
-                shadow_mode, pattern, seed, image, stats_rows, stacks,
+                shadow_mode, pattern, seed, image, stats_rows,
                 aov_on, aov_depth, aov_normal, aov_prim, aov_cost):
     """Render rows y0 .. y1-1 into image (height, width, 3) float32, linear.
 
-    Each row counts into its own stats_rows[y] and traverses with its own
-    stacks[y], so threads never share either.  With aov_on the depth, normal, primitive id and per-pixel cost
+    Each row counts into its own stats_rows[y], so threads never share a
+    counter.  With aov_on the depth, normal, primitive id and per-pixel cost
     (box + primitive tests) of the pixel are written too.
     """
     for y in prange(y0, y1):
         cnt = stats_rows[y]
-        stack = stacks[y]
         for x in range(width):
             pixel = y * width + x
             before = cnt[BOX_TESTS] + cnt[PRIM_TESTS]
@@ -132,7 +131,7 @@ def render_rows(geo, acc, cam, lights, background, width, height, y0, y1, spp,
                     jx, jy = rand01(key, 0, 0), rand01(key, 0, 1)
                 sr, sg, sb, t, prim, nx, ny, nz = shade_pixel_sample(
                     geo, acc, cam, lights, background, shadow_mode, pattern, seed,
-                    pixel, s, (x + jx) / width, (y + jy) / height, cnt, stack)
+                    pixel, s, (x + jx) / width, (y + jy) / height, cnt)
                 r += sr
                 g += sg
                 b += sb

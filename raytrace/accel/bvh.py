@@ -1,0 +1,275 @@
+"""Binned-SAH bounding volume hierarchy build: boxes in, flat arrays out.
+
+Algorithm: Wald 2007, "On fast Construction of SAH-based Bounding Volume
+Hierarchies" -- primitive centroids are sorted into a few equal-width bins
+along each axis of the node's centroid box, and the surface area heuristic is
+evaluated only at bin boundaries.  pbrt-v4 (``BVHAggregate::buildRecursive``)
+and tinybvh (``BVH::Build``) are the models for the cost model and the leaf
+decision (ideas only; the code is written for Numba from the paper).
+
+The builder sees only primitive boxes (centroids come from the boxes), never
+triangles or spheres, so it serves every bounded primitive alike.  It runs
+entirely in one compiled function with an explicit work stack and
+preallocated node arrays (a binary tree with n primitives in non-empty
+leaves has at most 2n - 1 nodes): no Python object per node.
+
+Layout (see ``Accel`` in buffers.py): nodes are flattened depth-first, so an
+interior node's first child is the next node; ``node_start`` of an interior
+node is its second child and its ``node_count`` is 0.  A leaf covers
+``prim_ids[node_start : node_start + node_count]``.
+"""
+import numpy as np
+from numba import njit
+
+# 12 bins, as pbrt-v4's buckets: Wald 2007 finds 8-16 bins close to the
+# full-sweep SAH, and 8..64 bins here changed nodes visited per ray by <2%
+# (1k and 100k triangle meshes) while the build slows with more bins.
+N_BINS = 12
+# Leaves hold at most this many primitives unless no split is possible; the
+# SAH may still make a smaller node a leaf.  2, 4 and 8 measured within
+# noise (+-5% rays/s) on 1k and 100k triangle meshes.
+MAX_LEAF = 4
+# Cost of one node visit (two child box tests) relative to one primitive
+# test, in the SAH: C = TRAVERSAL_COST + (A_L N_L + A_R N_R) / A.  0.5, 1
+# and 2 measured within noise.
+TRAVERSAL_COST = 1.0
+# Leaves are forced at this depth, so traversal's fixed 64-entry stack (one
+# pending far child per level at most) can never overflow.  The 118k-triangle
+# surface builds 21 deep; only adversarial inputs get here.
+MAX_DEPTH = 60
+# Node boxes are widened by this fraction of their largest coordinate
+# magnitude.  Exact bounds are not enough for the BVH to equal brute force on
+# rays through shared vertices and edges: the rounded box entry distance can
+# exceed the hit distance the triangle test computes for a hit on the box's
+# boundary (by ~1e-16 relative), and ray_aabb culls a ray with a -0.0
+# direction component whose origin lies on a box face (NaN and -inf slab
+# distances).  1e-9 is ~4x10^6 ulps: it covers rounding for ray origins up
+# to ~10^5 times the node's coordinates away, and grows boxes negligibly.
+BOX_PAD = 1e-9
+
+
+@njit(cache=True)
+def _half_area(x0, y0, z0, x1, y1, z1):
+    dx = x1 - x0
+    dy = y1 - y0
+    dz = z1 - z0
+    return dx * dy + dy * dz + dz * dx
+
+
+@njit(cache=True)
+def build_bvh_kernel(lo, hi):
+    """Returns (node_lo, node_hi, node_start, node_count, prim_ids, depth)."""
+    n = lo.shape[0]
+    max_nodes = max(2 * n - 1, 0)
+    node_lo = np.empty((max_nodes, 3), np.float64)
+    node_hi = np.empty((max_nodes, 3), np.float64)
+    node_start = np.empty(max_nodes, np.int64)
+    node_count = np.empty(max_nodes, np.int64)
+    prim_ids = np.arange(n).astype(np.int64)
+    if n == 0:
+        return node_lo, node_hi, node_start, node_count, prim_ids, 0
+
+    # Centroids, transposed so each axis is one contiguous row.
+    cen = np.empty((3, n), np.float64)
+    for i in range(n):
+        for a in range(3):
+            cen[a, i] = 0.5 * (lo[i, a] + hi[i, a])
+
+    bin_count = np.empty((3, N_BINS), np.int64)
+    bin_lo = np.empty((3, N_BINS, 3), np.float64)
+    bin_hi = np.empty((3, N_BINS, 3), np.float64)
+    # right_cost[b] = N_R * A_R (half area) of bins b.. on the current axis.
+    right_cost = np.empty(N_BINS, np.float64)
+    bin_scale = np.empty(3, np.float64)  # bins per unit length on each axis
+
+    # Work stack of pending right subtrees: (start, end, depth, parent).
+    # At most one entry per level, and levels are capped at MAX_DEPTH.
+    stack = np.empty((MAX_DEPTH + 2, 4), np.int64)
+    sp = 0
+    n_nodes = 0
+    max_depth = 0
+    start, end, depth, parent = 0, n, 0, -1
+    while True:
+        node = n_nodes
+        n_nodes += 1
+        if parent >= 0:
+            node_start[parent] = node  # this is parent's second child
+        if depth > max_depth:
+            max_depth = depth
+
+        # Node box and centroid box.
+        bx0 = by0 = bz0 = np.inf
+        bx1 = by1 = bz1 = -np.inf
+        cx0 = cy0 = cz0 = np.inf
+        cx1 = cy1 = cz1 = -np.inf
+        for k in range(start, end):
+            p = prim_ids[k]
+            bx0 = min(bx0, lo[p, 0])
+            by0 = min(by0, lo[p, 1])
+            bz0 = min(bz0, lo[p, 2])
+            bx1 = max(bx1, hi[p, 0])
+            by1 = max(by1, hi[p, 1])
+            bz1 = max(bz1, hi[p, 2])
+            x, y, z = cen[0, p], cen[1, p], cen[2, p]
+            cx0 = min(cx0, x)
+            cy0 = min(cy0, y)
+            cz0 = min(cz0, z)
+            cx1 = max(cx1, x)
+            cy1 = max(cy1, y)
+            cz1 = max(cz1, z)
+        # A parent's largest magnitude is at least its children's, so padded
+        # children stay inside padded parents (rounding is monotonic).
+        pad = BOX_PAD * max(abs(bx0), abs(by0), abs(bz0), abs(bx1), abs(by1), abs(bz1))
+        node_lo[node, 0] = bx0 - pad
+        node_lo[node, 1] = by0 - pad
+        node_lo[node, 2] = bz0 - pad
+        node_hi[node, 0] = bx1 + pad
+        node_hi[node, 1] = by1 + pad
+        node_hi[node, 2] = bz1 + pad
+
+        count = end - start
+        mid = -1
+        if count > 1 and depth < MAX_DEPTH:
+            cmin = (cx0, cy0, cz0)
+            cext = (cx1 - cx0, cy1 - cy0, cz1 - cz0)
+            # Bin width as a scale; an axis whose centroids coincide (or whose
+            # extent is so small the scale overflows) cannot be split.
+            bin_scale[:] = 0.0
+            for a in range(3):
+                if cext[a] > 0.0:
+                    s = N_BINS / cext[a]
+                    if s < np.inf:
+                        bin_scale[a] = s
+            if bin_scale[0] > 0.0 or bin_scale[1] > 0.0 or bin_scale[2] > 0.0:
+                # Bin every primitive on all three axes in one pass.
+                bin_count[:, :] = 0
+                bin_lo[:, :, :] = np.inf
+                bin_hi[:, :, :] = -np.inf
+                for k in range(start, end):
+                    p = prim_ids[k]
+                    l0, l1, l2 = lo[p, 0], lo[p, 1], lo[p, 2]
+                    h0, h1, h2 = hi[p, 0], hi[p, 1], hi[p, 2]
+                    for a in range(3):
+                        if bin_scale[a] == 0.0:
+                            continue
+                        b = int((cen[a, p] - cmin[a]) * bin_scale[a])
+                        if b > N_BINS - 1:
+                            b = N_BINS - 1
+                        bin_count[a, b] += 1
+                        bin_lo[a, b, 0] = min(bin_lo[a, b, 0], l0)
+                        bin_lo[a, b, 1] = min(bin_lo[a, b, 1], l1)
+                        bin_lo[a, b, 2] = min(bin_lo[a, b, 2], l2)
+                        bin_hi[a, b, 0] = max(bin_hi[a, b, 0], h0)
+                        bin_hi[a, b, 1] = max(bin_hi[a, b, 1], h1)
+                        bin_hi[a, b, 2] = max(bin_hi[a, b, 2], h2)
+
+                # Sweep: SAH sum A_L N_L + A_R N_R at each bin boundary.
+                best_cost = np.inf
+                best_axis = -1
+                best_bin = -1
+                for a in range(3):
+                    if bin_scale[a] == 0.0:
+                        continue
+                    x0 = y0 = z0 = np.inf
+                    x1 = y1 = z1 = -np.inf
+                    m = 0
+                    for b in range(N_BINS - 1, 0, -1):
+                        m += bin_count[a, b]
+                        x0 = min(x0, bin_lo[a, b, 0])
+                        y0 = min(y0, bin_lo[a, b, 1])
+                        z0 = min(z0, bin_lo[a, b, 2])
+                        x1 = max(x1, bin_hi[a, b, 0])
+                        y1 = max(y1, bin_hi[a, b, 1])
+                        z1 = max(z1, bin_hi[a, b, 2])
+                        right_cost[b] = m * _half_area(x0, y0, z0, x1, y1, z1) if m else 0.0
+                    x0 = y0 = z0 = np.inf
+                    x1 = y1 = z1 = -np.inf
+                    m = 0
+                    for b in range(1, N_BINS):
+                        # split between bins b-1 and b
+                        c = bin_count[a, b - 1]
+                        if c:
+                            m += c
+                            x0 = min(x0, bin_lo[a, b - 1, 0])
+                            y0 = min(y0, bin_lo[a, b - 1, 1])
+                            z0 = min(z0, bin_lo[a, b - 1, 2])
+                            x1 = max(x1, bin_hi[a, b - 1, 0])
+                            y1 = max(y1, bin_hi[a, b - 1, 1])
+                            z1 = max(z1, bin_hi[a, b - 1, 2])
+                        if m == 0 or m == count:
+                            continue
+                        cost = m * _half_area(x0, y0, z0, x1, y1, z1) + right_cost[b]
+                        if cost < best_cost:
+                            best_cost = cost
+                            best_axis = a
+                            best_bin = b
+
+                # Leaf or split (costs scaled by the node's half area, so a
+                # zero-area node compares without dividing by zero).
+                area = _half_area(bx0, by0, bz0, bx1, by1, bz1)
+                leaf_cost = count * area
+                split_cost = TRAVERSAL_COST * area + best_cost
+                if best_axis >= 0 and (count > MAX_LEAF or split_cost < leaf_cost):
+                    # Partition prim_ids[start:end] by bin; the same
+                    # expression as the binning, so the sides match the counts.
+                    a = best_axis
+                    ca = cmin[a]
+                    sa = bin_scale[a]
+                    i = start
+                    j = end - 1
+                    while i <= j:
+                        p = prim_ids[i]
+                        b = int((cen[a, p] - ca) * sa)
+                        if b < best_bin:
+                            i += 1
+                        else:
+                            prim_ids[i] = prim_ids[j]
+                            prim_ids[j] = p
+                            j -= 1
+                    mid = i
+            elif count > MAX_LEAF:
+                # All centroids coincide: no plane separates them, so halve
+                # the list (any order is as good as another).
+                mid = start + count // 2
+
+        if mid > start and mid < end:
+            node_count[node] = 0
+            # Right half waits on the stack; the left child is built next, so
+            # it becomes node + 1 and its whole subtree precedes the right.
+            stack[sp, 0] = mid
+            stack[sp, 1] = end
+            stack[sp, 2] = depth + 1
+            stack[sp, 3] = node
+            sp += 1
+            end = mid
+            depth += 1
+            parent = -1
+        else:
+            node_start[node] = start
+            node_count[node] = count
+            if sp == 0:
+                break
+            sp -= 1
+            start = stack[sp, 0]
+            end = stack[sp, 1]
+            depth = stack[sp, 2]
+            parent = stack[sp, 3]
+
+    return (node_lo[:n_nodes].copy(), node_hi[:n_nodes].copy(),
+            node_start[:n_nodes].copy(), node_count[:n_nodes].copy(),
+            prim_ids, max_depth)
+
+
+def build_bvh(lo, hi):
+    """Binned-SAH BVH over (n, 3) float64 primitive boxes ``lo``, ``hi``.
+
+    Returns (node_lo, node_hi, node_start, node_count, prim_ids) as documented
+    on ``Accel``; prim_ids are the row indices of ``lo``/``hi`` (unified
+    primitive ids when the boxes come from ``prim_bounds``).  n == 0 gives
+    zero-length arrays, which traversal treats as "nothing to hit".
+    """
+    lo = np.ascontiguousarray(lo, dtype=np.float64).reshape(-1, 3)
+    hi = np.ascontiguousarray(hi, dtype=np.float64).reshape(-1, 3)
+    if lo.shape != hi.shape:
+        raise ValueError(f"box arrays differ in shape: {lo.shape} vs {hi.shape}")
+    return build_bvh_kernel(lo, hi)[:5]

@@ -1,0 +1,362 @@
+"""BVH: build invariants, and differential tests against brute force.
+
+The BVH must give exactly (==) the brute-force answer: same t, primitive id
+and barycentrics for closest hits, same verdict for shadow rays.
+"""
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from raytrace.accel import build_accel
+from raytrace.accel.bvh import MAX_DEPTH, build_bvh, build_bvh_kernel
+from raytrace.buffers import INDEX, prim_bounds
+from raytrace.flatten import flatten
+from raytrace.kernels.cast import cast_closest, cast_occluded
+from raytrace.kernels.counters import BOX_TESTS, N_COUNTERS, NODES_VISITED, PRIM_TESTS
+from raytrace.scene import Camera, Mesh, Plane, Scene, Sphere
+
+PROPERTY = settings(derandomize=True, max_examples=25, deadline=None)
+
+
+# ---------------------------------------------------------------- helpers
+
+def make_scene(tris=None, spheres=(), planes=()):
+    """Geometry and object ranges through the real loader (flatten)."""
+    objs = []
+    if tris is not None and len(tris):
+        tris = np.asarray(tris, float).reshape(-1, 3, 3)
+        objs.append(Mesh(tris.reshape(-1, 3), np.arange(3 * len(tris)).reshape(-1, 3)))
+    objs += [Sphere(tuple(c), float(r)) for c, r in spheres]
+    objs += [Plane(tuple(p), tuple(n)) for p, n in planes]
+    geo, ranges, _ = flatten(Scene("t", Camera((0, 0, 5), (0, 0, 0)), objs))
+    return geo, ranges
+
+
+def closest(geo, acc, o, d, t_max=None):
+    n = len(o)
+    t_max = np.full(n, np.inf) if t_max is None else t_max
+    out = (np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n))
+    cnt = np.zeros((4, N_COUNTERS), np.int64)
+    cast_closest(geo, acc, np.ascontiguousarray(o, float), np.ascontiguousarray(d, float),
+                 np.ascontiguousarray(t_max, float), *out, cnt)
+    return out, cnt.sum(axis=0)
+
+
+def occluded(geo, acc, o, d, t_max):
+    n = len(o)
+    hit = np.empty(n, np.bool_)
+    cnt = np.zeros((4, N_COUNTERS), np.int64)
+    cast_occluded(geo, acc, np.ascontiguousarray(o, float), np.ascontiguousarray(d, float),
+                  np.ascontiguousarray(t_max, float), hit, cnt)
+    return hit, cnt.sum(axis=0)
+
+
+def assert_same_as_brute(geo, ranges, o, d, t_max_occ):
+    brute, _ = build_accel("none", geo, ranges)
+    bvh, _ = build_accel("bvh", geo, ranges)
+    (t0, p0, u0, v0), _ = closest(geo, brute, o, d)
+    (t1, p1, u1, v1), _ = closest(geo, bvh, o, d)
+    bad = ~((t0 == t1) & (p0 == p1) & (u0 == u1) & (v0 == v1))
+    assert not bad.any(), (
+        f"{bad.sum()} closest hits differ, first ray {np.argmax(bad)}: "
+        f"brute {(t0[bad][0], p0[bad][0])} bvh {(t1[bad][0], p1[bad][0])}")
+    # Same with a finite t_max cutting some hits off.
+    (t0, p0, u0, v0), _ = closest(geo, brute, o, d, t_max_occ)
+    (t1, p1, u1, v1), _ = closest(geo, bvh, o, d, t_max_occ)
+    assert np.array_equal(t0, t1) and np.array_equal(p0, p1)
+    assert np.array_equal(u0, u1) and np.array_equal(v0, v1)
+    h0, _ = occluded(geo, brute, o, d, t_max_occ)
+    h1, _ = occluded(geo, bvh, o, d, t_max_occ)
+    assert np.array_equal(h0, h1), f"{(h0 != h1).sum()} shadow rays differ"
+
+
+def random_dirs(rng, n):
+    """Random directions, a third of them with components exactly 0.0 or -0.0
+    (axis-parallel rays: 1/0 = +-inf in the slab test)."""
+    d = rng.standard_normal((n, 3))
+    k = n // 3
+    axis = rng.integers(0, 3, k)
+    zero = np.where(rng.random(k) < 0.5, 0.0, -0.0)
+    d[np.arange(k), axis] = zero
+    m = k // 2  # of those, half are parallel to a coordinate axis
+    other = (axis[:m] + 1 + rng.integers(0, 2, m)) % 3
+    d[np.arange(m), other] = np.where(rng.random(m) < 0.5, 0.0, -0.0)
+    return d
+
+
+def random_soup(rng, n, size):
+    c = rng.random((n, 1, 3)) * 2 - 1
+    return c + size * rng.standard_normal((n, 3, 3))
+
+
+def tree_check(lo, hi, tree):
+    """Structural invariants of a flattened BVH over boxes lo, hi."""
+    node_lo, node_hi, node_start, node_count, prim_ids = tree
+    n, m = len(lo), len(node_start)
+    for a in (node_start, node_count, prim_ids):
+        assert a.dtype == INDEX and a.ndim == 1 and a.flags.c_contiguous
+    for a in (node_lo, node_hi):
+        assert a.dtype == np.float64 and a.shape == (m, 3) and a.flags.c_contiguous
+    assert len(node_count) == m and len(prim_ids) == n
+    assert m <= max(2 * n - 1, 0)
+    if n == 0:
+        assert m == 0
+        return 0
+    seen_node = np.zeros(m, int)
+    seen_prim = np.zeros(n, int)
+    stack = [(0, 0)]
+    max_depth = 0
+    while stack:
+        i, depth = stack.pop()
+        seen_node[i] += 1
+        max_depth = max(max_depth, depth)
+        if node_count[i] > 0:
+            s, c = node_start[i], node_count[i]
+            ids = prim_ids[s:s + c]
+            seen_prim[ids] += 1
+            # leaf box contains its primitives' boxes
+            assert np.all(node_lo[i] <= lo[ids]) and np.all(node_hi[i] >= hi[ids])
+        else:
+            assert node_count[i] == 0
+            kids = (i + 1, node_start[i])
+            assert i + 1 < kids[1] < m
+            for k in kids:  # children inside the parent
+                assert np.all(node_lo[i] <= node_lo[k]) and np.all(node_hi[i] >= node_hi[k])
+                stack.append((k, depth + 1))
+    assert np.all(seen_node == 1), "every node reachable exactly once"
+    assert np.all(seen_prim == 1), "every primitive in exactly one leaf"
+    # leaves partition prim_ids: ranges are disjoint and cover 0..n-1
+    leaf = node_count > 0
+    order = np.argsort(node_start[leaf])
+    starts, counts = node_start[leaf][order], node_count[leaf][order]
+    assert starts[0] == 0 and np.all(starts[1:] == starts[:-1] + counts[:-1])
+    assert starts[-1] + counts[-1] == n
+    assert max_depth <= MAX_DEPTH
+    return max_depth
+
+
+def boxes_of(tris):
+    return tris.min(axis=1), tris.max(axis=1)
+
+
+# ---------------------------------------------------------------- build
+
+def test_build_empty():
+    z = np.zeros((0, 3))
+    tree = build_bvh(z, z)
+    assert all(len(a) == 0 for a in tree)
+    tree_check(z, z, tree)
+
+
+def test_build_single():
+    lo, hi = np.array([[0.0, 1, 2]]), np.array([[1.0, 2, 3]])
+    node_lo, node_hi, node_start, node_count, prim_ids = tree = build_bvh(lo, hi)
+    tree_check(lo, hi, tree)
+    assert node_count.tolist() == [1] and node_start.tolist() == [0] and prim_ids.tolist() == [0]
+    # Exact box, widened by the builder's tiny pad.
+    assert np.all(node_lo <= lo) and np.allclose(node_lo, lo, rtol=0, atol=1e-8)
+    assert np.all(node_hi >= hi) and np.allclose(node_hi, hi, rtol=0, atol=1e-8)
+
+
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 400),
+       size=st.sampled_from([0.0, 1e-3, 0.05, 0.5]))
+@PROPERTY
+def test_build_invariants(seed, n, size):
+    rng = np.random.default_rng(seed)
+    lo, hi = boxes_of(random_soup(rng, n, size))
+    tree_check(lo, hi, build_bvh(lo, hi))
+
+
+def test_build_coincident_centroids():
+    """All centroids equal: no plane separates them, the median split must."""
+    lo = np.tile([[-1.0, -1, -1]], (100, 1))
+    hi = np.tile([[1.0, 1, 1]], (100, 1))
+    lo[::2] *= 0.5
+    hi[::2] *= 0.5
+    tree = build_bvh(lo, hi)
+    tree_check(lo, hi, tree)
+    assert tree[3].max() <= 4, "median fallback keeps splitting to small leaves"
+
+
+def test_build_depth_capped():
+    """Boxes at exponentially growing distances make SAH trees a chain;
+    depth stays within the traversal stack, and traversal stays exact."""
+    x = 3.0 ** np.arange(200)
+    lo = np.stack([x, np.zeros_like(x), np.zeros_like(x)], axis=1)
+    hi = lo + 0.5
+    depth = tree_check(lo, hi, build_bvh(lo, hi))
+    assert depth == MAX_DEPTH
+    tri = np.array([[0.0, -1, -1], [0.0, 1, -1], [0.5, 0, 1]])
+    geo, ranges = make_scene(x[:, None, None] * [1, 0, 0] + tri)
+    rng = np.random.default_rng(9)
+    o = np.column_stack([-np.ones(300), rng.random((300, 2)) - 0.5])
+    d = np.tile([1.0, 0.0, 0.0], (300, 1))
+    d[::2, 1:] = rng.standard_normal((150, 2)) * 1e-3
+    assert_same_as_brute(geo, ranges, o, d, rng.random(300) * 1e3)
+
+
+def test_build_accel_fields():
+    rng = np.random.default_rng(1)
+    spheres = [((0, 0, 0), 0.3), ((1, 1, 1), 0.2)]
+    geo, ranges = make_scene(random_soup(rng, 50, 0.1), spheres=spheres)
+    acc, seconds = build_accel("bvh", geo, ranges)
+    lo, hi = prim_bounds(geo)
+    tree_check(lo, hi, (acc.node_lo, acc.node_hi, acc.node_start, acc.node_count, acc.prim_ids))
+    assert sorted(acc.prim_ids) == list(range(52))  # unified ids include spheres
+    assert seconds >= 0
+
+
+def test_build_kernel_depth_reported():
+    lo, hi = boxes_of(random_soup(np.random.default_rng(2), 1000, 0.01))
+    *_, depth = build_bvh_kernel(lo, hi)
+    assert 0 < depth <= MAX_DEPTH
+
+
+# ---------------------------------------------------------------- traversal
+
+@given(seed=st.integers(0, 2**32 - 1), n_tris=st.integers(0, 200),
+       n_spheres=st.integers(0, 3), size=st.sampled_from([1e-3, 0.05, 0.3]),
+       inside=st.booleans())
+@PROPERTY
+def test_matches_brute_force(seed, n_tris, n_spheres, size, inside):
+    rng = np.random.default_rng(seed)
+    tris = random_soup(rng, n_tris, size)
+    spheres = [(rng.random(3) * 2 - 1, 0.05 + 0.3 * rng.random()) for _ in range(n_spheres)]
+    geo, ranges = make_scene(tris, spheres)
+    n_rays = 300
+    # Origins inside the soup's box or outside it, aimed roughly inwards.
+    o = rng.random((n_rays, 3)) * 2 - 1 if inside else rng.standard_normal((n_rays, 3)) * 3
+    d = random_dirs(rng, n_rays)
+    if not inside:
+        d[n_rays // 3:] -= o[n_rays // 3:] * 0.3
+    t_max = rng.random(n_rays) * 4
+    assert_same_as_brute(geo, ranges, o, d, t_max)
+
+
+def test_axis_parallel_grid_of_rays():
+    """Rays along +-x, +-y, +-z (other components exactly +-0.0) through a
+    soup, including origins on box faces (0 * inf in the slab test)."""
+    rng = np.random.default_rng(7)
+    tris = random_soup(rng, 300, 0.1)
+    geo, ranges = make_scene(tris, [((0.2, 0.1, 0.0), 0.25)])
+    lo, hi = prim_bounds(geo)
+    o, d = [], []
+    for axis in range(3):
+        for sign in (1.0, -1.0):
+            for zero in (0.0, -0.0):
+                k = 60
+                org = rng.random((k, 3)) * 2.4 - 1.2
+                # Half the origins sit exactly on a primitive box's face.
+                j = rng.integers(0, len(lo), k // 2)
+                other = (axis + 1) % 3
+                org[: k // 2, other] = lo[j, other]
+                org[:, axis] = -2.0 * sign
+                dirs = np.full((k, 3), zero)
+                dirs[:, axis] = sign
+                o.append(org)
+                d.append(dirs)
+    o, d = np.concatenate(o), np.concatenate(d)
+    assert_same_as_brute(geo, ranges, o, d, rng.random(len(o)) * 4)
+
+
+def closed_mesh(nu, nv):
+    """A bumpy UV sphere: a closed surface where neighbours share edges."""
+    th = np.linspace(0, np.pi, nu + 1)
+    ph = np.linspace(0, 2 * np.pi, nv + 1)[:-1]
+    T, P = np.meshgrid(th, ph, indexing="ij")
+    r = 1.0 + 0.1 * np.sin(5 * T) * np.cos(7 * P)
+    v = np.stack([r * np.sin(T) * np.cos(P), r * np.cos(T), r * np.sin(T) * np.sin(P)], -1)
+    v = v.reshape(-1, 3)
+    idx = np.arange((nu + 1) * nv).reshape(nu + 1, nv)
+    a, b = idx[:-1], idx[1:]
+    c, e = np.roll(idx[1:], -1, axis=1), np.roll(idx[:-1], -1, axis=1)
+    f = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3),
+                        np.stack([a, c, e], -1).reshape(-1, 3)])
+    return v, f
+
+
+def test_closed_mesh_vertices_and_edges():
+    """Rays aimed exactly at shared vertices and edge midpoints of a closed
+    mesh, from outside and from the centre: hits on shared features tie
+    between triangles and must resolve the same way (smaller id).  Rays from
+    the centre to the poles run along (-0.0, 1, 0) etc. inside the x = 0 and
+    z = 0 face planes of the pole triangles' boxes."""
+    v, f = closed_mesh(16, 32)
+    geo, ranges, _ = flatten(Scene("m", Camera((0, 0, 5), (0, 0, 0)), [Mesh(v, f)]))
+    targets = np.concatenate([v, 0.5 * (v[f[:, 0]] + v[f[:, 1]]), 0.5 * (v[f[:, 1]] + v[f[:, 2]])])
+    rng = np.random.default_rng(3)
+    outside = rng.standard_normal((len(targets), 3)) * 3
+    o = np.concatenate([outside, np.zeros_like(targets)])
+    d = np.concatenate([targets - outside, targets])
+    assert_same_as_brute(geo, ranges, o, d, rng.random(len(o)) * 5)
+
+
+def test_empty_tree_and_planes():
+    """No bounded primitive: the BVH is empty, traversal does nothing, and
+    planes are still found (they live outside every structure)."""
+    geo, ranges = make_scene(None, planes=[((0, -1, 0), (0, 1, 0))])
+    acc, _ = build_accel("bvh", geo, ranges)
+    assert len(acc.node_start) == 0 and len(acc.prim_ids) == 0
+    rng = np.random.default_rng(4)
+    o = rng.standard_normal((200, 3))
+    d = random_dirs(rng, 200)
+    assert_same_as_brute(geo, ranges, o, d, rng.random(200) * 4)
+    (t, p, u, v), cnt = closest(geo, acc, o, d)
+    assert cnt[BOX_TESTS] == 0 and cnt[NODES_VISITED] == 0
+    assert set(np.unique(p)) <= {-1, 0}
+
+
+def test_single_primitive():
+    geo, ranges = make_scene([[[-1, -1, 0], [1, -1, 0], [0, 1, 0]]])
+    acc, _ = build_accel("bvh", geo, ranges)
+    o = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [5.0, 0.0, 1.0], [0.0, 0.0, 1.0]])
+    d = np.array([[0.0, 0.0, -1.0], [0.0, -0.0, 1.0], [0.0, 0.0, -1.0], [0.0, 0.0, 1.0]])
+    (t, p, _, _), _ = closest(geo, acc, o, d)
+    assert t.tolist() == [1.0, 1.0, np.inf, np.inf] and p.tolist() == [0, 0, -1, -1]
+    assert_same_as_brute(geo, ranges, o, d, np.array([2.0, 0.5, 2.0, 2.0]))
+
+
+def test_duplicate_triangles_tie_to_smaller_id():
+    """Identical triangles hit at identical t: the smaller id wins, as in
+    brute force, whatever order the leaves are visited in."""
+    tri = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], float)
+    rng = np.random.default_rng(5)
+    others = random_soup(rng, 40, 0.2)
+    tris = np.concatenate([others[:20], [tri] * 10, others[20:]])
+    geo, ranges = make_scene(tris)
+    o = np.column_stack([rng.random((100, 2)) * 0.6 - 0.3, np.full(100, 3.0)])
+    d = np.tile([0.0, 0.0, -1.0], (100, 1))
+    assert_same_as_brute(geo, ranges, o, d, np.full(100, 10.0))
+
+
+def test_fewer_primitive_tests_than_brute_force():
+    v, f = closed_mesh(17, 32)  # 1088 faces, 64 degenerate ones at the poles
+    geo, ranges, _ = flatten(Scene("m", Camera((0, 0, 5), (0, 0, 0)), [Mesh(v, f)]))
+    assert len(geo.tri_v0) == 1024
+    rng = np.random.default_rng(6)
+    o = rng.standard_normal((2000, 3)) * 3
+    d = rng.standard_normal((2000, 3)) * 0.3 - o
+    brute, _ = build_accel("none", geo, ranges)
+    bvh, _ = build_accel("bvh", geo, ranges)
+    _, c0 = closest(geo, brute, o, d)
+    _, c1 = closest(geo, bvh, o, d)
+    assert c0[PRIM_TESTS] == 1024 * 2000
+    assert c1[PRIM_TESTS] < c0[PRIM_TESTS] / 50
+    assert c1[NODES_VISITED] > 0 and c1[BOX_TESTS] >= c1[NODES_VISITED]
+
+
+@pytest.mark.parametrize("aimed", [True, False])
+def test_occlusion_stops_early(aimed):
+    """A shadow ray stops at its first occluder: it agrees with the closest
+    hit on whether anything is hit, with never more primitive tests."""
+    v, f = closed_mesh(16, 32)
+    geo, ranges, _ = flatten(Scene("m", Camera((0, 0, 5), (0, 0, 0)), [Mesh(v, f)]))
+    bvh, _ = build_accel("bvh", geo, ranges)
+    rng = np.random.default_rng(8)
+    o = rng.standard_normal((500, 3)) * 3
+    d = -o if aimed else rng.standard_normal((500, 3))
+    (t, p, _, _), cc = closest(geo, bvh, o, d)
+    hit, co = occluded(geo, bvh, o, d, np.full(500, np.inf))
+    assert np.array_equal(hit, p >= 0)
+    assert co[PRIM_TESTS] <= cc[PRIM_TESTS]
