@@ -49,23 +49,11 @@ ROWS = (
 )
 
 
-def unavailable(exc):
-    """True for the driver's refusal of a structure this build lacks."""
-    return "not available in this build" in str(exc)
-
-
 def warm_up(scene, accel, opts, width, height):
-    """One small untimed render: loads (or compiles) the kernel and starts
-    Numba's thread pool.  Returns False if the structure is not built."""
-    from raytrace import RaytraceError
+    """One small untimed render: loads (or compiles) the kernel and the
+    builder, and starts Numba's thread pool."""
     from raytrace.driver import render
-    try:
-        render(scene, accel=accel, width=max(16, width // 8), height=max(12, height // 8), **opts)
-    except RaytraceError as exc:
-        if unavailable(exc):
-            return False
-        raise
-    return True
+    render(scene, accel=accel, width=max(16, width // 8), height=max(12, height // 8), **opts)
 
 
 def cell_record(times, result):
@@ -90,26 +78,22 @@ def run_workshop(cfg):
     rows = []
     for key, label, opts in ROWS:
         log(f"workshop: {label}, {w}x{h}")
-        present = [a for a in ACCELS if warm_up(scene, a, opts, w, h)]
+        for a in ACCELS:
+            warm_up(scene, a, opts, w, h)
 
         def once(accel):
             r = render(scene, accel=accel, width=w, height=h, **opts)
             return common.render_time(r), r
-        times, first = interleaved(present, once, cfg["budget_s"], cfg["max_runs"])
+        times, first = interleaved(ACCELS, once, cfg["budget_s"], cfg["max_runs"])
         cells = {}
         for a in ACCELS:
-            if a not in present:
-                cells[a] = None
-                continue
             rec = cell_record(times[a], first[a])
-            rec["max_diff_vs_none"] = (common.max_abs_diff(first[a].linear, first["none"].linear)
-                                       if "none" in present else None)
+            rec["max_diff_vs_none"] = common.max_abs_diff(first[a].linear, first["none"].linear)
             cells[a] = rec
             log(f"  {a:5s} {fmt_s(rec['render_s'])} s x{rec['runs']}  "
                 f"{fmt_g(rec['prim_tests_per_ray'])} tests/ray")
-        base = cells["none"]["render_s"] if cells.get("none") else None
-        for a in present:
-            cells[a]["speedup"] = base / cells[a]["render_s"] if base else None
+        for a in ACCELS:
+            cells[a]["speedup"] = cells["none"]["render_s"] / cells[a]["render_s"]
         rows.append({"row": key, "label": label, "options": opts, "cells": cells})
         del first
     return {"scene": "teapot", "detail": 4, "width": w, "height": h, "seed": 0,
@@ -125,9 +109,7 @@ def workshop_markdown(res):
         line = [row["label"]]
         for a in ACCELS:
             c = row["cells"][a]
-            if c is None:
-                line.append("not built")
-            elif a == "none":
+            if a == "none":
                 line.append(f"{fmt_s(c['render_s'])} s")
             else:
                 line.append(f"{fmt_s(c['render_s'])} s ({c['speedup']:.1f}x)")
@@ -144,16 +126,13 @@ def workshop_markdown(res):
     for row in res["rows"]:
         for a in ACCELS:
             c = row["cells"][a]
-            if c is None:
-                body.append([row["label"], a, "-", "not in this build"] + [""] * 7)
-                continue
             visits = (c["nodes_per_ray"] if a == "bvh" else c["cells_per_ray"] if a == "grid"
                       else None)
             body.append([row["label"], a, c["runs"], fmt_s(c["render_s"]),
-                         f"{c['speedup']:.1f}x" if c["speedup"] else "", f"{c['rays']:,}",
+                         f"{c['speedup']:.1f}x", f"{c['rays']:,}",
                          fmt_g(c["prim_tests_per_ray"]), fmt_g(c["box_tests_per_ray"]),
                          fmt_g(visits) if visits is not None else "-", fmt_g(c["mrays_per_s"]),
-                         fmt_g(c["max_diff_vs_none"]) if c["max_diff_vs_none"] is not None else "n/a"])
+                         fmt_g(c["max_diff_vs_none"])])
     out.append(markdown_table(header, body, align="ll" + "r" * 9))
     out += ["", (f"Runs: timed renders per cell after one untimed warm-up render; a cell gets "
                  f"floor({res['budget_s']:g} s / its first run) runs, at least 1, at most "
@@ -177,7 +156,9 @@ def run_scaling(cfg):
     from raytrace.driver import render
     from raytrace.scenes.builtin import teapot
     w, h = cfg["width"], cfg["height"]
-    structures = [a for a in ("bvh", "grid") if warm_up(teapot(2), a, {}, w, h)]
+    structures = ("bvh", "grid")
+    for a in structures:
+        warm_up(teapot(2), a, {}, w, h)
     rows = []
     for detail in cfg["scaling_details"]:
         scene = teapot(detail)
@@ -197,10 +178,7 @@ def run_scaling(cfg):
         times, first = interleaved(structures, once_logged, 0.0, cfg["scaling_runs"],
                                    min_runs=cfg["scaling_runs"])
         row = {"detail": detail, "triangles": None, "cells": {}}
-        for a in ("bvh", "grid"):
-            if a not in structures:
-                row["cells"][a] = None
-                continue
+        for a in structures:
             rec = cell_record(times[a], first[a])
             rec["build_s"] = median(builds[a])
             rec["build_times_s"] = builds[a]
@@ -219,9 +197,6 @@ def scaling_markdown(res):
     for row in res["rows"]:
         for a in ("bvh", "grid"):
             c = row["cells"][a]
-            if c is None:
-                body.append([row["detail"], "", a, "not in this build"] + [""] * 5)
-                continue
             visits = c["nodes_per_ray"] if a == "bvh" else c["cells_per_ray"]
             body.append([row["detail"], f"{row['triangles']:,}", a, fmt_g(c["build_s"] * 1e3),
                          fmt_s(c["render_s"]), fmt_g(c["mrays_per_s"]), fmt_g(c["prim_tests_per_ray"]),

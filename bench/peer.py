@@ -133,7 +133,6 @@ def run_case(detail, width, height, runs, peer_list):
 
     import raytrace
     from raytrace.accel import build_accel
-    from raytrace.driver import check_accel_built
     from raytrace.flatten import flatten
     from raytrace.raycast import any_hit, closest
     from raytrace.scene import Mesh, Scene
@@ -147,7 +146,6 @@ def run_case(detail, width, height, runs, peer_list):
     t0 = time.perf_counter()
     acc, _ = build_accel("bvh", geo, obj_ranges)
     ours_build = time.perf_counter() - t0
-    check_accel_built("bvh", geo, acc)
     threads = numba.get_num_threads()
 
     def single(fn):
@@ -235,18 +233,6 @@ def run(quick):
         log("peer: neither embreex nor open3d is importable; skipped")
         return {"skipped": "neither embreex nor open3d is importable "
                            "(pip install '.[peers]' installs embreex)"}
-    return _run(quick, plist)
-
-
-def _run(quick, plist):
-    import raytrace
-    try:
-        raytrace.occluded((np.eye(3), [[0, 1, 2]]), np.zeros(3), np.ones(3), 1.0, accel="bvh")
-    except raytrace.RaytraceError as exc:
-        if "not available" in str(exc):
-            log("peer: no BVH in this build; skipped")
-            return {"skipped": "this build has no BVH (accel bvh)"}
-        raise
     w, h = (160, 120) if quick else (640, 480)
     details = (4,) if quick else (4, 43)
     runs = 5 if quick else 7
