@@ -1,0 +1,269 @@
+"""The benchmark behind bench.sh: the workshop's table on this machine,
+extended to every structure, plus scaling, a peer and error against time.
+
+    python bench/bench.py [--quick] [--json FILE] [--plot FILE] [--sections LIST]
+
+Markdown goes to stdout, progress to stderr.  Sections:
+
+workshop     rows Teapot / + hard shadows / + soft shadows (81 samples),
+             columns none, bvol, bvh, grid: render time (median, compile and
+             build excluded), speedup over none, rays, tests per ray, Mrays/s,
+             and each image's largest difference from brute force (must be 0).
+scaling      BVH and grid build and render time over teapot tessellations.
+peer         our batch ray casting against Embree (embreex) or Open3D, if
+             importable, on the same primary and shadow rays (peer.py).
+convergence  soft-shadow error against run time for each sampling pattern
+             (convergence.py).
+"""
+import json
+import sys
+import time
+from pathlib import Path
+
+import click
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import common  # noqa: E402
+from common import ACCELS, fmt_g, fmt_s, interleaved, log, markdown_table, median  # noqa: E402
+
+SECTIONS = ("workshop", "scaling", "peer", "convergence")
+
+# The workshop's table (C++, its machine unknown): seconds before and after
+# bounding volumes, for the same three rows.
+WORKSHOP_PAPER = {"none": (42, 64, 1800), "bvol": (6, 11, 407)}
+
+# Per-mode settings.  budget_s: a cell gets floor(budget / first run) runs
+# in all, at least 1 and at most max_runs (after its warm-up).
+FULL = dict(width=640, height=480, budget_s=20.0, max_runs=5,
+            scaling_details=(4, 8, 16, 32, 43), scaling_runs=3)
+QUICK = dict(width=160, height=120, budget_s=1.5, max_runs=5,
+             scaling_details=(4, 8, 16), scaling_runs=3)
+
+ROWS = (
+    ("teapot", "Teapot", dict(shadows="none")),
+    ("hard", "Teapot + hard shadows", dict(shadows="hard")),
+    ("soft", "Teapot + soft shadows (81 samples)", dict(shadows="soft", light_samples=81,
+                                                        pattern="stratified")),
+)
+
+
+def warm_up(scene, accel, opts, width, height):
+    """One small untimed render: loads (or compiles) the kernel and the
+    builder, and starts Numba's thread pool."""
+    from raytrace.driver import render
+    render(scene, accel=accel, width=max(16, width // 8), height=max(12, height // 8), **opts)
+
+
+def cell_record(times, result):
+    s = result.stats
+    d = s["derived"]
+    t = median(times)
+    return {
+        "render_s": t, "runs": len(times), "times_s": times,
+        "build_s": s["time"]["build_s"], "compile_s": s["time"]["compile_s"],
+        "rays": d["rays"], "prim_tests_per_ray": d["prim_tests_per_ray"],
+        "box_tests_per_ray": d["box_tests_per_ray"], "nodes_per_ray": d["nodes_per_ray"],
+        "cells_per_ray": d["cells_per_ray"], "mrays_per_s": d["rays"] / t / 1e6,
+        "counters": s["counters"],
+    }
+
+
+def run_workshop(cfg):
+    from raytrace.driver import render
+    from raytrace.scenes.builtin import teapot
+    scene = teapot(4)
+    w, h = cfg["width"], cfg["height"]
+    rows = []
+    for key, label, opts in ROWS:
+        log(f"workshop: {label}, {w}x{h}")
+        for a in ACCELS:
+            warm_up(scene, a, opts, w, h)
+
+        def once(accel):
+            r = render(scene, accel=accel, width=w, height=h, **opts)
+            return common.render_time(r), r
+        times, first = interleaved(ACCELS, once, cfg["budget_s"], cfg["max_runs"])
+        cells = {}
+        for a in ACCELS:
+            rec = cell_record(times[a], first[a])
+            rec["max_diff_vs_none"] = common.max_abs_diff(first[a].linear, first["none"].linear)
+            cells[a] = rec
+            log(f"  {a:5s} {fmt_s(rec['render_s'])} s x{rec['runs']}  "
+                f"{fmt_g(rec['prim_tests_per_ray'])} tests/ray")
+        for a in ACCELS:
+            cells[a]["speedup"] = cells["none"]["render_s"] / cells[a]["render_s"]
+        rows.append({"row": key, "label": label, "options": opts, "cells": cells})
+        del first
+    return {"scene": "teapot", "detail": 4, "width": w, "height": h, "seed": 0,
+            "budget_s": cfg["budget_s"], "max_runs": cfg["max_runs"], "rows": rows}
+
+
+def workshop_markdown(res):
+    out = [f"### Workshop table: teapot ({res['width']}x{res['height']}, 992 triangles + ground plane)",
+           ""]
+    header = ["Scene"] + list(ACCELS)
+    body = []
+    for row in res["rows"]:
+        line = [row["label"]]
+        for a in ACCELS:
+            c = row["cells"][a]
+            if a == "none":
+                line.append(f"{fmt_s(c['render_s'])} s")
+            else:
+                line.append(f"{fmt_s(c['render_s'])} s ({c['speedup']:.1f}x)")
+        body.append(line)
+    out.append(markdown_table(header, body))
+    paper = ", ".join(f"{lab}: {n} s -> {b} s ({n / b:.1f}x)" for lab, n, b in
+                      zip(("Teapot", "+ hard shadows", "+ soft shadows"), WORKSHOP_PAPER["none"],
+                          WORKSHOP_PAPER["bvol"]))
+    out += ["", f"Render time, median; (speedup over none). The workshop measured none -> bvol: {paper}.",
+            ""]
+    header = ["Scene", "Accel", "Runs", "Render s", "Speedup", "Rays", "Prim tests/ray",
+              "Box tests/ray", "Nodes or cells/ray", "Mrays/s", "Max diff vs none"]
+    body = []
+    for row in res["rows"]:
+        for a in ACCELS:
+            c = row["cells"][a]
+            visits = (c["nodes_per_ray"] if a == "bvh" else c["cells_per_ray"] if a == "grid"
+                      else None)
+            body.append([row["label"], a, c["runs"], fmt_s(c["render_s"]),
+                         f"{c['speedup']:.1f}x", f"{c['rays']:,}",
+                         fmt_g(c["prim_tests_per_ray"]), fmt_g(c["box_tests_per_ray"]),
+                         fmt_g(visits) if visits is not None else "-", fmt_g(c["mrays_per_s"]),
+                         fmt_g(c["max_diff_vs_none"])])
+    out.append(markdown_table(header, body, align="ll" + "r" * 9))
+    out += ["", (f"Runs: timed renders per cell after one untimed warm-up render; a cell gets "
+                 f"floor({res['budget_s']:g} s / its first run) runs, at least 1, at most "
+                 f"{res['max_runs']}, in interleaved rounds (all cells in turn). Render time is "
+                 f"the kernel's wall time: Numba compile/cache load (`time.compile_s`) and the "
+                 f"structure build (`time.build_s`) are excluded. Max diff vs none: largest "
+                 f"absolute difference of the linear float image from brute force's, over all "
+                 f"pixels and channels (0 means identical).")]
+    return "\n".join(out)
+
+
+def structure_bytes(name, scene):
+    from raytrace.accel import build_accel
+    from raytrace.flatten import flatten
+    geo, obj_ranges, _ = flatten(scene)
+    acc, _ = build_accel(name, geo, obj_ranges)
+    return sum(a.nbytes for a in acc[1:])
+
+
+def run_scaling(cfg):
+    from raytrace.driver import render
+    from raytrace.scenes.builtin import teapot
+    w, h = cfg["width"], cfg["height"]
+    structures = ("bvh", "grid")
+    for a in structures:
+        warm_up(teapot(2), a, {}, w, h)
+    rows = []
+    for detail in cfg["scaling_details"]:
+        scene = teapot(detail)
+        log(f"scaling: teapot detail {detail}")
+        for a in structures:   # untimed: first render of this mesh size
+            render(scene, accel=a, width=16, height=12, shadows="hard")
+
+        def once(accel):
+            r = render(scene, accel=accel, width=w, height=h, shadows="hard")
+            return common.render_time(r), r
+        builds = {a: [] for a in structures}
+
+        def once_logged(accel):
+            t, r = once(accel)
+            builds[accel].append(r.stats["time"]["build_s"])
+            return t, r
+        times, first = interleaved(structures, once_logged, 0.0, cfg["scaling_runs"],
+                                   min_runs=cfg["scaling_runs"])
+        row = {"detail": detail, "triangles": None, "cells": {}}
+        for a in structures:
+            rec = cell_record(times[a], first[a])
+            rec["build_s"] = median(builds[a])
+            rec["build_times_s"] = builds[a]
+            rec["structure_bytes"] = structure_bytes(a, scene)
+            row["triangles"] = first[a].stats["triangles"]
+            row["cells"][a] = rec
+        rows.append(row)
+    return {"width": w, "height": h, "shadows": "hard", "runs": cfg["scaling_runs"], "rows": rows}
+
+
+def scaling_markdown(res):
+    out = [f"### Scaling: teapot tessellations, hard shadows, {res['width']}x{res['height']}", ""]
+    header = ["Detail", "Triangles", "Accel", "Build ms", "Render s", "Mrays/s", "Prim tests/ray",
+              "Nodes or cells/ray", "Structure MB"]
+    body = []
+    for row in res["rows"]:
+        for a in ("bvh", "grid"):
+            c = row["cells"][a]
+            visits = c["nodes_per_ray"] if a == "bvh" else c["cells_per_ray"]
+            body.append([row["detail"], f"{row['triangles']:,}", a, fmt_g(c["build_s"] * 1e3),
+                         fmt_s(c["render_s"]), fmt_g(c["mrays_per_s"]), fmt_g(c["prim_tests_per_ray"]),
+                         fmt_g(visits), fmt_g(c["structure_bytes"] / 2**20)])
+    out.append(markdown_table(header, body, align="rrl" + "r" * 6))
+    out += ["", (f"Medians of {res['runs']} interleaved renders each (after an untimed one); the "
+                 f"build time is the driver's `time.build_s` of those renders (the builders are "
+                 f"compiled before timing). Structure MB: bytes of the structure's arrays.")]
+    return "\n".join(out)
+
+
+@click.command()
+@click.option("--quick", is_flag=True, help="Small images and fewer sizes: under a minute once compiled.")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Also write every number as JSON.")
+@click.option("--plot", "plot_path", type=click.Path(dir_okay=False), default="bench-out/convergence.png",
+              show_default=True, help="PNG of error against time (needs matplotlib).")
+@click.option("--sections", default=",".join(SECTIONS), show_default=True,
+              help="Comma-separated subset of: " + ", ".join(SECTIONS))
+def main(quick, json_path, plot_path, sections):
+    """Benchmark raytrace's acceleration structures; Markdown on stdout."""
+    chosen = [s.strip() for s in sections.split(",") if s.strip()]
+    bad = [s for s in chosen if s not in SECTIONS]
+    if bad:
+        raise click.UsageError(f"unknown section(s) {', '.join(bad)}; choose from {', '.join(SECTIONS)}")
+    cfg = QUICK if quick else FULL
+    t0 = time.perf_counter()
+    info = common.machine_info()
+    report = {"mode": "quick" if quick else "full", "machine": info}
+    print(f"## raytrace benchmark ({report['mode']})\n")
+    print(f"Machine: {common.machine_line(info)}. Python {info['python']}, Numba {info['numba']}, "
+          f"NumPy {info['numpy']}; commit {info['git_commit'] or 'unknown'}; {info['date']}.\n")
+    sys.stdout.flush()
+    if "workshop" in chosen:
+        report["workshop"] = run_workshop(cfg)
+        print(workshop_markdown(report["workshop"]) + "\n", flush=True)
+    if "scaling" in chosen:
+        report["scaling"] = run_scaling(cfg)
+        print(scaling_markdown(report["scaling"]) + "\n", flush=True)
+    if "peer" in chosen:
+        import peer
+        report["peer"] = peer.run(quick)
+        print(peer.markdown(report["peer"]) + "\n", flush=True)
+    if "convergence" in chosen:
+        import convergence
+        report["convergence"] = convergence.run(quick, plot_path)
+        print(convergence.markdown(report["convergence"]) + "\n", flush=True)
+    try:
+        load = [round(x, 2) for x in __import__("os").getloadavg()]
+    except OSError:
+        load = None
+    report["wall_s"] = time.perf_counter() - t0
+    report["load_avg_at_end"] = load
+    print(f"Total wall time {report['wall_s']:.0f} s"
+          + (f"; load average {load[0]:.1f} at the end." if load else "."))
+    if json_path:
+        Path(json_path).parent.mkdir(parents=True, exist_ok=True)
+        Path(json_path).write_text(json.dumps(report, indent=2, default=_json_default) + "\n")
+        log(f"wrote {json_path}")
+
+
+def _json_default(o):
+    if isinstance(o, (np.integer,)):
+        return int(o)
+    if isinstance(o, (np.floating,)):
+        return float(o)
+    raise TypeError(type(o).__name__)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,279 @@
+"""Peer row: the same rays through our BVH and through Embree or Open3D.
+
+Rays: the teapot camera's primary rays (one per pixel centre) and, from
+each point they hit, one hard-shadow ray to the light (only where the
+surface faces it, as the renderer does).  The target is the teapot mesh
+plus the ground as a large quad (two triangles), since a peer has no
+infinite plane.  Rays are made once in NumPy (float64); the peer gets
+float32 copies, made before timing (Embree works in float32).
+
+Our side: the renderer's batch kernels, which raytrace.cast_rays and
+raytrace.occluded call.  Timed two ways: the kernel on a prebuilt BVH
+(like the peer's query on its prebuilt scene) and the public call, which
+flattens, validates and builds the BVH on every call.
+
+Peers, whichever are importable (``pip install '.[peers]'`` for embreex):
+- embreex (Embree 4 through Cython): EmbreeScene.run loops over rays on
+  one thread, so we also give our single-thread figure;
+- open3d (RaycastingScene, Embree inside, multi-threaded).
+"""
+import time
+
+import numpy as np
+
+from common import fmt_g, log, markdown_table, median
+
+GROUND_HALF = 20.0    # the quad spans +-20 around the teapot (~3 units across); the
+                      # view sees past it near the horizon, like any finite ground
+SHADOW_OFFSET = 1e-4  # off the surface along the normal: ~200 float32 ulps here
+
+
+def _embreex():
+    try:
+        from embreex import rtcore_scene as rtcs
+        from embreex.mesh_construction import TriangleMesh
+    except ImportError:
+        return None
+
+    def build(v, f):
+        scene = rtcs.EmbreeScene()
+        TriangleMesh(scene, v, f)
+        scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32))  # commit
+        return scene
+
+    def closest(scene, o, d):
+        return scene.run(o, d, output=1)["primID"]
+
+    def occluded(scene, o, d, t_max):
+        return scene.run(o, d, query="OCCLUDED", dists=t_max) >= 0
+
+    import embreex
+    return {"name": "embreex", "version": getattr(embreex, "__version__", "?"), "threads": 1,
+            "build": build, "closest": closest, "occluded": occluded}
+
+
+def _open3d():
+    try:
+        import open3d as o3d
+    except ImportError:
+        return None
+    from numba import config
+
+    def build(v, f):
+        scene = o3d.t.geometry.RaycastingScene()
+        scene.add_triangles(o3d.core.Tensor(v), o3d.core.Tensor(f.astype(np.uint32)))
+        scene.cast_rays(o3d.core.Tensor(np.ones((1, 6), np.float32)))  # builds lazily
+        return scene
+
+    def closest(scene, o, d):
+        ids = scene.cast_rays(o3d.core.Tensor(np.hstack([o, d])))["primitive_ids"].numpy()
+        return np.where(ids == scene.INVALID_ID, -1, ids.astype(np.int64))
+
+    def occluded(scene, o, d, t_max):
+        rays = o3d.core.Tensor(np.hstack([o, d]))
+        return scene.test_occlusions(rays, tfar=float(t_max[0])).numpy().astype(bool)
+
+    return {"name": "open3d", "version": o3d.__version__, "threads": config.NUMBA_NUM_THREADS,
+            "build": build, "closest": closest, "occluded": occluded}
+
+
+def peers():
+    return [p for p in (_embreex(), _open3d()) if p is not None]
+
+
+def make_rays(detail, width, height):
+    """(vertices, faces, primary (o, d), shadow (o, d, t_max)) in float64."""
+    import raytrace
+    from raytrace.driver import camera_buffer
+    from raytrace.scenes.builtin import teapot
+    scene = teapot(detail)
+    mesh = scene.objects[0]
+    v = np.asarray(mesh.vertices, np.float64)
+    f = np.asarray(mesh.faces, np.int64)
+    n = len(v)
+    g = GROUND_HALF
+    v = np.vstack([v, [[-g, 0, -g], [g, 0, -g], [g, 0, g], [-g, 0, g]]])
+    f = np.vstack([f, [[n, n + 1, n + 2], [n, n + 2, n + 3]]])
+
+    cam = camera_buffer(scene.camera, width, height)
+    eye, fwd, right, up = cam[0:3], cam[3:6], cam[6:9], cam[9:12]
+    fx = (np.arange(width) + 0.5) / width
+    fy = (np.arange(height) + 0.5) / height
+    sx, sy = np.meshgrid(2 * fx - 1, 1 - 2 * fy)
+    d = fwd + sx.reshape(-1, 1) * right + sy.reshape(-1, 1) * up
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    o = np.broadcast_to(eye, d.shape).copy()
+
+    hits = raytrace.cast_rays((v, f), o, d, accel="grid")  # any structure: the same hits
+    hit = hits.hit
+    p = o[hit] + hits.t[hit, None] * d[hit]
+    tri = f[hits.prim_id[hit]]
+    nrm = np.cross(v[tri[:, 1]] - v[tri[:, 0]], v[tri[:, 2]] - v[tri[:, 0]])
+    nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+    nrm *= -np.sign(np.sum(nrm * d[hit], axis=1, keepdims=True))  # face the viewer
+    light = np.asarray(scene.lights[0].position, np.float64)
+    so = p + SHADOW_OFFSET * nrm
+    sd = light - so
+    lit = np.sum(nrm * sd, axis=1) > 0   # the renderer casts none from the dark side
+    so, sd = so[lit], sd[lit]
+    return v, f, (o, d), (so, sd, np.ones(len(so)))
+
+
+def _time(fn, runs):
+    out = []
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        fn()
+        out.append(time.perf_counter() - t0)
+    return out
+
+
+def run_case(detail, width, height, runs, peer_list):
+    import numba
+
+    import raytrace
+    from raytrace.accel import build_accel
+    from raytrace.flatten import flatten
+    from raytrace.raycast import any_hit, closest
+    from raytrace.scene import Mesh, Scene
+
+    v, f, (po, pd), (so, sd, stm) = make_rays(detail, width, height)
+    ptm = np.full(len(po), np.inf)
+    log(f"peer: detail {detail}, {len(f):,} triangles, {len(po):,} primary and "
+        f"{len(so):,} shadow rays")
+    geo, obj_ranges, _, (_, face_of) = flatten(
+        Scene(name="peer", camera=None, objects=[Mesh(v, f, name="t")]), with_sources=True)
+    t0 = time.perf_counter()
+    acc, _ = build_accel("bvh", geo, obj_ranges)
+    ours_build = time.perf_counter() - t0
+    threads = numba.get_num_threads()
+
+    def single(fn):
+        def go():
+            numba.set_num_threads(1)
+            try:
+                fn()
+            finally:
+                numba.set_num_threads(threads)
+        return go
+
+    ours = {
+        ("primary", "kernel"): lambda: closest(geo, acc, po, pd, ptm),
+        ("primary", "kernel_1t"): single(lambda: closest(geo, acc, po, pd, ptm)),
+        ("primary", "api"): lambda: raytrace.cast_rays((v, f), po, pd, accel="bvh"),
+        ("shadow", "kernel"): lambda: any_hit(geo, acc, so, sd, stm),
+        ("shadow", "kernel_1t"): single(lambda: any_hit(geo, acc, so, sd, stm)),
+        ("shadow", "api"): lambda: raytrace.occluded((v, f), so, sd, stm, accel="bvh"),
+    }
+    v32, f32 = np.ascontiguousarray(v, np.float32), np.ascontiguousarray(f, np.int32)
+    rays32 = {k: tuple(np.ascontiguousarray(a, np.float32) for a in arrs)
+              for k, arrs in (("primary", (po, pd)), ("shadow", (so, sd, stm)))}
+    tasks = dict(ours)
+    peer_scenes = {}
+    for p in peer_list:
+        t0 = time.perf_counter()
+        sc = p["build"](v32, f32)
+        peer_scenes[p["name"]] = (sc, time.perf_counter() - t0)
+        o32, d32 = rays32["primary"]
+        so32, sd32, st32 = rays32["shadow"]
+        tasks[("primary", p["name"])] = (lambda p=p, sc=sc, o=o32, d=d32: p["closest"](sc, o, d))
+        tasks[("shadow", p["name"])] = (lambda p=p, sc=sc, o=so32, d=sd32, t=st32:
+                                        p["occluded"](sc, o, d, t))
+        # Built again inside the timed call, to set against our public call.
+        tasks[("primary", p["name"] + "+build")] = (
+            lambda p=p, o=o32, d=d32: p["closest"](p["build"](v32, f32), o, d))
+
+    for fn in tasks.values():   # warm-up: compile or load kernels, start threads
+        fn()
+    times = {k: [] for k in tasks}
+    for _ in range(runs):       # interleaved rounds
+        for k, fn in tasks.items():
+            times[k] += _time(fn, 1)
+    med = {k: median(ts) for k, ts in times.items()}
+    n_rays = {"primary": len(po), "shadow": len(so)}
+
+    # Agreement: the same answers, up to float32 vs float64 rounding.
+    ours_prim = closest(geo, acc, po, pd, ptm)[0][1]
+    ours_prim = np.where(ours_prim >= 0, face_of[np.maximum(ours_prim, 0)], -1)  # face rows
+    ours_occ = any_hit(geo, acc, so, sd, stm)[0]
+    result = {"detail": detail, "triangles": int(len(f)), "width": width, "height": height,
+              "rays": n_rays, "runs": runs, "threads": threads, "ours_build_s": ours_build,
+              "ours": {}, "peers": {}}
+    for kind in ("primary", "shadow"):
+        result["ours"][kind] = {m: {"s": med[(kind, m)], "times_s": times[(kind, m)],
+                                    "mrays_per_s": n_rays[kind] / med[(kind, m)] / 1e6}
+                                for m in ("kernel", "kernel_1t", "api")}
+    for p in peer_list:
+        sc, build_s = peer_scenes[p["name"]]
+        o32, d32 = rays32["primary"]
+        so32, sd32, st32 = rays32["shadow"]
+        prim = np.asarray(p["closest"](sc, o32, d32)).astype(np.int64)
+        occ = np.asarray(p["occluded"](sc, so32, sd32, st32))
+        entry = {"version": p["version"], "threads": p["threads"], "build_s": build_s,
+                 "agree_hit": float(np.mean((prim >= 0) == (ours_prim >= 0))),
+                 "agree_prim": float(np.mean(prim == ours_prim)),
+                 "agree_occluded": float(np.mean(occ == ours_occ))}
+        for kind in ("primary", "shadow"):
+            s = med[(kind, p["name"])]
+            e = {"s": s, "times_s": times[(kind, p["name"])], "mrays_per_s": n_rays[kind] / s / 1e6}
+            for m in ("kernel", "kernel_1t", "api"):
+                e["ratio_ours_" + m] = result["ours"][kind][m]["mrays_per_s"] / e["mrays_per_s"]
+            entry[kind] = e
+        s = med[("primary", p["name"] + "+build")]
+        entry["primary_with_build"] = {
+            "s": s, "mrays_per_s": n_rays["primary"] / s / 1e6,
+            "ratio_ours_api": (n_rays["primary"] / med[("primary", "api")]) / (n_rays["primary"] / s)}
+        result["peers"][p["name"]] = entry
+    return result
+
+
+def run(quick):
+    plist = peers()
+    if not plist:
+        log("peer: neither embreex nor open3d is importable; skipped")
+        return {"skipped": "neither embreex nor open3d is importable "
+                           "(pip install '.[peers]' installs embreex)"}
+    w, h = (160, 120) if quick else (640, 480)
+    details = (4,) if quick else (4, 43)
+    runs = 5 if quick else 7
+    return {"peers": [p["name"] for p in plist],
+            "cases": [run_case(d, w, h, runs, plist) for d in details]}
+
+
+def markdown(res):
+    out = ["### Peer: the same rays through our BVH and a peer", ""]
+    if "skipped" in res:
+        return "\n".join(out + [f"Skipped: {res['skipped']}."])
+    header = ["Triangles", "Rays", "Count", "Ours Mrays/s", "Ours 1 thread", "Peer", "Peer Mrays/s",
+              "Ours / peer", "Ours 1 thread / peer", "Agreement"]
+    body = []
+    for case in res["cases"]:
+        for name, e in case["peers"].items():
+            for kind in ("primary", "shadow"):
+                o = case["ours"][kind]
+                agree = (f"{e['agree_prim']:.4%} same triangle" if kind == "primary"
+                         else f"{e['agree_occluded']:.4%} same answer")
+                body.append([f"{case['triangles']:,}", kind, f"{case['rays'][kind]:,}",
+                             fmt_g(o["kernel"]["mrays_per_s"]), fmt_g(o["kernel_1t"]["mrays_per_s"]),
+                             f"{name} {e['version']} ({e['threads']} thr)",
+                             fmt_g(e[kind]["mrays_per_s"]), f"{e[kind]['ratio_ours_kernel']:.2f}",
+                             f"{e[kind]['ratio_ours_kernel_1t']:.2f}", agree])
+    out.append(markdown_table(header, body, align="rlr" + "r" * 2 + "l" + "r" * 3 + "l"))
+    case0 = res["cases"][0]
+    out += ["", (f"{case0['width']}x{case0['height']} camera rays at pixel centres and one hard-shadow "
+                 f"ray per lit hit, the teapot plus a ground quad. Ours: the batch kernels behind "
+                 f"`raytrace.cast_rays` / `raytrace.occluded` on a prebuilt BVH, float64, "
+                 f"{case0['threads']} threads (and pinned to 1); the peer: float32 copies of the "
+                 f"same rays on its prebuilt scene. Medians of {case0['runs']} interleaved runs "
+                 f"after a warm-up. Ratio > 1: we are faster.")]
+    lines = []
+    for case in res["cases"]:
+        for name, e in case["peers"].items():
+            api = case["ours"]["primary"]["api"]
+            lines.append(f"- {case['triangles']:,} triangles, whole calls including the build: "
+                         f"`raytrace.cast_rays` {fmt_g(api['s'] * 1e3)} ms, {name} build + query "
+                         f"{fmt_g(e['primary_with_build']['s'] * 1e3)} ms (ours / peer "
+                         f"{e['primary_with_build']['ratio_ours_api']:.2f} in rays/s); builds alone: "
+                         f"ours {fmt_g(case['ours_build_s'] * 1e3)} ms, {name} "
+                         f"{fmt_g(e['build_s'] * 1e3)} ms.")
+    return "\n".join(out + [""] + lines)

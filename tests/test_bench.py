@@ -1,0 +1,85 @@
+"""The benchmark scripts' arithmetic: error measures, slopes, the run
+policy and the regression check, on hand-computed cases (no rendering)."""
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "bench"))
+
+import common  # noqa: E402
+import regress  # noqa: E402
+
+
+def test_rmse_and_psnr_hand_computed():
+    a = np.zeros((2, 2, 3), np.float32)
+    b = a.copy()
+    b[0, 0, 0] = 0.6          # one of 12 values off by 0.6: mean square 0.03
+    assert common.rmse(b, a) == pytest.approx(math.sqrt(0.03))
+    assert common.psnr(0.1) == pytest.approx(20.0)
+    assert common.psnr(0.0) == math.inf
+
+
+def test_loglog_slope_recovers_power_law():
+    n = np.array([1, 4, 16, 64, 256])
+    assert common.loglog_slope(n, 3.0 * n ** -0.5) == pytest.approx(-0.5)
+    assert common.loglog_slope(n, 0.2 * n ** -1.0) == pytest.approx(-1.0)
+    assert math.isnan(common.loglog_slope([4], [1.0]))
+
+
+def test_interleaved_gives_slow_cells_fewer_runs_in_rounds():
+    cost = {"slow": 10.0, "fast": 1.0}
+    order = []
+
+    def run(c):
+        order.append(c)
+        return cost[c], c
+    times, first = common.interleaved(["slow", "fast"], run, budget_s=4.0, max_runs=3)
+    assert len(times["slow"]) == 1          # floor(4 / 10) -> at least 1
+    assert len(times["fast"]) == 3          # floor(4 / 1) = 4 -> capped at 3
+    assert order == ["slow", "fast", "fast", "fast"]
+    assert first == {"slow": "slow", "fast": "fast"}
+
+
+def test_markdown_table_aligns_columns():
+    t = common.markdown_table(["a", "bb"], [["x", 1], ["yyy", 22]])
+    assert t.splitlines() == ["| a   | bb |", "| --- | -: |", "| x   |  1 |", "| yyy | 22 |"]
+
+
+BASE = {"counters": {"bvh": {"prim_tests_per_ray": 10.0, "nodes_per_ray": 20.0, "rays": 5},
+                     "grid": {"prim_tests_per_ray": 4.0, "cells_per_ray": 6.0, "rays": 5}}}
+
+
+def test_regress_counters_within_two_percent_pass():
+    now = {"bvh": {"prim_tests_per_ray": 10.19, "nodes_per_ray": 19.7},
+           "grid": {"prim_tests_per_ray": 4.0, "cells_per_ray": 6.1}}
+    _, fails = regress.check_counters(BASE, now)
+    assert fails == []
+
+
+def test_regress_counters_fail_both_ways_and_when_missing():
+    now = {"bvh": {"prim_tests_per_ray": 10.5, "nodes_per_ray": 19.0}}
+    _, fails = regress.check_counters(BASE, now)
+    text = "\n".join(fails)
+    assert "bvh prim_tests_per_ray" in text and "+5.0%" in text and "worse" in text
+    assert "bvh nodes_per_ray" in text and "-5.0%" in text and "--update-baseline" in text
+    assert "grid prim_tests_per_ray: no value measured" in text
+    assert len(fails) == 4
+
+
+def test_regress_floors():
+    ok = {a: f * 1.01 for a, f in regress.FLOORS.items()}
+    assert regress.check_ratios(ok) == []
+    low = dict(ok, grid=regress.FLOORS["grid"] * 0.5)
+    assert regress.check_ratios(low) == [
+        f"grid/none speedup {regress.FLOORS['grid'] * 0.5:.1f}x is below its floor "
+        f"{regress.FLOORS['grid']:g}x"]
+
+
+def test_baseline_file_matches_the_script():
+    import json
+    base = json.loads(regress.BASELINE.read_text())
+    assert base["scene"] == regress.COUNTER_SCENE
+    assert set(base["counters"]) == set(regress.COUNTERS)
