@@ -95,14 +95,15 @@ def run_workshop(cfg):
         for a in ACCELS:
             cells[a]["speedup"] = cells["none"]["render_s"] / cells[a]["render_s"]
         rows.append({"row": key, "label": label, "options": opts, "cells": cells})
+        triangles = first["none"].stats["triangles"]
         del first
-    return {"scene": "teapot", "detail": 4, "width": w, "height": h, "seed": 0,
+    return {"scene": "teapot", "detail": 4, "triangles": triangles, "width": w, "height": h, "seed": 0,
             "budget_s": cfg["budget_s"], "max_runs": cfg["max_runs"], "rows": rows}
 
 
 def workshop_markdown(res):
-    out = [f"### Workshop table: teapot ({res['width']}x{res['height']}, 992 triangles + ground plane)",
-           ""]
+    out = [f"### Workshop table: teapot ({res['width']}x{res['height']}, {res['triangles']:,} triangles "
+           f"+ ground plane)", ""]
     header = ["Scene"] + list(ACCELS)
     body = []
     for row in res["rows"]:
