@@ -38,10 +38,12 @@ Accel = namedtuple(
         # Per-object bounding volumes: object j covers unified primitive ids
         # obj_start[j] .. obj_start[j] + obj_count[j] - 1.
         "obj_lo", "obj_hi", "obj_start", "obj_count",
-        # BVH, flattened depth-first: node_count 0 means interior, its first
-        # child is the next node and node_start its second child; a leaf
-        # covers prim_ids[node_start : node_start + node_count].
-        "node_lo", "node_hi", "node_start", "node_count", "prim_ids",
+        # BVH, 4 children per node (accel/bvh.py, collapse_bvh4):
+        # node_box (m, 6, 4) child boxes, rows lo x, y, z, hi x, y, z, a lane
+        # per child; node_count (m, 4) > 0 makes a lane a leaf covering
+        # prim_ids[node_child : node_child + node_count], 0 an inner child,
+        # node node_child (or an unused lane, whose box is +inf).
+        "node_box", "node_child", "node_count", "prim_ids",
         # Uniform grid: bounds, cell size, resolution (3,), CSR cell lists.
         "grid_lo", "grid_hi", "grid_cell", "grid_res", "cell_start", "cell_items",
     ],
@@ -73,7 +75,8 @@ def empty_accel(mode):
     return Accel(
         mode=INDEX(mode),
         obj_lo=z3, obj_hi=z3, obj_start=zi, obj_count=zi,
-        node_lo=z3, node_hi=z3, node_start=zi, node_count=zi, prim_ids=zi,
+        node_box=np.zeros((0, 6, 4), FLOAT), node_child=np.zeros((0, 4), INDEX),
+        node_count=np.zeros((0, 4), INDEX), prim_ids=zi,
         grid_lo=np.zeros(3, FLOAT), grid_hi=np.zeros(3, FLOAT), grid_cell=np.ones(3, FLOAT),
         grid_res=np.zeros(3, INDEX), cell_start=np.zeros(1, INDEX), cell_items=zi,
     )

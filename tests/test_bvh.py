@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from raytrace.accel import build_accel
-from raytrace.accel.bvh import MAX_DEPTH, build_bvh, build_bvh_kernel
+from raytrace.accel.bvh import MAX_DEPTH, build_bvh, build_bvh_kernel, collapse_bvh4
 from raytrace.buffers import INDEX, prim_bounds
 from raytrace.flatten import flatten
 from raytrace.kernels.cast import cast_closest, cast_occluded
@@ -136,6 +136,60 @@ def tree_check(lo, hi, tree):
     return max_depth
 
 
+def wide_check(lo, hi, node_box, node_child, node_count, prim_ids):
+    """Invariants of the 4-wide tree traversal uses (collapse_bvh4)."""
+    n, m = len(lo), len(node_box)
+    assert node_box.dtype == np.float64 and node_box.shape == (m, 6, 4)
+    for a in (node_child, node_count):
+        assert a.dtype == INDEX and a.shape == (m, 4) and a.flags.c_contiguous
+    assert node_box.flags.c_contiguous and len(prim_ids) == n
+    if n == 0:
+        assert m == 0
+        return
+    seen_node = np.zeros(m, int)
+    seen_prim = np.zeros(n, int)
+    leaves = []
+    stack = [(0, None, 0)]  # node, the parent lane's box (lo, hi), depth
+    while stack:
+        i, outer, depth = stack.pop()
+        assert depth <= MAX_DEPTH
+        seen_node[i] += 1
+        used = 0
+        for j in range(4):
+            blo, bhi = node_box[i, :3, j], node_box[i, 3:, j]
+            if node_count[i, j] == 0 and node_child[i, j] < 0:
+                # unused lane: a box no ray can enter
+                assert np.all(blo == np.inf) and np.all(bhi == np.inf)
+                continue
+            used += 1
+            if outer is not None:  # children inside the parent
+                assert np.all(outer[0] <= blo) and np.all(outer[1] >= bhi)
+            if node_count[i, j] > 0:
+                s, c = node_child[i, j], node_count[i, j]
+                ids = prim_ids[s:s + c]
+                seen_prim[ids] += 1
+                leaves.append((s, c))
+                assert np.all(blo <= lo[ids]) and np.all(bhi >= hi[ids])
+            else:
+                assert i < node_child[i, j] < m  # numbered depth-first
+                stack.append((node_child[i, j], (blo, bhi), depth + 1))
+        # a wide node has 2-4 children, unless the whole tree is one leaf
+        assert used >= 2 or (m == 1 and used == 1)
+    assert np.all(seen_node == 1), "every node reachable exactly once"
+    assert np.all(seen_prim == 1), "every primitive in exactly one leaf"
+    starts, counts = np.array(sorted(leaves)).T
+    assert starts[0] == 0 and np.all(starts[1:] == starts[:-1] + counts[:-1])
+    assert starts[-1] + counts[-1] == n
+
+
+def wide_of(lo, hi):
+    node_lo, node_hi, node_start, node_count, prim_ids = tree = build_bvh(lo, hi)
+    tree_check(lo, hi, tree)
+    wide = collapse_bvh4(node_lo, node_hi, node_start, node_count)
+    wide_check(lo, hi, *wide, prim_ids)
+    return tree, wide
+
+
 def boxes_of(tris):
     return tris.min(axis=1), tris.max(axis=1)
 
@@ -144,16 +198,18 @@ def boxes_of(tris):
 
 def test_build_empty():
     z = np.zeros((0, 3))
-    tree = build_bvh(z, z)
-    assert all(len(a) == 0 for a in tree)
-    tree_check(z, z, tree)
+    tree, wide = wide_of(z, z)
+    assert all(len(a) == 0 for a in tree + wide)
 
 
 def test_build_single():
     lo, hi = np.array([[0.0, 1, 2]]), np.array([[1.0, 2, 3]])
-    node_lo, node_hi, node_start, node_count, prim_ids = tree = build_bvh(lo, hi)
-    tree_check(lo, hi, tree)
+    tree, (node_box, node_child, count4) = wide_of(lo, hi)
+    node_lo, node_hi, node_start, node_count, prim_ids = tree
     assert node_count.tolist() == [1] and node_start.tolist() == [0] and prim_ids.tolist() == [0]
+    # one wide node whose first lane is the leaf
+    assert count4.tolist() == [[1, 0, 0, 0]] and node_child.tolist() == [[0, -1, -1, -1]]
+    assert np.array_equal(node_box[0, :3, 0], node_lo[0]) and np.array_equal(node_box[0, 3:, 0], node_hi[0])
     # Exact box, widened by the builder's tiny pad.
     assert np.all(node_lo <= lo) and np.allclose(node_lo, lo, rtol=0, atol=1e-8)
     assert np.all(node_hi >= hi) and np.allclose(node_hi, hi, rtol=0, atol=1e-8)
@@ -165,7 +221,22 @@ def test_build_single():
 def test_build_invariants(seed, n, size):
     rng = np.random.default_rng(seed)
     lo, hi = boxes_of(random_soup(rng, n, size))
-    tree_check(lo, hi, build_bvh(lo, hi))
+    wide_of(lo, hi)
+
+
+def test_collapse_keeps_boxes_and_shrinks_tree():
+    """Every box of the wide tree is a box of the binary tree (so it culls
+    exactly as the binary tree would), in about a third as many nodes."""
+    lo, hi = boxes_of(random_soup(np.random.default_rng(12), 2000, 0.02))
+    (node_lo, node_hi, node_start, node_count, _), (node_box, node_child, count4) = wide_of(lo, hi)
+    used = ~np.isinf(node_box[:, 0, :])
+    lanes = np.concatenate([node_box[:, :3, :].transpose(0, 2, 1)[used],
+                            node_box[:, 3:, :].transpose(0, 2, 1)[used]], axis=1)
+    binary = np.concatenate([node_lo, node_hi], axis=1)[1:]   # every node but the root
+    assert set(map(tuple, lanes)) <= set(map(tuple, binary))
+    # a lane per wide node but the root, and one per binary leaf
+    assert used.sum() == len(node_box) - 1 + (node_count > 0).sum()
+    assert len(node_box) < 0.4 * len(node_start)
 
 
 def test_build_coincident_centroids():
@@ -174,8 +245,7 @@ def test_build_coincident_centroids():
     hi = np.tile([[1.0, 1, 1]], (100, 1))
     lo[::2] *= 0.5
     hi[::2] *= 0.5
-    tree = build_bvh(lo, hi)
-    tree_check(lo, hi, tree)
+    tree, _ = wide_of(lo, hi)
     assert tree[3].max() <= 4, "median fallback keeps splitting to small leaves"
 
 
@@ -187,6 +257,7 @@ def test_build_depth_capped():
     hi = lo + 0.5
     depth = tree_check(lo, hi, build_bvh(lo, hi))
     assert depth == MAX_DEPTH
+    wide_of(lo, hi)
     tri = np.array([[0.0, -1, -1], [0.0, 1, -1], [0.5, 0, 1]])
     geo, ranges = make_scene(x[:, None, None] * [1, 0, 0] + tri)
     rng = np.random.default_rng(9)
@@ -202,7 +273,7 @@ def test_build_accel_fields():
     geo, ranges = make_scene(random_soup(rng, 50, 0.1), spheres=spheres)
     acc, seconds = build_accel("bvh", geo, ranges)
     lo, hi = prim_bounds(geo)
-    tree_check(lo, hi, (acc.node_lo, acc.node_hi, acc.node_start, acc.node_count, acc.prim_ids))
+    wide_check(lo, hi, acc.node_box, acc.node_child, acc.node_count, acc.prim_ids)
     assert sorted(acc.prim_ids) == list(range(52))  # unified ids include spheres
     assert seconds >= 0
 
@@ -297,7 +368,7 @@ def test_empty_tree_and_planes():
     planes are still found (they live outside every structure)."""
     geo, ranges = make_scene(None, planes=[((0, -1, 0), (0, 1, 0))])
     acc, _ = build_accel("bvh", geo, ranges)
-    assert len(acc.node_start) == 0 and len(acc.prim_ids) == 0
+    assert len(acc.node_box) == 0 and len(acc.prim_ids) == 0
     rng = np.random.default_rng(4)
     o = rng.standard_normal((200, 3))
     d = random_dirs(rng, 200)

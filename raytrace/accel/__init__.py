@@ -8,7 +8,7 @@ import numpy as np
 
 from ..buffers import (ACCEL_BVH, ACCEL_BVOL, ACCEL_GRID, ACCEL_NAMES, empty_accel, f64, i64,
                        prim_bounds)
-from .bvh import build_bvh
+from .bvh import build_bvh, collapse_bvh4
 from .grid import build_grid, grid_eps
 
 
@@ -38,10 +38,12 @@ def build_bvol(geo, obj_ranges, acc):
 
 def build_bvh_accel(geo, acc):
     """Binned-SAH BVH over every bounded primitive (planes have no box and
-    are tested separately by every structure)."""
+    are tested separately by every structure), collapsed to 4 children per
+    node for traversal."""
     node_lo, node_hi, node_start, node_count, prim_ids = build_bvh(*prim_bounds(geo))
-    return acc._replace(node_lo=node_lo, node_hi=node_hi, node_start=node_start,
-                        node_count=node_count, prim_ids=prim_ids)
+    node_box, node_child, node_count4 = collapse_bvh4(node_lo, node_hi, node_start, node_count)
+    return acc._replace(node_box=node_box, node_child=node_child, node_count=node_count4,
+                        prim_ids=prim_ids)
 
 
 def build_accel(name, geo, obj_ranges):

@@ -13,10 +13,11 @@ entirely in one compiled function with an explicit work stack and
 preallocated node arrays (a binary tree with n primitives in non-empty
 leaves has at most 2n - 1 nodes): no Python object per node.
 
-Layout (see ``Accel`` in buffers.py): nodes are flattened depth-first, so an
-interior node's first child is the next node; ``node_start`` of an interior
-node is its second child and its ``node_count`` is 0.  A leaf covers
-``prim_ids[node_start : node_start + node_count]``.
+The binary tree is flattened depth-first, so an interior node's first child
+is the next node; ``node_start`` of an interior node is its second child and
+its ``node_count`` is 0.  A leaf covers
+``prim_ids[node_start : node_start + node_count]``.  ``collapse_bvh4`` then
+turns it into the 4-wide tree traversal uses (see ``Accel`` in buffers.py).
 """
 import numpy as np
 from numba import njit
@@ -258,6 +259,88 @@ def build_bvh_kernel(lo, hi):
     return (node_lo[:n_nodes].copy(), node_hi[:n_nodes].copy(),
             node_start[:n_nodes].copy(), node_count[:n_nodes].copy(),
             prim_ids, max_depth)
+
+
+WIDTH = 4  # children per node of the collapsed tree (kernels/lowlevel.py)
+
+
+@njit(cache=True)
+def collapse_bvh4(node_lo, node_hi, node_start, node_count):
+    """The binary tree as a 4-wide one: (node_box, node_child, node_count4).
+
+    Each wide node takes a binary interior node's two children, then
+    repeatedly replaces the interior child with the largest surface area by
+    its own two children until it has 4 (Dammertz et al. 2008; the greedy
+    choice keeps the boxes a ray most likely enters together in one node).
+    The children's boxes are copied unchanged, so the wide tree culls
+    exactly as the binary one.  Lane j of wide node i: node_box[i, :, j] is
+    the box (rows lo x, y, z, hi x, y, z); node_count4[i, j] > 0 makes it a
+    leaf over prim_ids[node_child[i, j] : + node_count4[i, j]], 0 an interior
+    child, wide node node_child[i, j].  Unused lanes: box lo = hi = +inf,
+    which no ray enters, and count 0.  Wide nodes are numbered depth-first.
+    A single-leaf tree becomes one wide node with one leaf lane.
+    """
+    m = node_start.shape[0]
+    cap = max(m, 1)  # every wide node but the root consumes a binary interior node
+    node_box = np.full((cap, 6, WIDTH), np.inf)
+    node_child = np.full((cap, WIDTH), -1, np.int64)
+    count4 = np.zeros((cap, WIDTH), np.int64)
+    if m == 0:
+        return node_box[:0].copy(), node_child[:0].copy(), count4[:0].copy()
+    kids = np.empty(WIDTH, np.int64)
+    # Pending interior children: (binary node, slot of the wide lane that
+    # will point at it).  A wide node pushes at most WIDTH.
+    stack = np.empty(((MAX_DEPTH + 2) * WIDTH, 2), np.int64)
+    sp = 0
+    n_wide = 1
+    src = 0   # binary node the current wide node is made of
+    wide = 0
+    while True:
+        if node_count[src] > 0:
+            n_kids = 1
+            kids[0] = src
+        else:
+            n_kids = 2
+            kids[0] = src + 1
+            kids[1] = node_start[src]
+            while n_kids < WIDTH:
+                best = -1
+                best_area = -1.0
+                for j in range(n_kids):
+                    k = kids[j]
+                    if node_count[k] == 0:
+                        area = _half_area(node_lo[k, 0], node_lo[k, 1], node_lo[k, 2],
+                                          node_hi[k, 0], node_hi[k, 1], node_hi[k, 2])
+                        if area > best_area:
+                            best_area = area
+                            best = j
+                if best < 0:
+                    break
+                k = kids[best]
+                kids[best] = k + 1
+                kids[n_kids] = node_start[k]
+                n_kids += 1
+        for j in range(n_kids):
+            k = kids[j]
+            for a in range(3):
+                node_box[wide, a, j] = node_lo[k, a]
+                node_box[wide, 3 + a, j] = node_hi[k, a]
+            if node_count[k] > 0:
+                node_child[wide, j] = node_start[k]
+                count4[wide, j] = node_count[k]
+            else:
+                stack[sp, 0] = k
+                stack[sp, 1] = wide * WIDTH + j
+                sp += 1
+        if sp == 0:
+            break
+        sp -= 1
+        src = stack[sp, 0]
+        slot = stack[sp, 1]
+        wide = n_wide
+        n_wide += 1
+        node_child[slot // WIDTH, slot % WIDTH] = wide
+    return node_box[:n_wide].copy(), node_child[:n_wide].copy(), count4[:n_wide].copy()
 
 
 def build_bvh(lo, hi):

@@ -1,0 +1,112 @@
+"""Two things the BVH traversal needs that Numba cannot say in Python:
+an array in the caller's stack frame, and a 4-wide box test in SIMD.
+
+Both are Numba intrinsics that emit LLVM IR directly.
+"""
+from llvmlite import ir
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
+from numba.np.arrayobj import populate_array
+
+from .intersect import BOX_FAR_SCALE
+
+WIDTH = 4  # children per BVH node; one <4 x double> vector per box plane
+
+
+@intrinsic
+def frame_array(typingctx, size, dtype):
+    """A (size,) array in the calling function's stack frame (alloca).
+
+    No heap allocation and no meminfo, so no reference counting; it must not
+    outlive the function that creates it (it is only passed down).
+    """
+    if not isinstance(size, types.IntegerLiteral) or not isinstance(dtype, types.NumberClass):
+        return None
+    arrty = types.Array(dtype.instance_type, 1, "C")
+
+    def codegen(context, builder, sig, args):
+        n = size.literal_value
+        elt = context.get_value_type(dtype.instance_type)
+        itemsize = context.get_abi_sizeof(elt)
+        data = cgutils.alloca_once(builder, elt, size=n)
+        ary = context.make_array(arrty)(context, builder)
+        intp = context.get_value_type(types.intp)
+        populate_array(ary, data=data, shape=[ir.Constant(intp, n)],
+                       strides=[ir.Constant(intp, itemsize)],
+                       itemsize=ir.Constant(intp, itemsize), meminfo=None)
+        return ary._getvalue()
+
+    return arrty(size, dtype), codegen
+
+
+_BOX_ARRAY = types.Array(types.float64, 3, "C")
+
+
+@intrinsic
+def ray_aabb4(typingctx, node_box, node, nx, ny, nz, ox, oy, oz, ix, iy, iz, t_max):
+    """Slab test of one ray against the 4 child boxes of BVH node ``node``.
+
+    ``node_box`` is (m, 6, 4) float64: rows lo x, y, z, hi x, y, z, one lane
+    per child.  ``nx, ny, nz`` are the rows of the planes the ray meets
+    first on each axis (0/3, 1/4, 2/5 by the sign of its inverse direction),
+    so no swap is needed: pbrt's dirIsNeg trick, vectorised across children
+    as in Dammertz et al. 2008 ("Shallow Bounding Volume Hierarchies for
+    Fast SIMD Ray Tracing of Incoherent Rays").
+
+    Returns the 4 entry distances (clamped to 0), inf where the ray misses
+    the box or enters beyond t_max.  The arithmetic is ray_aabb's operation
+    for operation (the same products, the same Ize far-bound widening), so
+    every lane gives ray_aabb's answer: a NaN slab distance (the ray lies in
+    a face plane, 0 * inf) fails both comparisons and constrains nothing,
+    which is what ray_aabb's explicit NaN check does.  An unused lane holds
+    lo = hi = +inf, which every ray misses on any axis.
+
+    LLVM does not vectorise the scalar form of this (measured: all scalar
+    vmulsd); the explicit <4 x double> code measured 1.2x faster BVH queries.
+    """
+    args = (node_box, node, nx, ny, nz, ox, oy, oz, ix, iy, iz, t_max)
+    if node_box != _BOX_ARRAY or not all(isinstance(a, types.Integer) for a in args[1:5]) \
+            or not all(isinstance(a, types.Float) for a in args[5:]):
+        return None
+    sig = types.UniTuple(types.float64, WIDTH)(*args)
+
+    def codegen(context, builder, sig, llargs):
+        box, node, nx, ny, nz, ox, oy, oz, ix, iy, iz, t_max = [
+            context.cast(builder, v, t, to) for v, t, to in zip(
+                llargs, sig.args, (sig.args[0],) + (types.int64,) * 4 + (types.float64,) * 7)]
+        data = context.make_array(sig.args[0])(context, builder, value=box).data
+        f64 = ir.DoubleType()
+        vec = ir.VectorType(f64, WIDTH)
+        i64 = ir.IntType(64)
+        i32 = ir.IntType(32)
+
+        def splat(x):
+            v = ir.Constant(vec, ir.Undefined)
+            for k in range(WIDTH):
+                v = builder.insert_element(v, x, ir.Constant(i32, k))
+            return v
+
+        base = builder.mul(node, ir.Constant(i64, 6 * WIDTH))
+
+        def plane(row):
+            p = builder.gep(data, [builder.add(base, builder.mul(row, ir.Constant(i64, WIDTH)))])
+            return builder.load(builder.bitcast(p, vec.as_pointer()), align=8)
+
+        widen = splat(ir.Constant(f64, BOX_FAR_SCALE))
+        t0 = splat(ir.Constant(f64, 0.0))
+        t1 = splat(t_max)
+        # far row: 3 - nx for x (0 <-> 3), 5 - ny for y (1 <-> 4), 7 - nz for z (2 <-> 5)
+        for o, inv, near, far_sum in ((ox, ix, nx, 3), (oy, iy, ny, 5), (oz, iz, nz, 7)):
+            o, inv = splat(o), splat(inv)
+            far = builder.sub(ir.Constant(i64, far_sum), near)
+            tn = builder.fmul(builder.fsub(plane(near), o), inv)
+            tf = builder.fmul(builder.fmul(builder.fsub(plane(far), o), inv), widen)
+            t0 = builder.select(builder.fcmp_ordered(">", tn, t0), tn, t0)
+            t1 = builder.select(builder.fcmp_ordered("<", tf, t1), tf, t1)
+        entry = builder.select(builder.fcmp_ordered("<=", t0, t1), t0,
+                               splat(ir.Constant(f64, float("inf"))))
+        lanes = [builder.extract_element(entry, ir.Constant(i32, k)) for k in range(WIDTH)]
+        return context.make_tuple(builder, sig.return_type, lanes)
+
+    return sig, codegen
