@@ -227,7 +227,7 @@ def render(scene, opts=None, **kw):
         aovs = dict(depth=np.zeros((0, 0), np.float32), normal=np.zeros((0, 0, 3), np.float32),
                     primid=np.zeros((0, 0), np.int64), cost=np.zeros((0, 0), np.int64))
     args = (geo, acc, cam, lights, background, width, height)
-    tail = (opts.spp, SHADOW_MODES[opts.shadows], PATTERN_NAMES[opts.pattern], opts.seed,
+    tail = (threads, opts.spp, SHADOW_MODES[opts.shadows], PATTERN_NAMES[opts.pattern], opts.seed,
             image, stats_rows, opts.aov, aovs["depth"], aovs["normal"], aovs["primid"], aovs["cost"])
 
     # An empty band compiles the kernel (or loads it from Numba's cache)
