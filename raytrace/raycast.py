@@ -5,14 +5,14 @@ allocates them and sums the counters.
 """
 import numpy as np
 
-# Rays are split into this many blocks per thread, each with its own
-# counter row: enough blocks that uneven rays balance.
-BLOCKS_PER_THREAD = 16
-
 
 def _blocks(n):
+    """Counter rows: one per thread (kernels/cast.py interleaves chunks of
+    rays between them), fewer when there are fewer chunks than threads."""
     import numba
-    return max(1, min(n, BLOCKS_PER_THREAD * numba.get_num_threads()))
+
+    from .kernels.cast import CHUNK
+    return max(1, min(numba.get_num_threads(), -(-n // CHUNK)))
 
 
 def closest(geo, acc, origins, dirs, t_max):
