@@ -34,9 +34,10 @@ MAX_LEAF = 4
 # test, in the SAH: C = TRAVERSAL_COST + (A_L N_L + A_R N_R) / A.  0.5, 1
 # and 2 measured within noise.
 TRAVERSAL_COST = 1.0
-# Leaves are forced at this depth, so traversal's fixed 64-entry stack (one
-# pending far child per level at most) can never overflow.  The 118k-triangle
-# surface builds 21 deep; only adversarial inputs get here.
+# Leaves are forced at this depth, so traversal's fixed-size stack (at most 3
+# pending children per level of the 4-wide tree, kernels/bvh.py) can never
+# overflow.  The 118k-triangle surface builds 21 deep; only adversarial
+# inputs get here.
 MAX_DEPTH = 60
 # Node boxes are widened by this fraction of their largest coordinate
 # magnitude.  Exact bounds are not enough for the BVH to equal brute force on

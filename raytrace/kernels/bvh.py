@@ -10,14 +10,15 @@ than its entry distance has been found since.  Leaves are children too: a
 stack entry below zero is ``~(node * 4 + lane)``, the leaf in that lane.
 
 Measured on the teapot's 640x480 camera rays (cast_closest, 2 threads),
-against the binary tree this replaces: 1.9x the throughput at 1k
-triangles, 1.8x at 118k (README design notes).
+against the binary tree this replaces: about 1.9x the throughput at 1k
+triangles and 1.8x at 118k (README design notes).
 
 The stack lives in the function's frame (``frame_array``, an alloca) rather
 than in ``np.empty``: that would need Numba's reference-counted runtime in
 the loop and a heap allocation per ray.  Each node pushes at most 3 entries
-beyond the one it pops, and the binary tree is at most MAX_DEPTH deep, so
-3 * MAX_DEPTH + 1 entries always suffice.
+beyond the one it pops, and a 4-wide node lies at most MAX_DEPTH - 1 levels
+down (the binary tree's leaves are at most MAX_DEPTH deep), so the stack
+never holds more than 3 * (MAX_DEPTH - 1) + 4 entries.
 
 Conventions shared with flat.py, so the result is bit-identical to brute
 force: primitive tests get the ray's own t_max and hits are merged with
