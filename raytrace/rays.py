@@ -77,12 +77,15 @@ def _as_rows(name, a):
         arr = arr[None, :]
     if arr.ndim != 2 or arr.shape[1] != 3:
         raise RaytraceError(f"{name}: expected shape (n, 3), got {arr.shape}")
-    bad = ~np.isfinite(arr).all(axis=1)
-    if bad.any():
+    # Whole-array checks first; rows are found only to name a bad one.
+    # (Reductions along an axis of length 3 are slow in NumPy: on 307,200
+    # rays the row-wise checks took 28 ms, three times the BVH query.)
+    if not np.isfinite(arr).all():
+        bad = ~np.isfinite(arr).all(axis=1)
         raise RaytraceError(f"{name}[{int(np.argmax(bad))}]: NaN or infinite value "
                             f"({int(bad.sum())} such rows)")
-    big = ~(np.abs(arr) <= MAX_COORD).all(axis=1)
-    if big.any():
+    if arr.size and not np.abs(arr).max() <= MAX_COORD:
+        big = ~(np.abs(arr) <= MAX_COORD).all(axis=1)
         raise RaytraceError(f"{name}[{int(np.argmax(big))}]: a value beyond {MAX_COORD:g} "
                             f"(products of such values overflow; {int(big.sum())} such rows)")
     return np.ascontiguousarray(arr)
@@ -95,7 +98,7 @@ def _rays(origins, directions, t_max, t_max_required):
         o = np.ascontiguousarray(np.broadcast_to(o, d.shape))
     if len(o) != len(d):
         raise RaytraceError(f"origins and directions differ in length ({len(o)} and {len(d)})")
-    zero = ~(np.abs(d).max(axis=1) > 0)
+    zero = (d[:, 0] == 0.0) & (d[:, 1] == 0.0) & (d[:, 2] == 0.0)  # finite, checked above
     if zero.any():
         raise RaytraceError(f"directions[{int(np.argmax(zero))}]: zero vector (a ray needs a direction)")
     n = len(d)
