@@ -93,6 +93,16 @@ def _push_children(node_box, node_child, node_count, node, ray, nx, ny, nz, t_bo
 
 
 @njit(inline="always", **NOREF)
+def _leaf_range(node_child, node_count, entry):
+    """prim_ids slots [start, end) of the leaf a stack entry ~(node << 2 | lane) names."""
+    leaf = ~entry
+    node = leaf >> _LANE_BITS
+    lane = leaf & (WIDTH - 1)
+    start = node_child[node, lane]
+    return start, start + node_count[node, lane]
+
+
+@njit(inline="always", **NOREF)
 def _near_rows(ray):
     """Rows of node_box holding the planes a ray meets first on each axis:
     lo (0, 1, 2) for a positive inverse direction, hi (3, 4, 5) otherwise."""
@@ -134,11 +144,8 @@ def _closest_loop(node_box, node_child, node_count, prim_ids,
                 continue
         else:
             n_leaves += 1
-            leaf = ~entry
-            node = leaf >> _LANE_BITS
-            lane = leaf & (WIDTH - 1)
-            s = node_child[node, lane]
-            for k in range(s, s + node_count[node, lane]):
+            s, end = _leaf_range(node_child, node_count, entry)
+            for k in range(s, end):
                 p = prim_ids[k]
                 n_tests += 1
                 t, u, v = _test_prim(tri_v0, tri_v1, tri_v2, sph_center, sph_radius,
@@ -183,11 +190,7 @@ def _occluded_loop(node_box, node_child, node_count, prim_ids,
                                 t_max, stack, stack_t, sp)
         else:
             n_leaves += 1
-            leaf = ~entry
-            node = leaf >> _LANE_BITS
-            lane = leaf & (WIDTH - 1)
-            k = node_child[node, lane]
-            end = k + node_count[node, lane]
+            k, end = _leaf_range(node_child, node_count, entry)
             while k < end and not hit:
                 n_tests += 1
                 t, u, v = _test_prim(tri_v0, tri_v1, tri_v2, sph_center, sph_radius,
