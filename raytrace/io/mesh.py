@@ -23,6 +23,22 @@ MESH_EXTENSIONS = (".obj", ".ply", ".stl", ".off", ".glb")
 MAX_COORD = 1e100
 
 
+def bad_coordinate_rows(a):
+    """The first problem of an (n, 3) float64 array of coordinates:
+    ("nonfinite" or "too large", first such row, number of such rows), or
+    None.  Whole-array checks come first and rows are found only to name a
+    bad one: NumPy's reductions along an axis of length 3 are slow (on
+    307,200 rays the row-wise checks took 28 ms, three times the BVH query).
+    """
+    if not np.isfinite(a).all():
+        rows = ~np.isfinite(a).all(axis=1)
+        return "nonfinite", int(np.argmax(rows)), int(rows.sum())
+    if a.size and not np.abs(a).max() <= MAX_COORD:
+        rows = ~(np.abs(a) <= MAX_COORD).all(axis=1)
+        return "too large", int(np.argmax(rows)), int(rows.sum())
+    return None
+
+
 def is_mesh_path(name):
     return Path(str(name)).suffix.lower() in MESH_EXTENSIONS
 
@@ -66,16 +82,15 @@ def check_mesh_arrays(name, vertices, faces):
         raise RaytraceError(f"{name}: vertices are not numbers ({exc})") from None
     if v.ndim != 2 or v.shape[1] != 3:
         raise RaytraceError(f"{name}: vertices must have shape (n, 3), got {v.shape}")
-    bad = ~np.isfinite(v).all(axis=1)
-    if bad.any():
-        raise RaytraceError(f"{name}: vertex {int(np.argmax(bad))} has a NaN or infinite "
-                            f"coordinate ({int(bad.sum())} such vertices)")
-    big = ~(np.abs(v) <= MAX_COORD).all(axis=1)
-    if big.any():
-        k = int(np.argmax(big))
+    bad = bad_coordinate_rows(v)
+    if bad is not None and bad[0] == "nonfinite":
+        raise RaytraceError(f"{name}: vertex {bad[1]} has a NaN or infinite "
+                            f"coordinate ({bad[2]} such vertices)")
+    if bad is not None:
+        k = bad[1]
         raise RaytraceError(f"{name}: vertex {k} has a coordinate of {np.abs(v[k]).max():.3g}, beyond "
                             f"the {MAX_COORD:g} the intersection tests can multiply without "
-                            f"overflow ({int(big.sum())} such vertices)")
+                            f"overflow ({bad[2]} such vertices)")
     f = np.asarray(faces)
     if f.ndim != 2 or f.shape[1] != 3:
         raise RaytraceError(f"{name}: faces must have shape (m, 3), got {f.shape}")
