@@ -50,6 +50,7 @@ Accel = namedtuple(
 )
 
 ACCEL_NONE, ACCEL_BVOL, ACCEL_BVH, ACCEL_GRID = range(4)
+BVH_WIDTH = 4  # children per BVH node: one <4 x double> per box plane (kernels/lowlevel.py)
 ACCEL_NAMES = {"none": ACCEL_NONE, "bvol": ACCEL_BVOL, "bvh": ACCEL_BVH, "grid": ACCEL_GRID}
 
 
@@ -75,8 +76,8 @@ def empty_accel(mode):
     return Accel(
         mode=INDEX(mode),
         obj_lo=z3, obj_hi=z3, obj_start=zi, obj_count=zi,
-        node_box=np.zeros((0, 6, 4), FLOAT), node_child=np.zeros((0, 4), INDEX),
-        node_count=np.zeros((0, 4), INDEX), prim_ids=zi,
+        node_box=np.zeros((0, 6, BVH_WIDTH), FLOAT), node_child=np.zeros((0, BVH_WIDTH), INDEX),
+        node_count=np.zeros((0, BVH_WIDTH), INDEX), prim_ids=zi,
         grid_lo=np.zeros(3, FLOAT), grid_hi=np.zeros(3, FLOAT), grid_cell=np.ones(3, FLOAT),
         grid_res=np.zeros(3, INDEX), cell_start=np.zeros(1, INDEX), cell_items=zi,
     )

@@ -22,6 +22,8 @@ turns it into the 4-wide tree traversal uses (see ``Accel`` in buffers.py).
 import numpy as np
 from numba import njit
 
+from ..buffers import BVH_WIDTH
+
 # 12 bins, as pbrt-v4's buckets: Wald 2007 finds 8-16 bins close to the
 # full-sweep SAH, and 8..64 bins here changed nodes visited per ray by <2%
 # (1k and 100k triangle meshes) while the build slows with more bins.
@@ -262,7 +264,7 @@ def build_bvh_kernel(lo, hi):
             prim_ids, max_depth)
 
 
-WIDTH = 4  # children per node of the collapsed tree (kernels/lowlevel.py)
+WIDTH = BVH_WIDTH  # children per node of the collapsed tree
 
 
 @njit(cache=True)

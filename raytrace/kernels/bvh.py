@@ -35,7 +35,7 @@ from .intersect import ray_sphere, ray_triangle
 from .lowlevel import WIDTH, frame_array, ray_aabb4
 
 STACK_SIZE = 3 * MAX_DEPTH + 4
-_LANE_BITS = 2   # log2(WIDTH): a leaf's stack entry is ~(node << 2 | lane)
+_LANE_BITS = WIDTH.bit_length() - 1   # a leaf's stack entry is ~(node << 2 | lane)
 _DONE = -(1 << 62)  # "stack empty": below every leaf entry
 
 
@@ -45,9 +45,10 @@ _DONE = -(1 << 62)  # "stack empty": below every leaf entry
 # (the 31 arrays of geo and acc are ~270 words) and, with reference counting,
 # increments and decrements each one.  The triangle and sphere tests are
 # recompiled from the shared source (py_func) to be inlined the same way
-# (as calls: 172 vs 145 ns per ray, 1k triangles); closer is small
-# enough for LLVM to inline as it is, and ray_aabb4 is emitted in place.  Same code, same float
-# operations (no fastmath): hits stay bit-identical to flat.py's.  Compiled
+# (as calls: 172 vs 145 ns per ray, 1k triangles); closer is small enough
+# for LLVM to inline as it is, and ray_aabb4 is emitted in place.  Same
+# code, same float operations (no fastmath): hits stay bit-identical to
+# flat.py's.  Compiled
 # standalone, nothing here counts references (_nrt=False): it only reads
 # arrays its caller keeps alive.
 NOREF = dict(_nrt=False, error_model="numpy")
@@ -63,7 +64,6 @@ def _test_prim(tri_v0, tri_v1, tri_v2, sph_center, sph_radius, ray, p, t_max):
         return _ray_triangle(ray, tri_v0, tri_v1, tri_v2, p, t_max)
     t = _ray_sphere(ray, sph_center, sph_radius, p - n_tris, t_max)
     return t, 0.0, 0.0
-
 
 
 @njit(inline="always", **NOREF)

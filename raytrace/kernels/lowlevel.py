@@ -9,9 +9,8 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 from numba.np.arrayobj import populate_array
 
+from ..buffers import BVH_WIDTH as WIDTH
 from .intersect import BOX_FAR_SCALE
-
-WIDTH = 4  # children per BVH node; one <4 x double> vector per box plane
 
 
 @intrinsic
