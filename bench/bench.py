@@ -26,9 +26,12 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import common  # noqa: E402
-from common import ACCELS, fmt_g, fmt_s, interleaved, log, markdown_table, median  # noqa: E402
+from common import ACCELS, STRUCTURES, fmt_g, fmt_s, interleaved, log, markdown_table, median  # noqa: E402
 
 SECTIONS = ("workshop", "scaling", "peer", "convergence")
+# The scaling table's structures: those whose cost grows slower than the
+# mesh, each with a visit counter of its own (nodes, cells).
+HIERARCHICAL = tuple(n for n, s in STRUCTURES.items() if s.visit_metric)
 
 # The workshop's table (C++, its machine unknown): seconds before and after
 # bounding volumes, for the same three rows.
@@ -127,8 +130,8 @@ def workshop_markdown(res):
     for row in res["rows"]:
         for a in ACCELS:
             c = row["cells"][a]
-            visits = (c["nodes_per_ray"] if a == "bvh" else c["cells_per_ray"] if a == "grid"
-                      else None)
+            metric = STRUCTURES[a].visit_metric
+            visits = c[metric] if metric else None
             body.append([row["label"], a, c["runs"], fmt_s(c["render_s"]),
                          f"{c['speedup']:.1f}x", f"{c['rays']:,}",
                          fmt_g(c["prim_tests_per_ray"]), fmt_g(c["box_tests_per_ray"]),
@@ -146,18 +149,18 @@ def workshop_markdown(res):
 
 
 def structure_bytes(name, scene):
-    from raytrace.accel import build_accel
+    from raytrace.structures import build_structure
     from raytrace.flatten import flatten
     geo, obj_ranges, _ = flatten(scene)
-    acc, _ = build_accel(name, geo, obj_ranges)
-    return sum(a.nbytes for a in acc[1:])
+    acc, _ = build_structure(name, geo, obj_ranges)
+    return sum(a.nbytes for a in acc)
 
 
 def run_scaling(cfg):
     from raytrace.driver import render
     from raytrace.scenes.builtin import teapot
     w, h = cfg["width"], cfg["height"]
-    structures = ("bvh", "grid")
+    structures = HIERARCHICAL
     for a in structures:
         warm_up(teapot(2), a, {}, w, h)
     rows = []
@@ -196,9 +199,9 @@ def scaling_markdown(res):
               "Nodes or cells/ray", "Structure MB"]
     body = []
     for row in res["rows"]:
-        for a in ("bvh", "grid"):
+        for a in HIERARCHICAL:
             c = row["cells"][a]
-            visits = c["nodes_per_ray"] if a == "bvh" else c["cells_per_ray"]
+            visits = c[STRUCTURES[a].visit_metric]
             body.append([row["detail"], f"{row['triangles']:,}", a, fmt_g(c["build_s"] * 1e3),
                          fmt_s(c["render_s"]), fmt_g(c["mrays_per_s"]), fmt_g(c["prim_tests_per_ray"]),
                          fmt_g(visits), fmt_g(c["structure_bytes"] / 2**20)])

@@ -19,7 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-ACCELS = ("none", "bvol", "bvh", "grid")
+from raytrace.structures import STRUCTURES
+
+ACCELS = tuple(STRUCTURES)
 ROOT = Path(__file__).resolve().parent.parent
 
 

@@ -132,7 +132,7 @@ def run_case(detail, width, height, runs, peer_list):
     import numba
 
     import raytrace
-    from raytrace.accel import build_accel
+    from raytrace.structures import build_structure
     from raytrace.flatten import flatten
     from raytrace.raycast import any_hit, closest
     from raytrace.scene import Mesh, Scene
@@ -143,9 +143,9 @@ def run_case(detail, width, height, runs, peer_list):
         f"{len(so):,} shadow rays")
     geo, obj_ranges, _, (_, face_of) = flatten(
         Scene(name="peer", camera=None, objects=[Mesh(v, f, name="t")]), with_sources=True)
-    build_accel("bvh", geo, obj_ranges)  # loads the compiled builders from Numba's cache
+    build_structure("bvh", geo, obj_ranges)  # loads the compiled builders from Numba's cache
     t0 = time.perf_counter()
-    acc, _ = build_accel("bvh", geo, obj_ranges)
+    acc, _ = build_structure("bvh", geo, obj_ranges)
     ours_build = time.perf_counter() - t0
     threads = numba.get_num_threads()
 

@@ -20,7 +20,8 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from raytrace.kernels.intersect import make_ray, ray_triangle
+from raytrace.kernels.intersect import ray_triangle
+from raytrace.kernels.ray import make_ray
 
 REPEATS = 5
 

@@ -10,8 +10,8 @@ import click
 
 from .errors import RaytraceError
 
-ACCEL_CHOICES = ("none", "bvol", "bvh", "grid")
-DEFAULT_ACCEL = "bvh"
+from .structures import DEFAULT as DEFAULT_ACCEL
+from .structures import STRUCTURES
 
 
 class DefaultRenderGroup(click.Group):
@@ -160,7 +160,7 @@ def _up_choices():
 
 @main.command("render")
 @click.argument("scene")
-@click.option("--accel", type=click.Choice(ACCEL_CHOICES), default=None,
+@click.option("--accel", type=click.Choice(list(STRUCTURES)), default=None,
               help=f"Acceleration structure [default: {DEFAULT_ACCEL}].")
 @click.option("--bvol/--no-bvol", default=None,
               help="Per-object bounding boxes on/off: shorthand for --accel bvol / --accel none.")

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .buffers import ACCEL_NAMES, Lights, f64, i64
+from .buffers import Lights, f64, i64
 from .errors import RaytraceError
 
 SHADOW_CHOICES = ("none", "hard", "soft")
@@ -63,9 +63,8 @@ def available_memory():
 
 def validate(opts, scene):
     """Raise RaytraceError for any option the render cannot honour."""
-    if opts.accel not in ACCEL_NAMES:
-        raise RaytraceError(f"unknown acceleration structure {opts.accel!r} "
-                            f"(choose from {', '.join(ACCEL_NAMES)})")
+    from .structures import get
+    get(opts.accel)
     if opts.shadows not in SHADOW_CHOICES:
         raise RaytraceError(f"unknown shadow mode {opts.shadows!r}")
     if opts.pattern not in PATTERN_CHOICES:
@@ -166,6 +165,29 @@ def light_buffers(scene, shadows, light_samples):
                   samples=samples, side=i64([math.isqrt(int(n)) for n in samples]))
 
 
+def shadow_record(shadows, pattern):
+    """The kernel's shadow-mode record: its type picks the code compiled."""
+    from .kernels.render import HardShadows, NoShadows, SoftShadows
+    from .kernels.sampling import PATTERN_NAMES
+    if shadows == "none":
+        return NoShadows()
+    if shadows == "hard":
+        return HardShadows()
+    return SoftShadows(pattern=int(PATTERN_NAMES[pattern]))
+
+
+def aov_buffers(width, height, enabled):
+    """Per-pixel AOV buffers (raytrace/aov.py), or the empty record that
+    compiles the kernel without them."""
+    from .kernels.render import Aovs, NoAovs
+    if not enabled:
+        return NoAovs()
+    return Aovs(depth=np.full((height, width), np.inf, np.float32),
+                normal=np.zeros((height, width, 3), np.float32),
+                primid=np.full((height, width), -1, np.int64),
+                cost=np.zeros((height, width), np.int64))
+
+
 def to_srgb8(linear):
     """Clamp and encode with the sRGB curve (IEC 61966-2-1).
 
@@ -194,41 +216,35 @@ def render(scene, opts=None, **kw):
         if not hasattr(opts, k):
             raise TypeError(f"render() got an unknown option {k!r}")
         setattr(opts, k, v)
-    width, height = validate(opts, scene)
+    width, height = (int(n) for n in validate(opts, scene))
 
     t_start = time.perf_counter()
     import numba  # deferred: `raytrace scenes` and --help never pay for it
 
-    from .accel import build_accel
     from .flatten import flatten
     from .kernels.counters import N_COUNTERS
-    from .kernels.render import SHADOW_MODES, render_rows
-    from .kernels.sampling import PATTERN_NAMES
+    from .kernels.render import render_rows
     from .stats import counters_from_rows, derive
+    from .structures import build_structure
 
-    threads = opts.threads or numba.config.NUMBA_NUM_THREADS
+    threads = int(opts.threads or numba.config.NUMBA_NUM_THREADS)
     numba.set_num_threads(threads)
     geo, obj_ranges, info = flatten(scene)
     cam = camera_buffer(scene.camera, width, height)
     lights = light_buffers(scene, opts.shadows, opts.light_samples)
     background = f64(scene.background)
+    shadows = shadow_record(opts.shadows, opts.pattern)
     t_import = time.perf_counter() - t_start
 
-    acc, t_build = build_accel(opts.accel, geo, obj_ranges)
+    acc, t_build = build_structure(opts.accel, geo, obj_ranges)
 
     image = np.zeros((height, width, 3), np.float32)
     stats_rows = np.zeros((height, N_COUNTERS), np.int64)
-    if opts.aov:
-        aovs = dict(depth=np.full((height, width), np.inf, np.float32),
-                    normal=np.zeros((height, width, 3), np.float32),
-                    primid=np.full((height, width), -1, np.int64),
-                    cost=np.zeros((height, width), np.int64))
-    else:  # not needed: zero-size arrays of the same types, never written
-        aovs = dict(depth=np.zeros((0, 0), np.float32), normal=np.zeros((0, 0, 3), np.float32),
-                    primid=np.zeros((0, 0), np.int64), cost=np.zeros((0, 0), np.int64))
-    args = (geo, acc, cam, lights, background, width, height)
-    tail = (threads, opts.spp, SHADOW_MODES[opts.shadows], PATTERN_NAMES[opts.pattern], opts.seed,
-            image, stats_rows, opts.aov, aovs["depth"], aovs["normal"], aovs["primid"], aovs["cost"])
+    aovs = aov_buffers(width, height, opts.aov)
+    # Plain Python scalars only: a NumPy integer or a bool where an int is
+    # expected would compile the kernel again for that type.
+    args = (geo, acc, cam, lights, shadows, aovs, background, int(width), int(height))
+    tail = (threads, int(opts.spp), int(opts.seed), image, stats_rows)
 
     # An empty band compiles the kernel (or loads it from Numba's cache)
     # without rendering anything, so that time is reported apart.
@@ -256,5 +272,5 @@ def render(scene, opts=None, **kw):
                  "setup_s": t_import},
         "counters": counters_from_rows(stats_rows),
     }
-    result_aovs = {k: v for k, v in aovs.items()} if opts.aov else {}
+    result_aovs = aovs._asdict() if opts.aov else {}
     return RenderResult(image=to_srgb8(image), linear=image, stats=derive(stats), aovs=result_aovs)

@@ -1,9 +1,20 @@
 """Batch ray casting glue: arrays in, per-ray results and counters out.
 
 The kernels take per-block counter rows (they cannot allocate); this module
-allocates them and sums the counters.
+allocates them, sums the counters, and hands the kernels arrays of one
+dtype, C order and writeable, whatever the caller passed: a read-only or
+strided array would otherwise compile the kernels again for its type.
 """
 import numpy as np
+
+
+def kernel_array(a, dtype=np.float64):
+    """``a`` as a C-contiguous, aligned, writeable array of ``dtype`` (a copy
+    only when it is not one already)."""
+    a = np.asarray(a)
+    if a.dtype != dtype or not (a.flags.c_contiguous and a.flags.aligned and a.flags.writeable):
+        a = np.array(a, dtype=dtype, order="C", copy=True)
+    return a
 
 
 def _blocks(n):
@@ -16,15 +27,13 @@ def _blocks(n):
 
 
 def closest(geo, acc, origins, dirs, t_max):
-    """Returns ((t, prim, b1, b2), counters) for float64 (n, 3) rays and (n,) t_max."""
+    """Returns ((t, prim, b1, b2), counters) for (n, 3) rays and (n,) t_max."""
     from .kernels.cast import cast_closest
     from .kernels.counters import N_COUNTERS
     n = len(origins)
     out = (np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n))
-    b = _blocks(n)
-    cnt = np.zeros((b, N_COUNTERS), np.int64)
-    cast_closest(geo, acc, np.ascontiguousarray(origins, np.float64),
-                 np.ascontiguousarray(dirs, np.float64), np.ascontiguousarray(t_max, np.float64),
+    cnt = np.zeros((_blocks(n), N_COUNTERS), np.int64)
+    cast_closest(geo, acc, kernel_array(origins), kernel_array(dirs), kernel_array(t_max),
                  *out, cnt)
     return out, cnt.sum(axis=0)
 
@@ -35,9 +44,7 @@ def any_hit(geo, acc, origins, dirs, t_max):
     from .kernels.counters import N_COUNTERS
     n = len(origins)
     hit = np.empty(n, np.bool_)
-    b = _blocks(n)
-    cnt = np.zeros((b, N_COUNTERS), np.int64)
-    cast_occluded(geo, acc, np.ascontiguousarray(origins, np.float64),
-                  np.ascontiguousarray(dirs, np.float64), np.ascontiguousarray(t_max, np.float64),
+    cnt = np.zeros((_blocks(n), N_COUNTERS), np.int64)
+    cast_occluded(geo, acc, kernel_array(origins), kernel_array(dirs), kernel_array(t_max),
                   hit, cnt)
     return hit, cnt.sum(axis=0)

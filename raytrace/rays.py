@@ -119,15 +119,12 @@ def _rays(origins, directions, t_max, t_max_required):
 
 
 def _prepare(target, accel):
-    from .buffers import ACCEL_NAMES
-    if accel not in ACCEL_NAMES:
-        raise RaytraceError(f"unknown acceleration structure {accel!r} "
-                            f"(choose from {', '.join(ACCEL_NAMES)})")
+    from .structures import build_structure, get
+    get(accel)
     scene = _target_scene(target)
-    from .accel import build_accel
     from .flatten import flatten
     geo, obj_ranges, _, sources = flatten(scene, with_sources=True)
-    acc, _ = build_accel(accel, geo, obj_ranges)
+    acc, _ = build_structure(accel, geo, obj_ranges)
     return geo, acc, sources
 
 

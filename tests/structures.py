@@ -1,5 +1,5 @@
 """Every acceleration structure; tests parametrize over this list so a new
 structure is covered by the same tests the day it is added."""
-from raytrace.buffers import ACCEL_NAMES
+from raytrace.structures import STRUCTURES as _REGISTRY
 
-STRUCTURES = list(ACCEL_NAMES)
+STRUCTURES = list(_REGISTRY)

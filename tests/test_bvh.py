@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from raytrace.accel import build_accel
+from raytrace.structures import build_structure as build_accel
 from raytrace.accel.bvh import MAX_DEPTH, build_bvh, build_bvh_kernel, collapse_bvh4
 from raytrace.buffers import INDEX, prim_bounds
 from raytrace.flatten import flatten

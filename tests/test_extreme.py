@@ -14,7 +14,8 @@ import pytest
 
 from raytrace import cast_rays, occluded
 from raytrace.driver import render
-from raytrace.kernels.intersect import BOX_FAR_SCALE, make_ray, ray_aabb
+from raytrace.kernels.intersect import BOX_FAR_SCALE, ray_aabb
+from raytrace.kernels.ray import make_ray
 from raytrace.scene import Camera, Light, Material, Mesh, Plane, Scene, Sphere
 from raytrace.transform import rotation
 
@@ -84,9 +85,9 @@ def test_kernels_use_numpy_errors_and_no_fastmath():
 
 def test_zero_direction_components_give_signed_infinite_inverses():
     ray = make_ray(1.0, 2.0, 3.0, 0.0, -0.0, 1.0)
-    assert ray[6] == math.inf and ray[7] == -math.inf and ray[8] == 1.0
+    assert ray.inv_x == math.inf and ray.inv_y == -math.inf and ray.inv_z == 1.0
     ray = make_ray(1.0, 2.0, 3.0, -0.0, 0.5, 0.0)
-    assert ray[6] == -math.inf and ray[7] == 2.0 and ray[8] == math.inf
+    assert ray.inv_x == -math.inf and ray.inv_y == 2.0 and ray.inv_z == math.inf
 
 
 # --- ray-box -----------------------------------------------------------------

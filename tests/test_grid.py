@@ -5,9 +5,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from raytrace.accel import build_accel
-from raytrace.accel.grid import GRID_MAX_RES, _fill_cells, build_grid, grid_eps
-from raytrace.buffers import ACCEL_GRID
+from raytrace.structures import build_structure as build_accel
+from raytrace.accel.grid import GRID_MAX_RES, Grid, _fill_cells, build_grid, grid_eps
 from raytrace.flatten import flatten
 from raytrace.raycast import any_hit, closest
 from raytrace.kernels.counters import BOX_TESTS, CELLS_VISITED, PRIM_TESTS
@@ -132,7 +131,7 @@ def test_empty_grid_traversal_does_nothing():
     """Only a plane: the grid is empty, its traversal tests and counts nothing."""
     geo, obj_ranges = make_scene(planes=[((0, -1, 0), (0, 1, 0))])
     acc, _ = build_accel("grid", geo, obj_ranges)
-    assert acc.mode == ACCEL_GRID and acc.grid_res.tolist() == [0, 0, 0]
+    assert isinstance(acc, Grid) and acc.grid_res.tolist() == [0, 0, 0]
     o = np.array([[0.0, 1, 0], [0, 1, 0]])
     d = np.array([[0.0, -1, 0], [0, 1, 0]])
     (t, p, _, _), cnt = cast(geo, acc, o, d, np.full(2, np.inf))

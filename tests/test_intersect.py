@@ -4,7 +4,8 @@ import math
 import numpy as np
 import pytest
 
-from raytrace.kernels.intersect import make_ray, ray_aabb, ray_plane, ray_sphere, ray_triangle
+from raytrace.kernels.intersect import ray_aabb, ray_plane, ray_sphere, ray_triangle
+from raytrace.kernels.ray import make_ray
 
 INF = math.inf
 

@@ -5,9 +5,11 @@ import numpy as np
 import pytest
 from numba import njit
 
-from raytrace.kernels.bvh import _near_rows
-from raytrace.kernels.intersect import make_ray, ray_aabb
-from raytrace.kernels.lowlevel import WIDTH, frame_array, ray_aabb4
+from raytrace.accel.bvh import WIDTH
+from raytrace.kernels.bvh import near_rows
+from raytrace.kernels.intersect import ray_aabb
+from raytrace.kernels.lowlevel import frame_array, ray_aabb4
+from raytrace.kernels.ray import make_ray
 
 
 @njit(error_model="numpy")
@@ -22,10 +24,10 @@ def entries_both(node_box, origins, dirs, t_max):
     for i in range(n):
         ray = make_ray(origins[i, 0], origins[i, 1], origins[i, 2],
                        dirs[i, 0], dirs[i, 1], dirs[i, 2])
-        nx, ny, nz = _near_rows(ray)
+        nx, ny, nz = near_rows(ray)
         for node in range(m):
-            d = ray_aabb4(node_box, node, nx, ny, nz, ray[0], ray[1], ray[2],
-                          ray[6], ray[7], ray[8], t_max[i])
+            d = ray_aabb4(node_box, node, nx, ny, nz, ray.ox, ray.oy, ray.oz,
+                          ray.inv_x, ray.inv_y, ray.inv_z, t_max[i])
             for j in range(WIDTH):
                 simd[i, node, j] = d[j]
                 for a in range(3):

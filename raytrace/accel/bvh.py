@@ -17,12 +17,23 @@ The binary tree is flattened depth-first, so an interior node's first child
 is the next node; ``node_start`` of an interior node is its second child and
 its ``node_count`` is 0.  A leaf covers
 ``prim_ids[node_start : node_start + node_count]``.  ``collapse_bvh4`` then
-turns it into the 4-wide tree traversal uses (see ``Accel`` in buffers.py).
+turns it into the 4-wide tree traversal uses (``BVH`` below).
 """
+from collections import namedtuple
+
 import numpy as np
 from numba import njit
 
-from ..buffers import BVH_WIDTH
+from ..buffers import prim_bounds
+
+# The layout traversal reads (raytrace/kernels/bvh.py), 4 children per
+# node: node_box (m, 6, 4) float64 child boxes, rows lo x, y, z, hi x, y, z,
+# a lane per child; node_count (m, 4) > 0 makes a lane a leaf covering
+# prim_ids[node_child : node_child + node_count], 0 an inner child, node
+# node_child (or an unused lane, whose box is +inf).  prim_ids: unified ids.
+BVH = namedtuple("BVH", ["node_box", "node_child", "node_count", "prim_ids"])
+# Children per node: one <4 x double> per box plane (kernels/lowlevel.py).
+WIDTH = 4
 
 # 12 bins, as pbrt-v4's buckets: Wald 2007 finds 8-16 bins close to the
 # full-sweep SAH, and 8..64 bins here changed nodes visited per ray by <2%
@@ -38,7 +49,7 @@ MAX_LEAF = 4
 TRAVERSAL_COST = 1.0
 # Leaves are forced at this depth, so traversal's fixed-size stack (at most 3
 # pending children per level of the 4-wide tree, kernels/bvh.py) can never
-# overflow.  The 118k-triangle surface builds 21 deep; only adversarial
+# overflow: part of the layout's contract.  The 118k-triangle surface builds 21 deep; only adversarial
 # inputs get here.
 MAX_DEPTH = 60
 # Node boxes are widened by this fraction of their largest coordinate
@@ -264,9 +275,6 @@ def build_bvh_kernel(lo, hi):
             prim_ids, max_depth)
 
 
-WIDTH = BVH_WIDTH  # children per node of the collapsed tree
-
-
 @njit(cache=True)
 def collapse_bvh4(node_lo, node_hi, node_start, node_count):
     """The binary tree as a 4-wide one: (node_box, node_child, node_count4).
@@ -359,3 +367,12 @@ def build_bvh(lo, hi):
     if lo.shape != hi.shape:
         raise ValueError(f"box arrays differ in shape: {lo.shape} vs {hi.shape}")
     return build_bvh_kernel(lo, hi)[:5]
+
+
+def build(geo, obj_ranges):
+    """Binned-SAH BVH over every bounded primitive (planes have no box and
+    are tested separately by every structure), collapsed to 4 children per
+    node for traversal."""
+    node_lo, node_hi, node_start, node_count, prim_ids = build_bvh(*prim_bounds(geo))
+    node_box, node_child, node_count4 = collapse_bvh4(node_lo, node_hi, node_start, node_count)
+    return BVH(node_box=node_box, node_child=node_child, node_count=node_count4, prim_ids=prim_ids)

@@ -7,10 +7,18 @@ box, widened by the tolerance ``grid_eps``, overlaps the closed cell.  That
 widening is what lets the traversal (kernels/grid.py) return exactly the
 brute-force answer despite rounding; the argument is written out there.
 """
+from collections import namedtuple
+
 import numpy as np
 from numba import njit
 
-from ..buffers import FLOAT, INDEX
+from ..buffers import FLOAT, INDEX, prim_bounds
+
+# The layout traversal reads (raytrace/kernels/grid.py): bounds, cell size
+# and resolution (3,), and CSR cell lists.  ``grid_eps`` below is part of
+# the contract: traversal recomputes it from the stored bounds.
+Grid = namedtuple("Grid", ["grid_lo", "grid_hi", "grid_cell", "grid_res", "cell_start",
+                           "cell_items"])
 
 # Cells along the longest axis per cube root of the primitive count: about
 # 27 cells per primitive for a cubic scene (pbrt-v2's GridAccel uses the
@@ -129,3 +137,7 @@ def build_grid(lo, hi):
     eps = grid_eps(grid_lo, grid_hi)
     cell_start, cell_items = _fill_cells(lo, hi, grid_lo, cell, res, eps)
     return grid_lo, grid_hi, cell, res, cell_start, cell_items
+
+
+def build(geo, obj_ranges):
+    return Grid(*build_grid(*prim_bounds(geo)))

@@ -47,10 +47,14 @@ a "hit" anywhere along the triangle's extent.
 import numpy as np
 from numba import njit
 
-from ..accel.grid import grid_eps
+from ..accel.grid import Grid, grid_eps
+from .brute import scan_any, scan_closest
 from .counters import BOX_TESTS, CELLS_VISITED, PRIM_HITS, PRIM_TESTS
-from .flat import brute_closest, brute_occluded, closer, test_prim
-from .intersect import INLINE, ray_aabb
+from .intersect import ray_aabb
+from .jit import JIT
+from .prims import test_prim
+from .query import register
+from .ray import Hit, closer, no_hit
 
 # Keep stepping until the next cell starts beyond best_t by this relative
 # margin (see the module docstring: belt and braces, ~free).
@@ -65,7 +69,7 @@ _U = 2.0 ** -53
 _MISS, _WALK, _ALL = 0, 1, 2
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def _crossing(o, inv, glo, cell, i, step):
     """Distance at which the ray leaves cell i through its face on this
     axis, from the face's coordinate (not accumulated, so the error does not
@@ -74,7 +78,7 @@ def _crossing(o, inv, glo, cell, i, step):
     return (glo + k * cell - o) * inv
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def _axis_start(o, d, inv, t0, glo, cell, res):
     """Start cell index, step and first face crossing along one axis.
 
@@ -92,7 +96,7 @@ def _axis_start(o, d, inv, t0, glo, cell, res):
     return i, step, _crossing(o, inv, glo, cell, i, step)
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def _grid_enter(acc, ray, t_max, cnt):
     """Clip the ray to the grid and set up the DDA.
 
@@ -108,26 +112,26 @@ def _grid_enter(acc, ray, t_max, cnt):
     t0 = ray_aabb(ray, glo.reshape(1, 3), ghi.reshape(1, 3), 0, t_max)
     if t0 == np.inf:
         return _MISS, 0, 0, 0, 0, 0, 0, 0.0, 0.0, 0.0
-    mag = max(abs(ray[0]), abs(ray[1]), abs(ray[2]),
+    mag = max(abs(ray.ox), abs(ray.oy), abs(ray.oz),
               abs(glo[0]), abs(glo[1]), abs(glo[2]),
               abs(ghi[0]), abs(ghi[1]), abs(ghi[2]))
     # Written so that NaN fails every test.  A subnormal direction component
     # has an infinite inverse although the ray does move along that axis.
     walk = (GUARD_ULPS * _U * mag <= grid_eps(glo, ghi)
-            and (ray[3] == 0.0 or abs(ray[6]) < np.inf)
-            and (ray[4] == 0.0 or abs(ray[7]) < np.inf)
-            and (ray[5] == 0.0 or abs(ray[8]) < np.inf))
+            and (ray.dx == 0.0 or abs(ray.inv_x) < np.inf)
+            and (ray.dy == 0.0 or abs(ray.inv_y) < np.inf)
+            and (ray.dz == 0.0 or abs(ray.inv_z) < np.inf))
     if not walk:
         return _ALL, 0, 0, 0, 0, 0, 0, 0.0, 0.0, 0.0
     cell = acc.grid_cell
     res = acc.grid_res
-    ix, sx, tx = _axis_start(ray[0], ray[3], ray[6], t0, glo[0], cell[0], res[0])
-    iy, sy, ty = _axis_start(ray[1], ray[4], ray[7], t0, glo[1], cell[1], res[1])
-    iz, sz, tz = _axis_start(ray[2], ray[5], ray[8], t0, glo[2], cell[2], res[2])
+    ix, sx, tx = _axis_start(ray.ox, ray.dx, ray.inv_x, t0, glo[0], cell[0], res[0])
+    iy, sy, ty = _axis_start(ray.oy, ray.dy, ray.inv_y, t0, glo[1], cell[1], res[1])
+    iz, sz, tz = _axis_start(ray.oz, ray.dz, ray.inv_z, t0, glo[2], cell[2], res[2])
     return _WALK, ix, iy, iz, sx, sy, sz, tx, ty, tz
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def _dda_step(ray, glo, cell, rx, ry, rz, ix, iy, iz, sx, sy, sz, tx, ty, tz, t_stop):
     """Step into the neighbour across the nearest face, unless the next cell
     starts beyond t_stop or the ray leaves the grid.
@@ -141,86 +145,62 @@ def _dda_step(ray, glo, cell, rx, ry, rz, ix, iy, iz, sx, sy, sz, tx, ty, tz, t_
     elif tx == t_exit:
         ix += sx
         inside = 0 <= ix < rx
-        tx = _crossing(ray[0], ray[6], glo[0], cell[0], ix, sx)
+        tx = _crossing(ray.ox, ray.inv_x, glo[0], cell[0], ix, sx)
     elif ty == t_exit:
         iy += sy
         inside = 0 <= iy < ry
-        ty = _crossing(ray[1], ray[7], glo[1], cell[1], iy, sy)
+        ty = _crossing(ray.oy, ray.inv_y, glo[1], cell[1], iy, sy)
     else:
         iz += sz
         inside = 0 <= iz < rz
-        tz = _crossing(ray[2], ray[8], glo[2], cell[2], iz, sz)
+        tz = _crossing(ray.oz, ray.inv_z, glo[2], cell[2], iz, sz)
     return inside, ix, iy, iz, tx, ty, tz
 
 
-@njit(**INLINE)
-def grid_closest(geo, acc, ray, t_max, cnt):
-    """Closest hit among the bounded primitives; returns (t, prim, b1, b2)."""
-    best_t, best_p, best_u, best_v = np.inf, -1, 0.0, 0.0
-    status, ix, iy, iz, sx, sy, sz, tx, ty, tz = _grid_enter(acc, ray, t_max, cnt)
-    if status == _MISS:
-        return best_t, best_p, best_u, best_v
-    if status == _ALL:
-        return brute_closest(geo, ray, t_max, cnt)
-    rx, ry, rz = acc.grid_res[0], acc.grid_res[1], acc.grid_res[2]
-    glo, cell = acc.grid_lo, acc.grid_cell
-    cell_start, cell_items = acc.cell_start, acc.cell_items
-    # Mailbox: the last four primitives tested.  A triangle spanning
-    # neighbouring cells is tested once; a retest would give the same
-    # (t, id), which `closer` rejects, so skipping it changes nothing.
-    m0 = m1 = m2 = m3 = -1
-    inside = True
-    while inside:
-        cnt[CELLS_VISITED] += 1
-        c = ix + rx * (iy + ry * iz)
-        for k in range(cell_start[c], cell_start[c + 1]):
-            p = cell_items[k]
-            if p != m0 and p != m1 and p != m2 and p != m3:
-                m3, m2, m1, m0 = m2, m1, m0, p
-                cnt[PRIM_TESTS] += 1
-                t, u, v = test_prim(geo, ray, p, t_max)
-                if t < np.inf:
-                    cnt[PRIM_HITS] += 1
-                    if closer(t, p, best_t, best_p):
-                        best_t, best_p, best_u, best_v = t, p, u, v
-        inside, ix, iy, iz, tx, ty, tz = _dda_step(ray, glo, cell, rx, ry, rz, ix, iy, iz,
-                                                   sx, sy, sz, tx, ty, tz, min(best_t, t_max))
-    return best_t, best_p, best_u, best_v
+def _traversal(any_hit):
+    """The DDA walk; with any_hit (a compile-time constant) it stops at the
+    first hit.  Until then best.t is inf, so the walk is bounded by t_max."""
+    scan = scan_any if any_hit else scan_closest
+
+    @njit(**JIT)
+    def traverse(geo, acc, ray, t_max, cnt):
+        best = no_hit()
+        status, ix, iy, iz, sx, sy, sz, tx, ty, tz = _grid_enter(acc, ray, t_max, cnt)
+        if status == _MISS:
+            return best
+        if status == _ALL:
+            return scan(geo, ray, t_max, cnt)
+        rx, ry, rz = acc.grid_res[0], acc.grid_res[1], acc.grid_res[2]
+        glo, cell = acc.grid_lo, acc.grid_cell
+        cell_start, cell_items = acc.cell_start, acc.cell_items
+        # Mailbox: the last four primitives tested.  A triangle spanning
+        # neighbouring cells is tested once; a retest would give the same
+        # (t, id), which `closer` rejects, so skipping it changes nothing.
+        m0 = m1 = m2 = m3 = -1
+        inside = True
+        while inside and not (any_hit and best.prim >= 0):
+            cnt[CELLS_VISITED] += 1
+            c = ix + rx * (iy + ry * iz)
+            k = cell_start[c]
+            end = cell_start[c + 1]
+            while k < end and not (any_hit and best.prim >= 0):
+                p = cell_items[k]
+                if p != m0 and p != m1 and p != m2 and p != m3:
+                    m3, m2, m1, m0 = m2, m1, m0, p
+                    cnt[PRIM_TESTS] += 1
+                    t, u, v = test_prim(geo, ray, p, t_max)
+                    if t < np.inf:
+                        cnt[PRIM_HITS] += 1
+                        if closer(t, p, best):
+                            best = Hit(t, p, u, v)
+                k += 1
+            inside, ix, iy, iz, tx, ty, tz = _dda_step(ray, glo, cell, rx, ry, rz, ix, iy, iz,
+                                                       sx, sy, sz, tx, ty, tz,
+                                                       min(best.t, t_max))
+        return best
+    return traverse
 
 
-@njit(**INLINE)
-def grid_occluded(geo, acc, ray, t_max, cnt):
-    """Any bounded primitive hit with 0 < t < t_max; stops at the first.
-
-    Early exits are loop conditions, not break/return inside a for loop
-    (see flat.py: the latter measured an order of magnitude slower).
-    """
-    status, ix, iy, iz, sx, sy, sz, tx, ty, tz = _grid_enter(acc, ray, t_max, cnt)
-    if status == _MISS:
-        return False
-    if status == _ALL:
-        return brute_occluded(geo, ray, t_max, cnt)
-    rx, ry, rz = acc.grid_res[0], acc.grid_res[1], acc.grid_res[2]
-    glo, cell = acc.grid_lo, acc.grid_cell
-    cell_start, cell_items = acc.cell_start, acc.cell_items
-    m0 = m1 = m2 = m3 = -1  # mailbox, as in grid_closest
-    hit = False
-    inside = True
-    while inside and not hit:
-        cnt[CELLS_VISITED] += 1
-        c = ix + rx * (iy + ry * iz)
-        k = cell_start[c]
-        end = cell_start[c + 1]
-        while k < end and not hit:
-            p = cell_items[k]
-            if p != m0 and p != m1 and p != m2 and p != m3:
-                m3, m2, m1, m0 = m2, m1, m0, p
-                cnt[PRIM_TESTS] += 1
-                t, u, v = test_prim(geo, ray, p, t_max)
-                if t < np.inf:
-                    cnt[PRIM_HITS] += 1
-                    hit = True
-            k += 1
-        inside, ix, iy, iz, tx, ty, tz = _dda_step(ray, glo, cell, rx, ry, rz, ix, iy, iz,
-                                                   sx, sy, sz, tx, ty, tz, t_max)
-    return hit
+closest = _traversal(False)
+any_hit = _traversal(True)
+register(Grid, closest, any_hit)

@@ -4,22 +4,12 @@ Every structure (brute force, bounding volumes, BVH, grid) calls these same
 functions, so a triangle is hit or missed identically whichever structure
 found it; that is what makes the images bit-identical.
 
-All geometry is float64 (see README, design notes).  Kernels are compiled with
-``error_model="numpy"`` so 1/0 gives inf instead of raising, which the slab
-test relies on, and without fastmath, which would let LLVM assume no inf/NaN.
+All geometry is float64 (docs/design.md).  Compile options: jit.py.
 """
 import numpy as np
 from numba import njit
 
-JIT = dict(cache=True, error_model="numpy")
-# Per-ray helpers are inlined at Numba's IR level into kernels compiled
-# without the reference-counting runtime (KERNEL).  Each array read from a
-# namedtuple otherwise costs an atomic incref/decref pair: measured 90 ns per
-# triangle test as separate functions against 3 ns inlined, and 148 ns
-# against 10 ns per bvol shadow query with the runtime on.  The price: a
-# kernel cannot allocate, so scratch (BVH stacks, counters) is passed in.
-INLINE = dict(JIT, inline="always")
-KERNEL = dict(JIT, parallel=True, _nrt=False)
+from .jit import JIT
 
 # gamma(n) = n*u / (1 - n*u) with u = 2**-53, the unit roundoff of float64
 # (pbrt-v4, "Floating-point error").  Ize 2013 shows that widening the slab
@@ -30,45 +20,7 @@ GAMMA3 = 3.0 * _U / (1.0 - 3.0 * _U)
 BOX_FAR_SCALE = 1.0 + 2.0 * GAMMA3
 
 
-@njit(**INLINE)
-def make_ray(ox, oy, oz, dx, dy, dz):
-    """Per-ray constants shared by every test along the ray.
-
-    Returns (ox, oy, oz, dx, dy, dz, idx, idy, idz, kx, ky, kz, sx, sy, sz,
-    okx, oky, okz):
-    the inverse direction for slab tests (a zero component gives +-inf) and
-    the axis permutation, shear and permuted origin of the watertight test
-    (Woop, Benthin & Wald 2013, "Watertight Ray/Triangle Intersection").
-    """
-    idx = 1.0 / dx
-    idy = 1.0 / dy
-    idz = 1.0 / dz
-    ax, ay, az = abs(dx), abs(dy), abs(dz)
-    # kz: the dominant axis, so the shear divides by the largest component.
-    if ax > ay:
-        kz = 0 if ax > az else 2
-    else:
-        kz = 1 if ay > az else 2
-    kx = kz + 1
-    if kx == 3:
-        kx = 0
-    ky = kx + 1
-    if ky == 3:
-        ky = 0
-    d = (dx, dy, dz)
-    dkz = d[kz]
-    # Swapping kx, ky when the dominant component is negative keeps the
-    # winding, so the sign of the edge functions means the same thing.
-    if dkz < 0.0:
-        kx, ky = ky, kx
-    sx = d[kx] / dkz
-    sy = d[ky] / dkz
-    sz = 1.0 / dkz
-    o = (ox, oy, oz)
-    return (ox, oy, oz, dx, dy, dz, idx, idy, idz, kx, ky, kz, sx, sy, sz, o[kx], o[ky], o[kz])
-
-
-@njit(**INLINE)
+@njit(**JIT)
 def _slab(o, inv, lo, hi, t0, t1):
     """Narrow [t0, t1] by one axis's slab.
 
@@ -90,7 +42,7 @@ def _slab(o, inv, lo, hi, t0, t1):
     return t0, t1
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def ray_aabb(ray, lo, hi, i, t_max):
     """Slab test of ray against box i of (n, 3) arrays lo, hi.
 
@@ -99,15 +51,15 @@ def ray_aabb(ray, lo, hi, i, t_max):
     so the answer is the same, and it measured 145 -> 139 ns per BVH query
     (1k triangles), 346 -> 300 ns (100k).
     """
-    t0, t1 = _slab(ray[0], ray[6], lo[i, 0], hi[i, 0], 0.0, t_max)
-    t0, t1 = _slab(ray[1], ray[7], lo[i, 1], hi[i, 1], t0, t1)
-    t0, t1 = _slab(ray[2], ray[8], lo[i, 2], hi[i, 2], t0, t1)
+    t0, t1 = _slab(ray.ox, ray.inv_x, lo[i, 0], hi[i, 0], 0.0, t_max)
+    t0, t1 = _slab(ray.oy, ray.inv_y, lo[i, 1], hi[i, 1], t0, t1)
+    t0, t1 = _slab(ray.oz, ray.inv_z, lo[i, 2], hi[i, 2], t0, t1)
     if t0 > t1:
         return np.inf
     return t0
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def ray_triangle(ray, v0, v1, v2, i, t_max):
     """Watertight ray-triangle test (Woop, Benthin & Wald 2013; pbrt-v4).
 
@@ -116,9 +68,9 @@ def ray_triangle(ray, v0, v1, v2, i, t_max):
     shared edge or vertex hit at least one of the triangles sharing it,
     because the edge functions are evaluated identically on both sides.
     """
-    kx, ky, kz = ray[9], ray[10], ray[11]
-    sx, sy, sz = ray[12], ray[13], ray[14]
-    okx, oky, okz = ray[15], ray[16], ray[17]
+    kx, ky, kz = ray.kx, ray.ky, ray.kz
+    sx, sy, sz = ray.sx, ray.sy, ray.sz
+    okx, oky, okz = ray.okx, ray.oky, ray.okz
     ax = v0[i, kx] - okx
     ay = v0[i, ky] - oky
     az = v0[i, kz] - okz
@@ -161,7 +113,7 @@ def ray_triangle(ray, v0, v1, v2, i, t_max):
     return t, e1 * inv_det, e2 * inv_det
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def ray_sphere(ray, center, radius, i, t_max):
     """Nearest root of |o + t d - c| = r with 0 < t < t_max, else inf.
 
@@ -170,10 +122,10 @@ def ray_sphere(ray, center, radius, i, t_max):
     instead of b^2 - 4ac, which cancels catastrophically for small spheres
     far from the origin, and the stable quadratic for the roots.
     """
-    dx, dy, dz = ray[3], ray[4], ray[5]
-    fx = ray[0] - center[i, 0]
-    fy = ray[1] - center[i, 1]
-    fz = ray[2] - center[i, 2]
+    dx, dy, dz = ray.dx, ray.dy, ray.dz
+    fx = ray.ox - center[i, 0]
+    fy = ray.oy - center[i, 1]
+    fz = ray.oz - center[i, 2]
     r = radius[i]
     a = dx * dx + dy * dy + dz * dz
     b = fx * dx + fy * dy + fz * dz  # half of the usual b
@@ -200,7 +152,7 @@ def ray_sphere(ray, center, radius, i, t_max):
     return np.inf
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def ray_plane(ray, point, normal, i, t_max):
     """Distance to infinite plane i with 0 < t < t_max, else inf.
 
@@ -208,10 +160,10 @@ def ray_plane(ray, point, normal, i, t_max):
     a plane seen edge-on has no area to shade.
     """
     nx, ny, nz = normal[i, 0], normal[i, 1], normal[i, 2]
-    den = nx * ray[3] + ny * ray[4] + nz * ray[5]
+    den = nx * ray.dx + ny * ray.dy + nz * ray.dz
     if den == 0.0:
         return np.inf
-    num = nx * (point[i, 0] - ray[0]) + ny * (point[i, 1] - ray[1]) + nz * (point[i, 2] - ray[2])
+    num = nx * (point[i, 0] - ray.ox) + ny * (point[i, 1] - ray.oy) + nz * (point[i, 2] - ray.oz)
     t = num / den
     if t > 0.0 and t < t_max:
         return t

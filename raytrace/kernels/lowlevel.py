@@ -9,7 +9,7 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 from numba.np.arrayobj import populate_array
 
-from ..buffers import BVH_WIDTH as WIDTH
+from ..accel.bvh import WIDTH
 from .intersect import BOX_FAR_SCALE
 
 

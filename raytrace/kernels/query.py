@@ -1,58 +1,65 @@
-"""The two questions every structure answers (pbrt's Intersect/IntersectP):
-the closest hit of a camera ray, and whether a shadow ray is blocked.
+"""The two questions every structure answers (pbrt's Intersect and
+IntersectP): the closest hit of a ray, and whether anything blocks it.
 
-Dispatch is on the integer ``acc.mode`` so one compiled kernel serves every
-structure (function objects passed into kernels make slow, non-deterministic
-cache keys).  Both are inlined into the calling kernel, which is compiled
-without reference counting (see intersect.KERNEL): as a plain per-ray call,
-passing ``geo`` and ``acc`` copies ~270 words of array descriptors and, with
-reference counting, increments and decrements all 31 arrays: ~400 ns per ray
-with an empty structure, more than a whole BVH query.
+A structure is a type: its layout, a namedtuple class of its own
+(``raytrace.accel.<name>``).  Each structure's kernel module registers its
+traversal for that class, and a kernel calling ``closest_hit(geo, acc,
+...)`` is compiled once per layout type with that structure's traversal
+chosen at compile time (Numba's ``@overload``): a BVH render never
+compiles, or branches over, the grid's code.
 """
-import numpy as np
-from numba import njit
+from numba.core.errors import TypingError
+from numba.extending import overload
 
-from ..buffers import ACCEL_BVH, ACCEL_BVOL, ACCEL_GRID, ACCEL_NONE
-from .bvh import bvh_closest, bvh_occluded
-from .flat import (brute_closest, brute_occluded, bvol_closest, bvol_occluded,
-                   planes_closest, planes_occluded)
-from .grid import grid_closest, grid_occluded
-from .intersect import INLINE
+from .jit import OVERLOAD
+from .prims import planes_closest, planes_occluded
+
+# layout class -> (closest, any_hit): compiled functions (geo, acc, ray,
+# t_max, cnt) -> Hit; any_hit returns the first hit it finds.
+_TRAVERSALS = {}
 
 
-@njit(**INLINE)
+def register(layout, closest, any_hit):
+    """Make ``layout`` (a structure's namedtuple class) queryable."""
+    _TRAVERSALS[layout] = (closest, any_hit)
+
+
+def _traversal(acc):
+    cls = getattr(acc, "instance_class", None)
+    if cls not in _TRAVERSALS:
+        raise TypingError(f"no traversal registered for structure layout {acc}")
+    return _TRAVERSALS[cls]
+
+
 def closest_hit(geo, acc, ray, t_max, cnt):
-    """Returns (t, prim, b1, b2); prim is -1 and t inf on a miss.
-
-    cnt: the caller's counter row (never shared between threads).
-    """
-    mode = acc.mode
-    if mode == ACCEL_BVH:
-        t, p, u, v = bvh_closest(geo, acc, ray, t_max, cnt)
-    elif mode == ACCEL_GRID:
-        t, p, u, v = grid_closest(geo, acc, ray, t_max, cnt)
-    elif mode == ACCEL_BVOL:
-        t, p, u, v = bvol_closest(geo, acc, ray, t_max, cnt)
-    elif mode == ACCEL_NONE:
-        t, p, u, v = brute_closest(geo, ray, t_max, cnt)
-    else:
-        t, p, u, v = np.inf, -1, 0.0, 0.0
-    return planes_closest(geo, ray, t_max, t, p, u, v, cnt)
+    """Closest hit with 0 < t < t_max, planes included: a Hit (prim -1 on a
+    miss).  cnt: the caller's counter row, never shared between threads.
+    Compiled code only."""
+    raise NotImplementedError("closest_hit is called from compiled kernels only")
 
 
-@njit(**INLINE)
 def occluded(geo, acc, ray, t_max, cnt):
-    """Any hit with 0 < t < t_max; stops at the first occluder found."""
-    # Planes first: one test each, and the ground blocks many shadow rays.
-    hit = planes_occluded(geo, ray, t_max, cnt)
-    if not hit:
-        mode = acc.mode
-        if mode == ACCEL_BVH:
-            hit = bvh_occluded(geo, acc, ray, t_max, cnt)
-        elif mode == ACCEL_GRID:
-            hit = grid_occluded(geo, acc, ray, t_max, cnt)
-        elif mode == ACCEL_BVOL:
-            hit = bvol_occluded(geo, acc, ray, t_max, cnt)
-        elif mode == ACCEL_NONE:
-            hit = brute_occluded(geo, ray, t_max, cnt)
-    return hit
+    """Whether anything is hit with 0 < t < t_max; stops at the first.
+    Compiled code only."""
+    raise NotImplementedError("occluded is called from compiled kernels only")
+
+
+@overload(closest_hit, jit_options=OVERLOAD)
+def _closest_hit(geo, acc, ray, t_max, cnt):
+    closest = _traversal(acc)[0]
+
+    def impl(geo, acc, ray, t_max, cnt):
+        return planes_closest(geo, ray, t_max, closest(geo, acc, ray, t_max, cnt), cnt)
+    return impl
+
+
+@overload(occluded, jit_options=OVERLOAD)
+def _occluded(geo, acc, ray, t_max, cnt):
+    any_hit = _traversal(acc)[1]
+
+    def impl(geo, acc, ray, t_max, cnt):
+        # Planes first: one test each, and the ground blocks many shadow rays.
+        if planes_occluded(geo, ray, t_max, cnt):
+            return True
+        return any_hit(geo, acc, ray, t_max, cnt).prim >= 0
+    return impl

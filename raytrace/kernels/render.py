@@ -1,38 +1,143 @@
-"""The per-pixel render kernel: camera rays, shading, shadow rays."""
+"""The render kernel: camera rays, shading, shadow rays.
+
+``render_rows`` is a thin parallel loop over thread parts; ``render_part``
+does a part's rows.  What a render needs is chosen by the types of its
+arguments, so each combination compiles on first use and nothing else is
+compiled: the structure's layout (query.py), the shadow mode (NoShadows,
+HardShadows, SoftShadows) and the AOV buffers (NoAovs, Aovs).
+"""
+from collections import namedtuple
+
 import numpy as np
 from numba import njit, prange
+from numba.extending import overload
 
 from ..buffers import MAT_AMBIENT, MAT_DIFFUSE, MAT_SHININESS, MAT_SPECULAR
 from .counters import (BOX_TESTS, OCCLUDED_RAYS, PRIM_TESTS, PRIMARY_RAYS,
                        SHADING_POINTS, SHADOW_POINTS, SHADOW_RAYS)
-from .intersect import INLINE, KERNEL, make_ray
+from .jit import JIT, OVERLOAD, PARALLEL
 from .query import closest_hit, occluded
+from .ray import make_ray
 from .sampling import hash_key, rand01, square_sample
 from .shade import albedo, surface
 
-SHADOWS_NONE, SHADOWS_HARD, SHADOWS_SOFT = 0, 1, 2
-SHADOW_MODES = {"none": SHADOWS_NONE, "hard": SHADOWS_HARD, "soft": SHADOWS_SOFT}
+# Shadow modes: none casts no shadow rays; hard one ray per light, to its
+# centre; soft samples each area light (``pattern``: sampling.PATTERN_*).
+NoShadows = namedtuple("NoShadows", [])
+HardShadows = namedtuple("HardShadows", [])
+SoftShadows = namedtuple("SoftShadows", ["pattern"])
+# Per-pixel output buffers (raytrace/aov.py), or none.
+NoAovs = namedtuple("NoAovs", [])
+Aovs = namedtuple("Aovs", ["depth", "normal", "primid", "cost"])
 
 # Shadow rays start this far off the surface, relative to the magnitude of
 # the hit point's coordinates.  The point is rebuilt from the primitive, so
 # its error is a few float64 ulps of that magnitude (pbrt-v4 ch. 6.8 bounds
-# it by gamma(7) ~ 7.8e-16).  Measured (bench/ray_offset.py): shadow rays
-# re-hit their own sphere, triangle or plane at offsets up to 2^-52 (~2
-# ulps), never from 2^-50 on, at scales 1e-4 to 1e4 and 1e5 from the
-# origin; 2^-44 (~5.7e-14) keeps a factor 64 over that.  The offset is
-# also a gap the shadow ray skips, so it must stay small against the
-# scene: the former 2^-32 was 23% of a 1e-4 scene placed 1e5 from the
-# origin, and let light through a slab 1% of the scene's size above the
-# ground (tests/test_self_intersection.py).
+# it by gamma(7) ~ 7.8e-16).  Shadow rays re-hit their own surface at
+# offsets up to 2^-52 and never from 2^-50 on, at scales 1e-4 to 1e4 and
+# 1e5 from the origin (bench/ray_offset.py); 2^-44 keeps a factor 64 over
+# that, and stays a negligible gap for a small scene far from the origin
+# (docs/design.md, tests/test_self_intersection.py).
 RAY_OFFSET = 2.0 ** -44
 
 
-@njit(**INLINE)
-def shade_pixel_sample(geo, acc, cam, lights, background, shadow_mode, pattern, seed,
-                       pixel, sample, fx, fy, cnt):
+@njit(**JIT)
+def _shadow_ray_blocked(geo, acc, lights, li, su, sv, ox, oy, oz, cnt):
+    """Cast one shadow ray from (ox, oy, oz) to point (su, sv) of light li."""
+    tx = lights.pos[li, 0] + (su - 0.5) * lights.u[li, 0] + (sv - 0.5) * lights.v[li, 0]
+    ty = lights.pos[li, 1] + (su - 0.5) * lights.u[li, 1] + (sv - 0.5) * lights.v[li, 1]
+    tz = lights.pos[li, 2] + (su - 0.5) * lights.u[li, 2] + (sv - 0.5) * lights.v[li, 2]
+    # Unnormalised direction: t in (0, 1) spans origin to light, so nothing
+    # beyond the light is ever tested.
+    sray = make_ray(ox, oy, oz, tx - ox, ty - oy, tz - oz)
+    cnt[SHADOW_RAYS] += 1
+    if occluded(geo, acc, sray, 1.0, cnt):
+        cnt[OCCLUDED_RAYS] += 1
+        return True
+    return False
+
+
+@njit(**JIT)
+def _hard_visibility(shadows, geo, acc, lights, li, ox, oy, oz, seed, pixel, sample, cnt):
+    cnt[SHADOW_POINTS] += 1
+    return 0.0 if _shadow_ray_blocked(geo, acc, lights, li, 0.5, 0.5, ox, oy, oz, cnt) else 1.0
+
+
+@njit(**JIT)
+def _soft_visibility(shadows, geo, acc, lights, li, ox, oy, oz, seed, pixel, sample, cnt):
+    cnt[SHADOW_POINTS] += 1
+    n = lights.samples[li]
+    side = lights.side[li]
+    key = hash_key(seed, pixel, sample, li)
+    free = 0
+    for s in range(n):
+        if n == 1:
+            su, sv = 0.5, 0.5
+        else:
+            su, sv = square_sample(shadows.pattern, s, n, side, key)
+        if not _shadow_ray_blocked(geo, acc, lights, li, su, sv, ox, oy, oz, cnt):
+            free += 1
+    return free / n
+
+
+def light_visibility(shadows, geo, acc, lights, li, ox, oy, oz, seed, pixel, sample, cnt):
+    """Fraction of light li seen from (ox, oy, oz); compiled code only."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(light_visibility, jit_options=OVERLOAD)
+def _light_visibility(shadows, geo, acc, lights, li, ox, oy, oz, seed, pixel, sample, cnt):
+    cls = shadows.instance_class
+    if cls is NoShadows:
+        def impl(shadows, geo, acc, lights, li, ox, oy, oz, seed, pixel, sample, cnt):
+            return 1.0
+        return impl
+    visibility = _hard_visibility if cls is HardShadows else _soft_visibility
+
+    def impl(shadows, geo, acc, lights, li, ox, oy, oz, seed, pixel, sample, cnt):
+        return visibility(shadows, geo, acc, lights, li, ox, oy, oz, seed, pixel, sample, cnt)
+    return impl
+
+
+def record_sample(aovs, y, x, t, prim, nx, ny, nz):
+    """Write a pixel's first camera sample to the AOVs; compiled code only."""
+    raise NotImplementedError("compiled code only")
+
+
+def record_cost(aovs, y, x, cost):
+    """Write a pixel's box + primitive tests to the cost AOV; compiled code only."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(record_sample, jit_options=OVERLOAD)
+def _record_sample(aovs, y, x, t, prim, nx, ny, nz):
+    if aovs.instance_class is NoAovs:
+        return lambda aovs, y, x, t, prim, nx, ny, nz: None
+
+    def impl(aovs, y, x, t, prim, nx, ny, nz):
+        aovs.depth[y, x] = t
+        aovs.primid[y, x] = prim
+        aovs.normal[y, x, 0] = nx
+        aovs.normal[y, x, 1] = ny
+        aovs.normal[y, x, 2] = nz
+    return impl
+
+
+@overload(record_cost, jit_options=OVERLOAD)
+def _record_cost(aovs, y, x, cost):
+    if aovs.instance_class is NoAovs:
+        return lambda aovs, y, x, cost: None
+
+    def impl(aovs, y, x, cost):
+        aovs.cost[y, x] = cost
+    return impl
+
+
+@njit(**JIT)
+def shade_sample(geo, acc, cam, lights, shadows, background, seed, pixel, sample, fx, fy, cnt):
     """Colour of one camera ray through film position (fx, fy) in [0,1]^2.
 
-    Returns (r, g, b, t, prim, nx, ny, nz) -- the extra fields feed the AOVs.
+    Returns (r, g, b, t, prim, nx, ny, nz); the last five feed the AOVs.
     """
     # Pinhole camera: eye + forward + x * right + y * up (cam holds them
     # pre-scaled by the field of view and the aspect ratio).
@@ -45,19 +150,19 @@ def shade_pixel_sample(geo, acc, cam, lights, background, shadow_mode, pattern, 
     dx, dy, dz = dx / ln, dy / ln, dz / ln
     ray = make_ray(cam[0], cam[1], cam[2], dx, dy, dz)
     cnt[PRIMARY_RAYS] += 1
-    t, prim, b1, b2 = closest_hit(geo, acc, ray, np.inf, cnt)
-    if prim < 0:
+    hit = closest_hit(geo, acc, ray, np.inf, cnt)
+    if hit.prim < 0:
         # Sky: a slight gradient with the ray's elevation.
         k = 0.8 + 0.2 * max(-1.0, min(1.0, dy))
         return background[0] * k, background[1] * k, background[2] * k, np.inf, -1, 0.0, 0.0, 0.0
     cnt[SHADING_POINTS] += 1
-    px, py, pz, gx, gy, gz, nx, ny, nz, mat, scale = surface(geo, ray, t, prim, b1, b2)
+    px, py, pz, gx, gy, gz, nx, ny, nz, mat, scale = surface(geo, ray, hit)
     # Face the normals towards the viewer (surfaces are two-sided).
     if gx * dx + gy * dy + gz * dz > 0.0:
         gx, gy, gz = -gx, -gy, -gz
     if nx * gx + ny * gy + nz * gz < 0.0:
         nx, ny, nz = -nx, -ny, -nz
-    ar, ag, ab = albedo(geo, prim, mat, px, py, pz)
+    ar, ag, ab = albedo(geo, hit.prim, mat, px, py, pz)
     ka = geo.mat_param[mat, MAT_AMBIENT]
     kd = geo.mat_param[mat, MAT_DIFFUSE]
     ks = geo.mat_param[mat, MAT_SPECULAR]
@@ -82,46 +187,49 @@ def shade_pixel_sample(geo, acc, cam, lights, background, shadow_mode, pattern, 
         spec = 0.0
         if hl > 0.0:
             spec = ks * max(0.0, (nx * hx + ny * hy + nz * hz) / hl) ** shin
-        vis = 1.0
-        if shadow_mode != SHADOWS_NONE:
-            cnt[SHADOW_POINTS] += 1
-            n = lights.samples[li]
-            side = lights.side[li]
-            key = hash_key(seed, pixel, sample, li)
-            free = 0
-            for s in range(n):
-                if n == 1:
-                    su, sv = 0.5, 0.5
-                else:
-                    su, sv = square_sample(pattern, s, n, side, key)
-                tx = lights.pos[li, 0] + (su - 0.5) * lights.u[li, 0] + (sv - 0.5) * lights.v[li, 0]
-                ty = lights.pos[li, 1] + (su - 0.5) * lights.u[li, 1] + (sv - 0.5) * lights.v[li, 1]
-                tz = lights.pos[li, 2] + (su - 0.5) * lights.u[li, 2] + (sv - 0.5) * lights.v[li, 2]
-                # Unnormalised direction: t in (0, 1) spans origin to light,
-                # so nothing beyond the light is ever tested.
-                sray = make_ray(ox, oy, oz, tx - ox, ty - oy, tz - oz)
-                cnt[SHADOW_RAYS] += 1
-                if occluded(geo, acc, sray, 1.0, cnt):
-                    cnt[OCCLUDED_RAYS] += 1
-                else:
-                    free += 1
-            vis = free / n
+        vis = light_visibility(shadows, geo, acc, lights, li, ox, oy, oz, seed, pixel, sample, cnt)
         lr, lg, lb = lights.color[li, 0], lights.color[li, 1], lights.color[li, 2]
         r += vis * lr * (kd * ar * ndl + spec)
         g += vis * lg * (kd * ag * ndl + spec)
         b += vis * lb * (kd * ab * ndl + spec)
-    return r, g, b, t, prim, nx, ny, nz
+    return r, g, b, hit.t, hit.prim, nx, ny, nz
 
 
-@njit(**KERNEL)
-def render_rows(geo, acc, cam, lights, background, width, height, y0, y1, n_threads, spp,
-                shadow_mode, pattern, seed, image, stats_rows,
-                aov_on, aov_depth, aov_normal, aov_prim, aov_cost):
-    """Render rows y0 .. y1-1 into image (height, width, 3) float32, linear.
+@njit(**JIT)
+def render_part(geo, acc, cam, lights, shadows, aovs, background, width, height,
+                y_first, y_end, y_step, spp, seed, image, stats_rows):
+    """Rows y_first, y_first + y_step, ... below y_end into image (height,
+    width, 3) float32, linear.  Each row counts into its own stats_rows[y]."""
+    for y in range(y_first, y_end, y_step):
+        cnt = stats_rows[y]
+        for x in range(width):
+            pixel = y * width + x
+            before = cnt[BOX_TESTS] + cnt[PRIM_TESTS]
+            r = g = b = 0.0
+            for s in range(spp):
+                if spp == 1:
+                    jx, jy = 0.5, 0.5
+                else:
+                    key = hash_key(seed, pixel, s, 0x5EED)
+                    jx, jy = rand01(key, 0, 0), rand01(key, 0, 1)
+                sr, sg, sb, t, prim, nx, ny, nz = shade_sample(
+                    geo, acc, cam, lights, shadows, background, seed, pixel, s,
+                    (x + jx) / width, (y + jy) / height, cnt)
+                r += sr
+                g += sg
+                b += sb
+                if s == 0:
+                    record_sample(aovs, y, x, t, prim, nx, ny, nz)
+            image[y, x, 0] = r / spp
+            image[y, x, 1] = g / spp
+            image[y, x, 2] = b / spp
+            record_cost(aovs, y, x, cnt[BOX_TESTS] + cnt[PRIM_TESTS] - before)
 
-    Each row counts into its own stats_rows[y], so threads never share a
-    counter.  With aov_on the depth, normal, primitive id and per-pixel cost
-    (box + primitive tests) of the pixel are written too.
+
+@njit(**PARALLEL)
+def render_rows(geo, acc, cam, lights, shadows, aovs, background, width, height, y0, y1,
+                n_threads, spp, seed, image, stats_rows):
+    """Render rows y0 .. y1-1.
 
     Part k of n_threads renders rows y0 + k, y0 + k + n_threads, ...:
     prange gives each thread one contiguous range, and the bottom of a
@@ -132,32 +240,5 @@ def render_rows(geo, acc, cam, lights, background, width, height, y0, y1, n_thre
     """
     n_parts = max(1, min(n_threads, y1 - y0))
     for k in prange(n_parts):
-        for y in range(y0 + k, y1, n_parts):
-            cnt = stats_rows[y]
-            for x in range(width):
-                pixel = y * width + x
-                before = cnt[BOX_TESTS] + cnt[PRIM_TESTS]
-                r = g = b = 0.0
-                for s in range(spp):
-                    if spp == 1:
-                        jx, jy = 0.5, 0.5
-                    else:
-                        key = hash_key(seed, pixel, s, 0x5EED)
-                        jx, jy = rand01(key, 0, 0), rand01(key, 0, 1)
-                    sr, sg, sb, t, prim, nx, ny, nz = shade_pixel_sample(
-                        geo, acc, cam, lights, background, shadow_mode, pattern, seed,
-                        pixel, s, (x + jx) / width, (y + jy) / height, cnt)
-                    r += sr
-                    g += sg
-                    b += sb
-                    if aov_on and s == 0:
-                        aov_depth[y, x] = t
-                        aov_prim[y, x] = prim
-                        aov_normal[y, x, 0] = nx
-                        aov_normal[y, x, 1] = ny
-                        aov_normal[y, x, 2] = nz
-                image[y, x, 0] = r / spp
-                image[y, x, 1] = g / spp
-                image[y, x, 2] = b / spp
-                if aov_on:
-                    aov_cost[y, x] = cnt[BOX_TESTS] + cnt[PRIM_TESTS] - before
+        render_part(geo, acc, cam, lights, shadows, aovs, background, width, height,
+                    y0 + k, y1, n_parts, spp, seed, image, stats_rows)

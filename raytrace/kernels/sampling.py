@@ -7,7 +7,7 @@ renders it, so ``--threads 1`` and ``--threads 2`` write identical images.
 import numpy as np
 from numba import njit
 
-from .intersect import INLINE
+from .jit import JIT
 
 PATTERN_GRID = 0        # the workshop's regular grid: cell centres, no noise, banding
 PATTERN_RANDOM = 1      # uniform random: error ~ N^-1/2
@@ -22,7 +22,7 @@ _M2 = np.uint64(0x94D049BB133111EB)
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def mix64(z):
     """SplitMix64's finaliser (Steele et al. 2014): a strong 64-bit mix."""
     z = (z ^ (z >> np.uint64(30))) * _M1
@@ -30,7 +30,7 @@ def mix64(z):
     return z ^ (z >> np.uint64(31))
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def hash_key(seed, a, b, c):
     z = mix64(np.uint64(seed) + _GOLDEN)
     z = mix64(z ^ np.uint64(a))
@@ -38,14 +38,14 @@ def hash_key(seed, a, b, c):
     return mix64(z ^ np.uint64(c))
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def rand01(key, i, dim):
     """Uniform in [0, 1) from a key, a sample index and a dimension."""
     z = mix64(key ^ mix64(np.uint64(i) * np.uint64(2) + np.uint64(dim) + _GOLDEN))
     return np.float64(z >> np.uint64(11)) * (1.0 / 9007199254740992.0)
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def radical_inverse(base, i):
     inv = 1.0 / base
     f = inv
@@ -57,7 +57,7 @@ def radical_inverse(base, i):
     return r
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def square_sample(pattern, s, n, side, key):
     """Sample s of n on the unit square; side = sqrt(n) for square patterns."""
     if pattern == PATTERN_GRID:

@@ -3,10 +3,10 @@ import numpy as np
 from numba import njit
 
 from ..buffers import MAT_CHECKER
-from .intersect import INLINE
+from .jit import JIT
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def _normalize(x, y, z):
     ln = np.sqrt(x * x + y * y + z * z)
     if ln == 0.0:
@@ -14,8 +14,8 @@ def _normalize(x, y, z):
     return x / ln, y / ln, z / ln
 
 
-@njit(**INLINE)
-def surface(geo, ray, t, prim, b1, b2):
+@njit(**JIT)
+def surface(geo, ray, hit):
     """Hit point, geometric and shading normals, material and size scale.
 
     The point is rebuilt from the primitive itself (barycentrics; sphere
@@ -23,6 +23,7 @@ def surface(geo, ray, t, prim, b1, b2):
     primitive's coordinates and not with the ray's length; ``scale`` is the
     magnitude that error is relative to (used for the shadow-ray offset).
     """
+    t, prim, b1, b2 = hit.t, hit.prim, hit.u, hit.v
     n_tris = geo.tri_v0.shape[0]
     n_sph = geo.sph_center.shape[0]
     if prim < n_tris:
@@ -48,7 +49,7 @@ def surface(geo, ray, t, prim, b1, b2):
         k = prim - n_tris
         cx, cy, cz = geo.sph_center[k, 0], geo.sph_center[k, 1], geo.sph_center[k, 2]
         r = geo.sph_radius[k]
-        gx, gy, gz = _normalize(ray[0] + t * ray[3] - cx, ray[1] + t * ray[4] - cy, ray[2] + t * ray[5] - cz)
+        gx, gy, gz = _normalize(ray.ox + t * ray.dx - cx, ray.oy + t * ray.dy - cy, ray.oz + t * ray.dz - cz)
         px, py, pz = cx + r * gx, cy + r * gy, cz + r * gz
         sx, sy, sz = gx, gy, gz
         scale = max(abs(cx), abs(cy), abs(cz)) + r
@@ -57,7 +58,7 @@ def surface(geo, ray, t, prim, b1, b2):
         k = prim - n_tris - n_sph
         gx, gy, gz = geo.pl_normal[k, 0], geo.pl_normal[k, 1], geo.pl_normal[k, 2]
         qx, qy, qz = geo.pl_point[k, 0], geo.pl_point[k, 1], geo.pl_point[k, 2]
-        px, py, pz = ray[0] + t * ray[3], ray[1] + t * ray[4], ray[2] + t * ray[5]
+        px, py, pz = ray.ox + t * ray.dx, ray.oy + t * ray.dy, ray.oz + t * ray.dz
         off = (px - qx) * gx + (py - qy) * gy + (pz - qz) * gz
         px, py, pz = px - off * gx, py - off * gy, pz - off * gz
         sx, sy, sz = gx, gy, gz
@@ -66,7 +67,7 @@ def surface(geo, ray, t, prim, b1, b2):
     return px, py, pz, gx, gy, gz, sx, sy, sz, mat, scale
 
 
-@njit(**INLINE)
+@njit(**JIT)
 def albedo(geo, prim, mat, px, py, pz):
     """Material colour; planes with a checker size alternate full and 35 %."""
     r, g, b = geo.mat_color[mat, 0], geo.mat_color[mat, 1], geo.mat_color[mat, 2]

@@ -1,0 +1,42 @@
+"""Per-object bounding volumes (the workshop's Step 3): a box test per
+object, then its primitives."""
+import numpy as np
+from numba import njit
+
+from ..accel.bvol import BoundingVolumes
+from .counters import BOX_TESTS, PRIM_HITS, PRIM_TESTS
+from .intersect import ray_aabb
+from .jit import JIT
+from .prims import test_prim
+from .query import register
+from .ray import Hit, closer, no_hit
+
+
+def _traversal(any_hit):
+    @njit(**JIT)
+    def traverse(geo, acc, ray, t_max, cnt):
+        lo, hi, start, count = acc.obj_lo, acc.obj_hi, acc.obj_start, acc.obj_count
+        best = no_hit()
+        n = start.shape[0]
+        j = 0
+        while j < n and not (any_hit and best.prim >= 0):
+            cnt[BOX_TESTS] += 1
+            if ray_aabb(ray, lo, hi, j, min(best.t, t_max)) < np.inf:
+                p = start[j]
+                end = p + count[j]
+                while p < end and not (any_hit and best.prim >= 0):
+                    cnt[PRIM_TESTS] += 1
+                    t, u, v = test_prim(geo, ray, p, t_max)
+                    if t < np.inf:
+                        cnt[PRIM_HITS] += 1
+                        if closer(t, p, best):
+                            best = Hit(t, p, u, v)
+                    p += 1
+            j += 1
+        return best
+    return traverse
+
+
+closest = _traversal(False)
+any_hit = _traversal(True)
+register(BoundingVolumes, closest, any_hit)

@@ -1,0 +1,65 @@
+"""Primitive dispatch: the one place that knows a unified primitive id
+names a triangle, a sphere or a plane (buffers.py).
+
+Conventions every structure follows, so all give the same answer:
+- primitive tests get the ray's own t_max, never the best t so far; the
+  caller keeps the closest with ``closer`` (ties: the smaller id);
+- box tests get min(best t, t_max), inclusive, so a box is skipped only if
+  it starts strictly beyond the best hit.
+"""
+import numpy as np
+from numba import njit
+
+from .counters import PRIM_HITS, PRIM_TESTS
+from .intersect import ray_plane, ray_sphere, ray_triangle
+from .jit import JIT
+from .ray import Hit, closer
+
+
+@njit(**JIT)
+def n_bounded(geo):
+    """Primitives with a box (triangles, then spheres): the ones structures hold."""
+    return geo.tri_v0.shape[0] + geo.sph_center.shape[0]
+
+
+@njit(**JIT)
+def test_prim(geo, ray, p, t_max):
+    """Test bounded primitive p (triangle or sphere); returns (t, b1, b2)."""
+    n_tris = geo.tri_v0.shape[0]
+    if p < n_tris:
+        return ray_triangle(ray, geo.tri_v0, geo.tri_v1, geo.tri_v2, p, t_max)
+    t = ray_sphere(ray, geo.sph_center, geo.sph_radius, p - n_tris, t_max)
+    return t, 0.0, 0.0
+
+
+@njit(**JIT)
+def planes_closest(geo, ray, t_max, best, cnt):
+    """Infinite planes have no box: every structure tests them all, after
+    its own primitives; returns the closer of best and the planes' hits."""
+    base = n_bounded(geo)
+    for k in range(geo.pl_point.shape[0]):
+        cnt[PRIM_TESTS] += 1
+        t = ray_plane(ray, geo.pl_point, geo.pl_normal, k, t_max)
+        if t < np.inf:
+            cnt[PRIM_HITS] += 1
+            if closer(t, base + k, best):
+                best = Hit(t, base + k, 0.0, 0.0)
+    return best
+
+
+@njit(**JIT)
+def planes_occluded(geo, ray, t_max, cnt):
+    """Whether any plane is hit with 0 < t < t_max.  Early exits are loop
+    conditions: a return inside a for loop measured an order of magnitude
+    slower (docs/design.md)."""
+    point, normal = geo.pl_point, geo.pl_normal
+    n = point.shape[0]
+    hit = False
+    k = 0
+    while k < n and not hit:
+        cnt[PRIM_TESTS] += 1
+        if ray_plane(ray, point, normal, k, t_max) < np.inf:
+            cnt[PRIM_HITS] += 1
+            hit = True
+        k += 1
+    return hit

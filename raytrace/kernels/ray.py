@@ -1,0 +1,63 @@
+"""Rays and hits as named records (pbrt's Ray and SurfaceInteraction, Ray
+Tracing in One Weekend's ray and hit_record)."""
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from .jit import JIT
+
+# A ray with the per-ray constants every test along it shares: the inverse
+# direction for slab tests (a zero component gives +-inf) and the axis
+# permutation (kx, ky, kz), shear (sx, sy, sz) and permuted origin (okx,
+# oky, okz) of the watertight triangle test.
+Ray = namedtuple("Ray", ["ox", "oy", "oz", "dx", "dy", "dz", "inv_x", "inv_y", "inv_z",
+                         "kx", "ky", "kz", "sx", "sy", "sz", "okx", "oky", "okz"])
+
+# A hit: distance, unified primitive id (-1: none) and the barycentric
+# weights of a triangle's second and third vertices.
+Hit = namedtuple("Hit", ["t", "prim", "u", "v"])
+
+
+@njit(**JIT)
+def make_ray(ox, oy, oz, dx, dy, dz):
+    """A Ray from origin and direction (Woop, Benthin & Wald 2013,
+    "Watertight Ray/Triangle Intersection", for the shear constants)."""
+    idx = 1.0 / dx
+    idy = 1.0 / dy
+    idz = 1.0 / dz
+    ax, ay, az = abs(dx), abs(dy), abs(dz)
+    # kz: the dominant axis, so the shear divides by the largest component.
+    if ax > ay:
+        kz = 0 if ax > az else 2
+    else:
+        kz = 1 if ay > az else 2
+    kx = kz + 1
+    if kx == 3:
+        kx = 0
+    ky = kx + 1
+    if ky == 3:
+        ky = 0
+    d = (dx, dy, dz)
+    dkz = d[kz]
+    # Swapping kx, ky when the dominant component is negative keeps the
+    # winding, so the sign of the edge functions means the same thing.
+    if dkz < 0.0:
+        kx, ky = ky, kx
+    sx = d[kx] / dkz
+    sy = d[ky] / dkz
+    sz = 1.0 / dkz
+    o = (ox, oy, oz)
+    return Ray(ox, oy, oz, dx, dy, dz, idx, idy, idz, kx, ky, kz, sx, sy, sz, o[kx], o[ky], o[kz])
+
+
+@njit(**JIT)
+def no_hit():
+    return Hit(np.inf, -1, 0.0, 0.0)
+
+
+@njit(**JIT)
+def closer(t, p, best):
+    """Canonical order of hits: by distance, then by primitive id, so the
+    answer does not depend on the order a structure tests primitives in."""
+    return t < best.t or (t == best.t and p < best.prim)

@@ -1,0 +1,56 @@
+"""The acceleration structures: one entry each, read by the CLI, the
+driver, the ray-casting API, the bench and the tests (pbrt-v4's
+CreateAccelerator).
+
+A structure ``x`` is two modules and the line below:
+``raytrace/accel/x.py`` defines its layout (a namedtuple class) and
+``build(geo, obj_ranges)``; ``raytrace/kernels/x.py`` its traversal,
+registered for the layout (kernels/query.py).  Nothing is imported, built
+or compiled for a structure the run does not use.
+"""
+import importlib
+import time
+from dataclasses import dataclass
+
+from .errors import RaytraceError
+
+
+@dataclass(frozen=True)
+class Structure:
+    name: str
+    summary: str                  # one line, for --help and the README
+    module: str                   # raytrace.accel.<module> and raytrace.kernels.<module>
+    visit_counter: str = None     # its own counter, if any (stats.COUNTERS)
+    visit_metric: str = None      # that counter per ray (stats.derive), a bench column
+
+    def build(self, geo, obj_ranges):
+        """(layout, build seconds); also loads the traversal for the layout."""
+        builder = importlib.import_module(f"raytrace.accel.{self.module}")
+        importlib.import_module(f"raytrace.kernels.{self.module}")
+        t0 = time.perf_counter()
+        layout = builder.build(geo, obj_ranges)
+        return layout, time.perf_counter() - t0
+
+
+STRUCTURES = {s.name: s for s in (
+    Structure("none", "brute force: every primitive for every ray", "brute"),
+    Structure("bvol", "a bounding box per object, then its primitives", "bvol"),
+    Structure("bvh", "4-wide bounding volume hierarchy, binned SAH build", "bvh",
+              "nodes_visited", "nodes_per_ray"),
+    Structure("grid", "uniform grid walked by 3D-DDA", "grid",
+              "cells_visited", "cells_per_ray"),
+)}
+DEFAULT = "bvh"
+
+
+def get(name):
+    """The Structure called ``name``; RaytraceError naming the choices otherwise."""
+    if not isinstance(name, str) or name not in STRUCTURES:
+        raise RaytraceError(f"unknown acceleration structure {name!r} "
+                            f"(choose from {', '.join(STRUCTURES)})")
+    return STRUCTURES[name]
+
+
+def build_structure(name, geo, obj_ranges):
+    """Returns (layout, build seconds) for structure ``name``."""
+    return get(name).build(geo, obj_ranges)
