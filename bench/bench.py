@@ -14,6 +14,9 @@ peer         our batch ray casting against Embree (embreex) or Open3D, if
              importable, on the same primary and shadow rays (peer.py).
 convergence  soft-shadow error against run time for each sampling pattern
              (convergence.py).
+coldstart    each entry point's first run in a fresh process with an empty
+             Numba cache, and what each option adds (coldstart.py).  First,
+             so that nothing else competes with it for the cores.
 """
 import json
 import sys
@@ -28,7 +31,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import common  # noqa: E402
 from common import ACCELS, STRUCTURES, fmt_g, fmt_s, interleaved, log, markdown_table, median  # noqa: E402
 
-SECTIONS = ("workshop", "scaling", "peer", "convergence")
+SECTIONS = ("coldstart", "workshop", "scaling", "peer", "convergence")
 # The scaling table's structures: those whose cost grows slower than the
 # mesh, each with a visit counter of its own (nodes, cells).
 HIERARCHICAL = tuple(n for n, s in STRUCTURES.items() if s.visit_metric)
@@ -233,6 +236,11 @@ def main(quick, json_path, plot_path, sections):
     print(f"Machine: {common.machine_line(info)}. Python {info['python']}, Numba {info['numba']}, "
           f"NumPy {info['numpy']}; commit {info['git_commit'] or 'unknown'}; {info['date']}.\n")
     sys.stdout.flush()
+    if "coldstart" in chosen:
+        import coldstart
+        rows, chain = coldstart.measure(quick)
+        report["coldstart"] = {"rows": rows, "chain": chain}
+        print(coldstart.markdown(rows, chain) + "\n", flush=True)
     if "workshop" in chosen:
         report["workshop"] = run_workshop(cfg)
         print(workshop_markdown(report["workshop"]) + "\n", flush=True)

@@ -149,6 +149,14 @@ def table(rows, title):
                                               body, align="lrrr")
 
 
+def markdown(rows, chain):
+    out = table(rows, "Cold start: each entry point in a fresh process with an empty cache")
+    if chain:
+        out += "\n\n" + table(chain, "Cold start, one cache: what each option adds the first "
+                                     "time it is used")
+    return out
+
+
 @click.command()
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), default=None)
 @click.option("--quick", is_flag=True, help="Only the BVH with hard shadows, cast_rays and the builders.")
@@ -156,10 +164,7 @@ def main(json_path, quick):
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     t0 = time.perf_counter()
     rows, chain = measure(quick)
-    print(table(rows, "Cold start: each entry point in a fresh process with an empty cache"))
-    if chain:
-        print()
-        print(table(chain, "Cold start, one cache: what each option adds the first time it is used"))
+    print(markdown(rows, chain))
     print(f"\n({time.perf_counter() - t0:.0f} s, {os.cpu_count()} cores)")
     if json_path:
         Path(json_path).write_text(json.dumps({"rows": rows, "chain": chain}, indent=2))
