@@ -89,6 +89,8 @@ def validate(opts, scene):
                 if opts.pattern in ("grid", "stratified") and side * side != light.samples:
                     raise RaytraceError(f"the {opts.pattern} pattern needs a square number of "
                                         f"light samples (light {k} has {light.samples})")
+    if not isinstance(opts.aov, (bool, np.bool_)):
+        raise RaytraceError(f"aov must be True or False, got {opts.aov!r}")
     if opts.threads is not None:
         import numba
         _check_int("threads", opts.threads, 1, numba.config.NUMBA_NUM_THREADS)

@@ -1,0 +1,53 @@
+"""One compiled version of each kernel per structure and mode, whatever
+types the caller passes: a NumPy integer for a size, a read-only, float32
+or Fortran-ordered ray array must be normalised by the Python layer, not
+compile the kernels again (each compile costs seconds and disk)."""
+import json
+import subprocess
+import sys
+
+SCRIPT = r"""
+import json
+import numpy as np
+import raytrace
+from raytrace.driver import render
+from raytrace.scenes.builtin import spheres
+
+sc = spheres()
+for kw in (dict(width=16, height=12),
+           dict(width=np.int32(16), height=np.int64(12), spp=np.int16(1), seed=np.uint8(0)),
+           dict(width=16, height=12, threads=np.int32(1))):
+    render(sc, accel="bvh", shadows="hard", **kw)
+render(sc, accel="bvh", shadows="hard", width=16, height=12, aov=True)
+render(sc, accel="bvh", shadows="hard", width=16, height=12, aov=np.bool_(True))
+
+v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
+f = np.array([[0, 1, 2]], np.int32)
+o = np.array([[0.2, 0.2, 1.0], [0.3, 0.3, 1.0]])
+d = np.array([[0, 0, -1.0], [0, 0, -1.0]])
+ro_o, ro_d = o.copy(), d.copy()
+ro_o.setflags(write=False)
+ro_d.setflags(write=False)
+for oo, dd, tm in ((o, d, None), (ro_o, ro_d, None), (o.astype(np.float32), d.astype(np.float32), None),
+                   (np.asfortranarray(o), np.asfortranarray(d), np.float32(5)), (o.tolist(), d.tolist(), 5),
+                   (o[::1, :], d[:, :], np.array([5, 6], np.int64))):
+    h = raytrace.cast_rays((v, f), oo, dd, t_max=tm)
+    assert h.hit.all()
+    assert raytrace.occluded((v, f), oo, dd, 2 if tm is None else tm).all()
+
+from raytrace.accel.bvh import build_bvh_kernel, collapse_bvh4
+from raytrace.kernels.cast import cast_closest, cast_occluded
+from raytrace.kernels.render import render_rows
+print(json.dumps({k.__name__: [str(s) for s in k.signatures] for k in
+                  (render_rows, cast_closest, cast_occluded, build_bvh_kernel, collapse_bvh4)}))
+"""
+
+
+def test_one_signature_per_structure_and_mode():
+    p = subprocess.run([sys.executable, "-c", SCRIPT], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr[-2000:]
+    sigs = json.loads(p.stdout.strip().splitlines()[-1])
+    # render_rows: BVH + hard shadows, without and with AOVs; nothing else.
+    assert len(sigs["render_rows"]) == 2, sigs["render_rows"]
+    for name in ("cast_closest", "cast_occluded", "build_bvh_kernel", "collapse_bvh4"):
+        assert len(sigs[name]) == 1, (name, sigs[name])
