@@ -2,3 +2,4 @@
 namedtuple class, the contract with its traversal in raytrace.kernels)
 and ``build(geo, obj_ranges)``.  Builders see boxes and centroids, never
 the primitives themselves.  The registry is raytrace.structures."""
+from .. import jitconfig  # noqa: F401  (before any @njit: the cache directory)

@@ -1,40 +1,6 @@
-"""Numba kernels.  Only contiguous arrays, namedtuples of arrays and scalars
+"""Numba kernels: ray records, intersection tests, one traversal module per
+structure, shading and the parallel render and ray-casting kernels.  Only
+contiguous arrays of fixed dtypes, namedtuples of them and plain scalars
 cross into this package; validation and dtype casting happen in the glue.
-
-Numba's on-disk cache keys a function by its own file's timestamp only, so
-editing a helper in another file (an intersection test, say) would leave a
-stale compiled render kernel in place.  The cache therefore lives in a
-directory named by a hash of every kernel source file: any change to any
-kernel starts a fresh cache.  NUMBA_CACHE_DIR, if the user sets it, wins.
 """
-import hashlib
-import os
-from pathlib import Path
-
-import numba
-
-
-def _cache_dir():
-    here = Path(__file__).parent
-    sources = sorted(here.glob("*.py")) + sorted((here.parent / "accel").glob("*.py")) + [
-        here.parent / "buffers.py"]
-    digest = hashlib.sha1()
-    for path in sources:
-        digest.update(path.name.encode())
-        digest.update(path.read_bytes())
-    digest.update(numba.__version__.encode())
-    root = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-    return root / "raytrace" / f"numba-{digest.hexdigest()[:16]}"
-
-
-if not os.environ.get("NUMBA_CACHE_DIR"):
-    numba.config.CACHE_DIR = str(_cache_dir())
-
-# Numba picks OpenMP when it can, and GNU OpenMP's parallel-region start
-# measured 8 ms per kernel call here (threads asleep between calls) against
-# 0.09 ms for Numba's own workqueue: 0.26 s against 0.05 s for a
-# 640x480 teapot rendered in 32 bands for the progress bar, and 1.93 s
-# against 1.74 s with soft shadows.  The workqueue cannot run kernels from
-# several Python threads at once; raytrace never does.
-if not os.environ.get("NUMBA_THREADING_LAYER"):
-    numba.config.THREADING_LAYER = "workqueue"
+from .. import jitconfig  # noqa: F401  (before any @njit: the cache directory)
