@@ -134,8 +134,14 @@ def run_case(detail, width, height, runs, peer_list):
     import raytrace
     from raytrace.structures import build_structure
     from raytrace.flatten import flatten
-    from raytrace.raycast import any_hit, closest
+    from raytrace.rayscene import RayScene, _any_hit, _closest
     from raytrace.scene import Mesh, Scene
+
+    def closest(geo, acc, o, d, t_max):
+        return _closest(geo, acc, o, d, np.zeros(len(o)), t_max)
+
+    def any_hit(geo, acc, o, d, t_max):
+        return _any_hit(geo, acc, o, d, np.zeros(len(o)), t_max)
 
     v, f, (po, pd), (so, sd, stm) = make_rays(detail, width, height)
     ptm = np.full(len(po), np.inf)
@@ -148,6 +154,8 @@ def run_case(detail, width, height, runs, peer_list):
     acc, _ = build_structure("bvh", geo, obj_ranges)
     ours_build = time.perf_counter() - t0
     threads = numba.get_num_threads()
+    scene = RayScene((v, f), accel="bvh")   # the public API, built once
+    scene.cast_rays(po[:1], pd[:1])
 
     def single(fn):
         def go():
@@ -161,9 +169,11 @@ def run_case(detail, width, height, runs, peer_list):
     ours = {
         ("primary", "kernel"): lambda: closest(geo, acc, po, pd, ptm),
         ("primary", "kernel_1t"): single(lambda: closest(geo, acc, po, pd, ptm)),
+        ("primary", "scene"): lambda: scene.cast_rays(po, pd),
         ("primary", "api"): lambda: raytrace.cast_rays((v, f), po, pd, accel="bvh"),
         ("shadow", "kernel"): lambda: any_hit(geo, acc, so, sd, stm),
         ("shadow", "kernel_1t"): single(lambda: any_hit(geo, acc, so, sd, stm)),
+        ("shadow", "scene"): lambda: scene.occluded(so, sd, t_max=stm),
         ("shadow", "api"): lambda: raytrace.occluded((v, f), so, sd, stm, accel="bvh"),
     }
     v32, f32 = np.ascontiguousarray(v, np.float32), np.ascontiguousarray(f, np.int32)
@@ -203,7 +213,7 @@ def run_case(detail, width, height, runs, peer_list):
     for kind in ("primary", "shadow"):
         result["ours"][kind] = {m: {"s": med[(kind, m)], "times_s": times[(kind, m)],
                                     "mrays_per_s": n_rays[kind] / med[(kind, m)] / 1e6}
-                                for m in ("kernel", "kernel_1t", "api")}
+                                for m in ("kernel", "kernel_1t", "scene", "api")}
     for p in peer_list:
         sc, build_s = peer_scenes[p["name"]]
         o32, d32 = rays32["primary"]
@@ -217,7 +227,7 @@ def run_case(detail, width, height, runs, peer_list):
         for kind in ("primary", "shadow"):
             s = med[(kind, p["name"])]
             e = {"s": s, "times_s": times[(kind, p["name"])], "mrays_per_s": n_rays[kind] / s / 1e6}
-            for m in ("kernel", "kernel_1t", "api"):
+            for m in ("kernel", "kernel_1t", "scene", "api"):
                 e["ratio_ours_" + m] = result["ours"][kind][m]["mrays_per_s"] / e["mrays_per_s"]
             entry[kind] = e
         s = med[("primary", p["name"] + "+build")]
@@ -245,8 +255,9 @@ def markdown(res):
     out = ["### Peer: the same rays through our BVH and a peer", ""]
     if "skipped" in res:
         return "\n".join(out + [f"Skipped: {res['skipped']}."])
-    header = ["Triangles", "Rays", "Count", "Ours Mrays/s", "Ours 1 thread", "Peer", "Peer Mrays/s",
-              "Ours / peer", "Ours 1 thread / peer", "Agreement"]
+    header = ["Triangles", "Rays", "Count", "Ours Mrays/s", "Ours 1 thread", "RayScene Mrays/s",
+              "Peer", "Peer Mrays/s", "Ours / peer", "Ours 1 thread / peer", "RayScene / peer",
+              "Agreement"]
     body = []
     for case in res["cases"]:
         for name, e in case["peers"].items():
@@ -256,19 +267,28 @@ def markdown(res):
                          else f"{e['agree_occluded']:.4%} same answer")
                 body.append([f"{case['triangles']:,}", kind, f"{case['rays'][kind]:,}",
                              fmt_g(o["kernel"]["mrays_per_s"]), fmt_g(o["kernel_1t"]["mrays_per_s"]),
+                             fmt_g(o["scene"]["mrays_per_s"]),
                              f"{name} {e['version']} ({e['threads']} thr)",
                              fmt_g(e[kind]["mrays_per_s"]), f"{e[kind]['ratio_ours_kernel']:.2f}",
-                             f"{e[kind]['ratio_ours_kernel_1t']:.2f}", agree])
-    out.append(markdown_table(header, body, align="rlr" + "r" * 2 + "l" + "r" * 3 + "l"))
+                             f"{e[kind]['ratio_ours_kernel_1t']:.2f}",
+                             f"{e[kind]['ratio_ours_scene']:.2f}", agree])
+    out.append(markdown_table(header, body, align="rlr" + "r" * 3 + "l" + "r" * 4 + "l"))
     case0 = res["cases"][0]
     out += ["", (f"{case0['width']}x{case0['height']} camera rays at pixel centres and one hard-shadow "
                  f"ray per lit hit, the teapot plus a ground quad. Ours: the batch kernels behind "
                  f"`raytrace.cast_rays` / `raytrace.occluded` on a prebuilt BVH, float64, "
-                 f"{case0['threads']} threads (and pinned to 1); the peer: float32 copies of the "
+                 f"{case0['threads']} threads (and pinned to 1); RayScene: the public "
+                 f"`RayScene.cast_rays` / `.occluded` on a scene built once (validation and "
+                 f"results included); the peer: float32 copies of the "
                  f"same rays on its prebuilt scene. Medians of {case0['runs']} interleaved runs "
                  f"after a warm-up. Ratio > 1: we are faster.")]
     lines = []
     for case in res["cases"]:
+        for kind in ("primary", "shadow"):
+            o = case["ours"][kind]
+            lines.append(f"- {case['triangles']:,} triangles, {kind} rays: a RayScene call costs "
+                         f"{o['scene']['s'] / o['kernel']['s'] - 1:+.1%} over its kernel "
+                         f"({fmt_g(o['scene']['s'] * 1e3)} ms against {fmt_g(o['kernel']['s'] * 1e3)} ms).")
         for name, e in case["peers"].items():
             api = case["ours"]["primary"]["api"]
             lines.append(f"- {case['triangles']:,} triangles, whole calls including the build: "

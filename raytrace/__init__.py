@@ -6,13 +6,13 @@
     >>> result.image.shape, result.stats["counters"]["primary_rays"]
     ((240, 320, 3), 76800)
 
-``cast_rays`` and ``occluded`` trace your own rays against a mesh or a
-scene with the renderer's kernels.  Importing this package is cheap: NumPy,
+``RayScene`` builds meshes or a scene once for your own ray queries with
+the renderer's kernels; ``cast_rays`` and ``occluded`` do one batch.  Importing this package is cheap: NumPy,
 Numba and trimesh are imported by the first call that needs them.
 """
 from .errors import RaytraceError
 
-__all__ = ["load_scene", "render", "cast_rays", "occluded", "RaytraceError"]
+__all__ = ["load_scene", "render", "RayScene", "cast_rays", "occluded", "RaytraceError"]
 
 
 def load_scene(name_or_path, **opts):
@@ -49,14 +49,22 @@ def cast_rays(target, origins, directions, accel="bvh", t_max=None):
 
     Returns a RayHits with (n,) arrays t, prim_id, u, v, object_id (also
     ``hits["t"]``); t is in units of each direction's length, inf and -1
-    on a miss.  See raytrace.rays.cast_rays.
+    on a miss.  See raytrace.rayscene.cast_rays.
     """
-    from .rays import cast_rays as _cast
+    from .rayscene import cast_rays as _cast
     return _cast(target, origins, directions, accel=accel, t_max=t_max)
 
 
 def occluded(target, origins, directions, t_max, accel="bvh"):
     """(n,) booleans: is anything hit with 0 < t < t_max along each ray?
-    See raytrace.rays.occluded."""
-    from .rays import occluded as _occluded
+    See raytrace.rayscene.occluded."""
+    from .rayscene import occluded as _occluded
     return _occluded(target, origins, directions, t_max, accel=accel)
+
+
+def __getattr__(name):
+    # RayScene is imported on first use, so `import raytrace` stays light.
+    if name == "RayScene":
+        from .rayscene import RayScene
+        return RayScene
+    raise AttributeError(f"module 'raytrace' has no attribute {name!r}")

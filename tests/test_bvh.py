@@ -39,7 +39,7 @@ def closest(geo, acc, o, d, t_max=None):
     out = (np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n))
     cnt = np.zeros((4, N_COUNTERS), np.int64)
     cast_closest(geo, acc, np.ascontiguousarray(o, float), np.ascontiguousarray(d, float),
-                 np.ascontiguousarray(t_max, float), *out, cnt)
+                 np.zeros(n), np.ascontiguousarray(t_max, float), *out, cnt)
     return out, cnt.sum(axis=0)
 
 
@@ -48,7 +48,7 @@ def occluded(geo, acc, o, d, t_max):
     hit = np.empty(n, np.bool_)
     cnt = np.zeros((4, N_COUNTERS), np.int64)
     cast_occluded(geo, acc, np.ascontiguousarray(o, float), np.ascontiguousarray(d, float),
-                  np.ascontiguousarray(t_max, float), hit, cnt)
+                  np.zeros(n), np.ascontiguousarray(t_max, float), hit, cnt)
     return hit, cnt.sum(axis=0)
 
 

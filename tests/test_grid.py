@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from raytrace.structures import build_structure as build_accel
 from raytrace.accel.grid import GRID_MAX_RES, Grid, _fill_cells, build_grid, grid_eps
 from raytrace.flatten import flatten
-from raytrace.raycast import any_hit, closest
+from raytrace.rayscene import _any_hit, _closest
 from raytrace.kernels.counters import BOX_TESTS, CELLS_VISITED, PRIM_TESTS
 from raytrace.scene import Camera, Mesh, Plane, Scene, Sphere
 
@@ -26,12 +26,17 @@ def make_scene(meshes=(), spheres=(), planes=()):
     return geo, obj_ranges
 
 
+def _arrays(o, d, t_max):
+    o, d, t_max = (np.ascontiguousarray(a, np.float64) for a in (o, d, t_max))
+    return o, d, np.zeros(len(o)), t_max
+
+
 def cast(geo, acc, o, d, t_max):
-    return closest(geo, acc, o, d, t_max)
+    return _closest(geo, acc, *_arrays(o, d, t_max))
 
 
 def occ(geo, acc, o, d, t_max):
-    return any_hit(geo, acc, o, d, t_max)
+    return _any_hit(geo, acc, *_arrays(o, d, t_max))
 
 
 def assert_same_as_brute(geo, obj_ranges, o, d, t_max):

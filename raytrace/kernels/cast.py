@@ -4,7 +4,7 @@ reference the tests compare structures with.
 Rays go out in chunks of CHUNK consecutive rays; counter block b (a row of
 cnt_rows, so threads never share a counter and the kernels, compiled without
 the NRT, allocate nothing) takes chunks b, b + n_blocks, b + 2 n_blocks, ...
-in order.  With one block per thread (raycast.py) each thread sweeps the
+in order.  With one block per thread (rayscene.py) each thread sweeps the
 rays once, a chunk at a time: rays in pixel order cost unevenly (sky,
 object, ground), and prange's one contiguous range per thread would leave a
 thread idle, while neighbouring chunks cost about the same.  (Many smaller
@@ -24,14 +24,14 @@ CHUNK = 64
 
 
 @njit(**JIT)
-def _closest_block(geo, acc, origins, dirs, t_max, out_t, out_prim, out_u, out_v, cnt, b,
-                   n_blocks):
+def _closest_block(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v, cnt,
+                   b, n_blocks):
     n = origins.shape[0]
     n_chunks = (n + CHUNK - 1) // CHUNK
     for c in range(b, n_chunks, n_blocks):
         for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             ray = make_ray(origins[i, 0], origins[i, 1], origins[i, 2],
-                           dirs[i, 0], dirs[i, 1], dirs[i, 2])
+                           dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i])
             hit = closest_hit(geo, acc, ray, t_max[i], cnt)
             out_t[i] = hit.t
             out_prim[i] = hit.prim
@@ -40,28 +40,29 @@ def _closest_block(geo, acc, origins, dirs, t_max, out_t, out_prim, out_u, out_v
 
 
 @njit(**JIT)
-def _occluded_block(geo, acc, origins, dirs, t_max, out_hit, cnt, b, n_blocks):
+def _occluded_block(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt, b, n_blocks):
     n = origins.shape[0]
     n_chunks = (n + CHUNK - 1) // CHUNK
     for c in range(b, n_chunks, n_blocks):
         for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             ray = make_ray(origins[i, 0], origins[i, 1], origins[i, 2],
-                           dirs[i, 0], dirs[i, 1], dirs[i, 2])
+                           dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i])
             out_hit[i] = occluded(geo, acc, ray, t_max[i], cnt)
 
 
 @njit(**PARALLEL)
-def cast_closest(geo, acc, origins, dirs, t_max, out_t, out_prim, out_u, out_v, cnt_rows):
-    """Closest hit of ray i = (origins[i], dirs[i]) with 0 < t < t_max[i]."""
+def cast_closest(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v,
+                 cnt_rows):
+    """Closest hit of ray i = (origins[i], dirs[i]) with t_min[i] < t < t_max[i]."""
     n_blocks = cnt_rows.shape[0]
     for b in prange(n_blocks):
-        _closest_block(geo, acc, origins, dirs, t_max, out_t, out_prim, out_u, out_v,
+        _closest_block(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v,
                        cnt_rows[b], b, n_blocks)
 
 
 @njit(**PARALLEL)
-def cast_occluded(geo, acc, origins, dirs, t_max, out_hit, cnt_rows):
-    """Whether anything is hit with 0 < t < t_max[i] (stops at the first)."""
+def cast_occluded(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows):
+    """Whether anything is hit with t_min[i] < t < t_max[i] (stops at the first)."""
     n_blocks = cnt_rows.shape[0]
     for b in prange(n_blocks):
-        _occluded_block(geo, acc, origins, dirs, t_max, out_hit, cnt_rows[b], b, n_blocks)
+        _occluded_block(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows[b], b, n_blocks)

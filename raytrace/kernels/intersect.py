@@ -64,7 +64,7 @@ def ray_triangle(ray, v0, v1, v2, i, t_max):
     """Watertight ray-triangle test (Woop, Benthin & Wald 2013; pbrt-v4).
 
     Returns (t, b1, b2): distance and the barycentric weights of v1 and v2,
-    or (inf, 0, 0) on a miss.  Hits need 0 < t < t_max.  Rays through a
+    or (inf, 0, 0) on a miss.  Hits need ray.t_min < t < t_max.  Rays through a
     shared edge or vertex hit at least one of the triangles sharing it,
     because the edge functions are evaluated identically on both sides.
     """
@@ -108,14 +108,14 @@ def ray_triangle(ray, v0, v1, v2, i, t_max):
             return np.inf, 0.0, 0.0
     inv_det = 1.0 / det
     t = t_scaled * inv_det
-    if not (t > 0.0 and t < t_max):
+    if not (t > ray.t_min and t < t_max):
         return np.inf, 0.0, 0.0
     return t, e1 * inv_det, e2 * inv_det
 
 
 @njit(**JIT)
 def ray_sphere(ray, center, radius, i, t_max):
-    """Nearest root of |o + t d - c| = r with 0 < t < t_max, else inf.
+    """Nearest root of |o + t d - c| = r with ray.t_min < t < t_max, else inf.
 
     Uses the discriminant form of Ray Tracing Gems ch. 7 ("Precision
     Improvements for Ray/Sphere Intersection"): r^2 - |f - (f.d/d.d) d|^2
@@ -145,16 +145,16 @@ def ray_sphere(ray, center, radius, i, t_max):
     t1 = q / a
     if t0 > t1:
         t0, t1 = t1, t0
-    if t0 > 0.0 and t0 < t_max:
+    if t0 > ray.t_min and t0 < t_max:
         return t0
-    if t1 > 0.0 and t1 < t_max:
+    if t1 > ray.t_min and t1 < t_max:
         return t1
     return np.inf
 
 
 @njit(**JIT)
 def ray_plane(ray, point, normal, i, t_max):
-    """Distance to infinite plane i with 0 < t < t_max, else inf.
+    """Distance to infinite plane i with ray.t_min < t < t_max, else inf.
 
     A ray parallel to the plane (n.d == 0) misses, even one lying in it:
     a plane seen edge-on has no area to shade.
@@ -165,6 +165,6 @@ def ray_plane(ray, point, normal, i, t_max):
         return np.inf
     num = nx * (point[i, 0] - ray.ox) + ny * (point[i, 1] - ray.oy) + nz * (point[i, 2] - ray.oz)
     t = num / den
-    if t > 0.0 and t < t_max:
+    if t > ray.t_min and t < t_max:
         return t
     return np.inf

@@ -10,9 +10,10 @@ from .jit import JIT
 # A ray with the per-ray constants every test along it shares: the inverse
 # direction for slab tests (a zero component gives +-inf) and the axis
 # permutation (kx, ky, kz), shear (sx, sy, sz) and permuted origin (okx,
-# oky, okz) of the watertight triangle test.
+# oky, okz) of the watertight triangle test.  Hits count for t_min < t <
+# t_max (t_max is the query's argument, since it shrinks as hits are found).
 Ray = namedtuple("Ray", ["ox", "oy", "oz", "dx", "dy", "dz", "inv_x", "inv_y", "inv_z",
-                         "kx", "ky", "kz", "sx", "sy", "sz", "okx", "oky", "okz"])
+                         "kx", "ky", "kz", "sx", "sy", "sz", "okx", "oky", "okz", "t_min"])
 
 # A hit: distance, unified primitive id (-1: none) and the barycentric
 # weights of a triangle's second and third vertices.
@@ -20,9 +21,10 @@ Hit = namedtuple("Hit", ["t", "prim", "u", "v"])
 
 
 @njit(**JIT)
-def make_ray(ox, oy, oz, dx, dy, dz):
+def make_ray(ox, oy, oz, dx, dy, dz, t_min=0.0):
     """A Ray from origin and direction (Woop, Benthin & Wald 2013,
-    "Watertight Ray/Triangle Intersection", for the shear constants)."""
+    "Watertight Ray/Triangle Intersection", for the shear constants);
+    t_min >= 0 is the near end of its interval."""
     idx = 1.0 / dx
     idy = 1.0 / dy
     idz = 1.0 / dz
@@ -48,7 +50,8 @@ def make_ray(ox, oy, oz, dx, dy, dz):
     sy = d[ky] / dkz
     sz = 1.0 / dkz
     o = (ox, oy, oz)
-    return Ray(ox, oy, oz, dx, dy, dz, idx, idy, idz, kx, ky, kz, sx, sy, sz, o[kx], o[ky], o[kz])
+    return Ray(ox, oy, oz, dx, dy, dz, idx, idy, idz, kx, ky, kz, sx, sy, sz, o[kx], o[ky], o[kz],
+               t_min)
 
 
 @njit(**JIT)

@@ -1,0 +1,373 @@
+"""Casting your own rays against meshes or a scene: ``RayScene`` builds the
+renderer's buffers and structure once, then answers queries with the batch
+kernels (kernels/cast.py) behind validated inputs.
+
+Distances are parametric: a hit is at ``origin + t * direction``, so t is
+in units of the direction's length (directions need not be unit length).
+Only hits with t_min < t < t_max count.
+"""
+import numpy as np
+
+from .errors import RaytraceError
+from .io.mesh import MAX_COORD, bad_coordinate_rows, check_mesh_arrays
+from .scene import Mesh, Scene
+
+
+class RayHits:
+    """Closest hits of n rays.  Each field is an array over the rays,
+    reachable as an attribute or by name (``hits.t``, ``hits["t"]``):
+
+    t            (n,) distance along the ray, in units of its direction's length (inf: miss)
+    geometry_id  (n,) the mesh hit: the id add_mesh returned, or the index of the object
+                 in a Scene's objects (0 for a single mesh); -1: miss
+    prim_id      (n,) the face hit, an index into that mesh's faces (0 for a sphere
+                 or plane); -1: miss
+    u, v         (n,) barycentric weights of the face's second and third vertices:
+                 hit point = (1 - u - v) * a + u * b + v * c (NaN: miss, sphere, plane)
+    normal       (n, 3) unit geometric normal of the primitive hit: a face's by its
+                 winding, (b - a) x (c - a); a sphere's outward; a plane's own (NaN: miss)
+    point        (n, 3) the hit point, rebuilt from the primitive (barycentrics on a
+                 face, projection onto a sphere or plane), not o + t d (NaN: miss)
+
+    ``object_id`` is another name for ``geometry_id``; ``hit`` is the boolean
+    mask of rays that hit; ``stats`` the counters (primitive and box tests)
+    under the renderer's names.  normal and point are computed when first
+    read, so a caller who wants t alone does not pay for them.
+    """
+    FIELDS = ("t", "geometry_id", "prim_id", "u", "v", "normal", "point")
+
+    def __init__(self, t, prim, u, v, origins, directions, prepared, stats):
+        self.t = t
+        self._prim = prim            # the kernel's unified primitive ids
+        self._raw_uv = (u, v)
+        self._rays = (origins, directions)
+        self._prepared = prepared
+        self.stats = stats
+        self._cache = {}
+
+    def _get(self, name, make):
+        if name not in self._cache:
+            self._cache[name] = make()
+        return self._cache[name]
+
+    @property
+    def hit(self):
+        return self._prim >= 0
+
+    @property
+    def geometry_id(self):
+        return self._get("geometry_id", lambda: self._prepared.ids(self._prim)[0])
+
+    object_id = geometry_id
+
+    @property
+    def prim_id(self):
+        return self._get("prim_id", lambda: self._prepared.ids(self._prim)[1])
+
+    def _uv(self):
+        tri = self.hit & (self._prim < self._prepared.n_tris)
+        return (np.where(tri, self._raw_uv[0], np.nan), np.where(tri, self._raw_uv[1], np.nan))
+
+    @property
+    def u(self):
+        return self._get("uv", self._uv)[0]
+
+    @property
+    def v(self):
+        return self._get("uv", self._uv)[1]
+
+    @property
+    def normal(self):
+        return self._get("surface", self._surface)[0]
+
+    @property
+    def point(self):
+        return self._get("surface", self._surface)[1]
+
+    def _surface(self):
+        return self._prepared.surface(self._prim, *self._raw_uv, self.t, *self._rays)
+
+    def __getitem__(self, name):
+        if name not in self.FIELDS and name != "object_id":
+            raise KeyError(f"{name!r} (fields: {', '.join(self.FIELDS)})")
+        return getattr(self, name)
+
+    def keys(self):
+        return self.FIELDS
+
+    def __len__(self):
+        return len(self.t)
+
+    def __repr__(self):
+        return f"RayHits({len(self)} rays, {int(self.hit.sum())} hits)"
+
+
+class _Prepared:
+    """A built scene: kernel buffers, the structure, and the maps from the
+    kernel's unified primitive ids back to the user's geometry and faces."""
+
+    def __init__(self, objects, accel):
+        from .flatten import flatten
+        from .structures import build_structure
+        scene = Scene(name="rays", camera=None, objects=objects)
+        self.geo, obj_ranges, _, (self.prim_object, self.prim_face) = flatten(
+            scene, with_sources=True)
+        self.acc, self.build_s = build_structure(accel, self.geo, obj_ranges)
+        self.n_tris = self.geo.tri_v0.shape[0]
+
+    def ids(self, prim):
+        hit = prim >= 0
+        safe = np.where(hit, prim, 0)
+        if not len(self.prim_object):
+            return np.full(len(prim), -1), np.full(len(prim), -1)
+        return (np.where(hit, self.prim_object[safe], -1), np.where(hit, self.prim_face[safe], -1))
+
+    def surface(self, prim, u, v, t, origins, directions):
+        """(normal, point) of each hit, NaN rows for misses."""
+        g = self.geo
+        n = len(prim)
+        normal = np.full((n, 3), np.nan)
+        point = np.full((n, 3), np.nan)
+        n_tris, n_sph = self.n_tris, g.sph_center.shape[0]
+        tri = np.flatnonzero((prim >= 0) & (prim < n_tris))
+        if len(tri):
+            p = prim[tri]
+            a, b, c = g.tri_v0[p], g.tri_v1[p], g.tri_v2[p]
+            uu, vv = u[tri, None], v[tri, None]
+            point[tri] = (1.0 - uu - vv) * a + uu * b + vv * c
+            nrm = np.cross(b - a, c - a)
+            normal[tri] = nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
+        sph = np.flatnonzero((prim >= n_tris) & (prim < n_tris + n_sph))
+        if len(sph):
+            k = prim[sph] - n_tris
+            c, r = g.sph_center[k], g.sph_radius[k, None]
+            d = origins[sph] + t[sph, None] * directions[sph] - c
+            d /= np.linalg.norm(d, axis=1, keepdims=True)
+            normal[sph] = d
+            point[sph] = c + r * d
+        pl = np.flatnonzero(prim >= n_tris + n_sph)
+        if len(pl):
+            k = prim[pl] - n_tris - n_sph
+            nn, q = g.pl_normal[k], g.pl_point[k]
+            x = origins[pl] + t[pl, None] * directions[pl]
+            normal[pl] = nn
+            point[pl] = x - np.einsum("ij,ij->i", x - q, nn)[:, None] * nn
+        return normal, point
+
+
+def _mesh_arrays(mesh, faces=None):
+    """(vertices, faces) from a pair, from two arguments, or from an object
+    with .vertices and .faces (a trimesh.Trimesh, a raytrace Mesh)."""
+    if faces is not None:
+        return mesh, faces
+    if hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
+        return mesh.vertices, mesh.faces
+    if isinstance(mesh, (tuple, list)) and len(mesh) == 2:
+        return mesh
+    raise RaytraceError("target must be a (vertices, faces) pair, a mesh with .vertices and "
+                        f".faces (such as a trimesh.Trimesh), or a Scene; got {type(mesh).__name__}")
+
+
+class RayScene:
+    """Meshes (or a whole Scene) built once, for any number of ray queries.
+
+        scene = RayScene((vertices, faces))        # or a trimesh.Trimesh, or a Scene
+        hits = scene.cast_rays(origins, directions)
+        blocked = scene.occluded(origins, directions, t_max=1.0)
+
+    ``RayScene()`` starts empty; ``add_mesh`` adds a mesh and returns its
+    geometry id (0, 1, ...).  A Scene's objects (meshes, spheres, planes)
+    are geometries numbered by their index in ``scene.objects``.  Inputs are
+    validated when added; the structure (``accel``: none, bvol, bvh, grid,
+    all giving the same answers) is built at the first query after a change.
+    """
+
+    def __init__(self, target=None, accel="bvh"):
+        from .structures import get
+        get(accel)
+        self.accel = accel
+        self._objects = []
+        self._prepared = None
+        if isinstance(target, Scene):
+            self._objects = list(target.objects)
+        elif target is not None:
+            self._add(*_mesh_arrays(target), name="target")
+
+    def add_mesh(self, mesh, faces=None):
+        """Add a mesh: ``add_mesh((vertices, faces))``, ``add_mesh(vertices,
+        faces)`` or ``add_mesh(trimesh_mesh)``.  Returns its geometry id."""
+        return self._add(*_mesh_arrays(mesh, faces), name=f"mesh {len(self._objects)}")
+
+    def _add(self, vertices, faces, name):
+        v, f = check_mesh_arrays(name, vertices, faces)
+        self._objects.append(Mesh(v, f, name=name))
+        self._prepared = None
+        return len(self._objects) - 1
+
+    def _built(self):
+        if self._prepared is None:
+            self._prepared = _Prepared(self._objects, self.accel)
+        return self._prepared
+
+    def cast_rays(self, origins, directions, t_min=0.0, t_max=np.inf):
+        """Closest hit of each ray (origins[i], directions[i]) with
+        t_min < t < t_max: a RayHits.  origins, directions: (n, 3) (one (3,)
+        origin serves every direction, one direction every origin); t_min,
+        t_max: numbers or (n,) arrays, 0 <= t_min < t_max (inf allowed)."""
+        o, d, tmin, tmax = _rays(origins, directions, t_min, t_max)
+        p = self._built()
+        (t, prim, u, v), cnt = _closest(p.geo, p.acc, o, d, tmin, tmax)
+        return RayHits(t, prim, u, v, o, d, p, _counters(cnt, len(d)))
+
+    def occluded(self, origins, directions, t_min=0.0, t_max=np.inf):
+        """Whether anything is hit along each ray with t_min < t < t_max: a
+        boolean (n,) array.  For a shadow ray, pass the unnormalised
+        direction to the light and t_max = 1."""
+        o, d, tmin, tmax = _rays(origins, directions, t_min, t_max)
+        p = self._built()
+        return _any_hit(p.geo, p.acc, o, d, tmin, tmax)[0]
+
+    def __repr__(self):
+        return f"RayScene({len(self._objects)} geometries, accel={self.accel!r})"
+
+
+def _as_rows(name, a):
+    """(n, 3) float64 array, or (3,) as one row; values are checked later."""
+    if np.iscomplexobj(a):
+        raise RaytraceError(f"{name}: complex numbers are not coordinates")
+    try:
+        arr = np.asarray(a, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise RaytraceError(f"{name}: not convertible to float64 ({exc})") from None
+    if arr.ndim == 1 and arr.shape[0] == 3:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise RaytraceError(f"{name}: expected shape (n, 3), got {arr.shape}")
+    return kernel_array(arr)
+
+
+def _interval_end(name, value, n):
+    """An (n,) float64 array from a number or an (n,) array-like."""
+    try:
+        a = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise RaytraceError(f"{name}: not convertible to float64 ({exc})") from None
+    if a.ndim == 0:
+        return np.full(n, float(a))
+    if a.shape != (n,):
+        raise RaytraceError(f"{name}: expected a number or shape ({n},), got shape {a.shape}")
+    return kernel_array(a)
+
+
+def _rays(origins, directions, t_min, t_max):
+    """Validated kernel arrays (origins, directions, t_min, t_max)."""
+    o = _as_rows("origins", origins)
+    d = _as_rows("directions", directions)
+    if len(o) == 1 and len(d) > 1:     # one origin for every direction
+        o = np.ascontiguousarray(np.broadcast_to(o, d.shape))
+    if len(d) == 1 and len(o) > 1:     # one direction for every origin
+        d = np.ascontiguousarray(np.broadcast_to(d, o.shape))
+    if len(o) != len(d):
+        raise RaytraceError(f"origins and directions differ in length ({len(o)} and {len(d)})")
+    n = len(d)
+    tmin = _interval_end("t_min", t_min, n)
+    tmax = _interval_end("t_max", t_max, n)
+    from .kernels.validate import rays_ok
+    if not rays_ok(o, d, tmin, tmax, MAX_COORD):
+        _name_the_problem(o, d, tmin, tmax)
+    return o, d, tmin, tmax
+
+
+def _name_the_problem(o, d, tmin, tmax):
+    """Raise RaytraceError naming the first bad ray and how many share it."""
+    for name, arr in (("origins", o), ("directions", d)):
+        bad = bad_coordinate_rows(arr)
+        if bad is not None and bad[0] == "nonfinite":
+            raise RaytraceError(f"{name}[{bad[1]}]: NaN or infinite value ({bad[2]} such rows)")
+        if bad is not None:
+            raise RaytraceError(f"{name}[{bad[1]}]: a value beyond {MAX_COORD:g} "
+                                f"(products of such values overflow; {bad[2]} such rows)")
+    zero = (d[:, 0] == 0.0) & (d[:, 1] == 0.0) & (d[:, 2] == 0.0)
+    if zero.any():
+        raise RaytraceError(f"directions[{int(np.argmax(zero))}]: zero vector (a ray needs a direction)")
+    bad = ~(tmax > 0)   # also catches NaN
+    if bad.any():
+        raise RaytraceError(f"t_max[{int(np.argmax(bad))}]: must be positive (inf allowed), "
+                            f"got {tmax[np.argmax(bad)]}")
+    bad = ~((tmin >= 0) & (tmin < tmax))
+    k = int(np.argmax(bad))
+    raise RaytraceError(f"t_min[{k}]: must be finite, at least 0 and below t_max "
+                        f"({tmax[k]}), got {tmin[k]}")
+
+
+def kernel_array(a, dtype=np.float64):
+    """``a`` as a C-contiguous, aligned, writeable array of ``dtype`` (a copy
+    only when it is not one already): a read-only or strided array would
+    compile the kernels again for its type."""
+    a = np.asarray(a)
+    if a.dtype != dtype or not (a.flags.c_contiguous and a.flags.aligned and a.flags.writeable):
+        a = np.array(a, dtype=dtype, order="C", copy=True)
+    return a
+
+
+def _blocks(n):
+    """Counter rows: one per thread (kernels/cast.py interleaves chunks of
+    rays between them), fewer when there are fewer chunks than threads."""
+    import numba
+
+    from .kernels.cast import CHUNK
+    return max(1, min(numba.get_num_threads(), -(-n // CHUNK)))
+
+
+def _closest(geo, acc, origins, dirs, t_min, t_max):
+    """((t, prim, b1, b2), counters) for validated (n, 3) rays and (n,) bounds."""
+    from .kernels.cast import cast_closest
+    from .kernels.counters import N_COUNTERS
+    n = len(origins)
+    out = (np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n))
+    cnt = np.zeros((_blocks(n), N_COUNTERS), np.int64)
+    cast_closest(geo, acc, origins, dirs, t_min, t_max, *out, cnt)
+    return out, cnt.sum(axis=0)
+
+
+def _any_hit(geo, acc, origins, dirs, t_min, t_max):
+    """(occluded bool array, counters)."""
+    from .kernels.cast import cast_occluded
+    from .kernels.counters import N_COUNTERS
+    n = len(origins)
+    hit = np.empty(n, np.bool_)
+    cnt = np.zeros((_blocks(n), N_COUNTERS), np.int64)
+    cast_occluded(geo, acc, origins, dirs, t_min, t_max, hit, cnt)
+    return hit, cnt.sum(axis=0)
+
+
+def _counters(cnt, n):
+    from .stats import counters_from_rows
+    c = counters_from_rows(cnt[None, :])
+    return {"rays": n, "prim_tests": c["prim_tests"], "prim_hits": c["prim_hits"],
+            "box_tests": c["box_tests"], "nodes_visited": c["nodes_visited"],
+            "cells_visited": c["cells_visited"]}
+
+
+def cast_rays(target, origins, directions, accel="bvh", t_max=None):
+    """Closest hit of each ray against ``target`` (a (vertices, faces) pair,
+    a mesh with .vertices and .faces, or a Scene), built for this call
+    alone: ``RayScene(target, accel).cast_rays(...)``.  Build a RayScene to
+    cast many batches against the same target."""
+    scene = _scene_for(target, accel)
+    return scene.cast_rays(origins, directions, t_max=np.inf if t_max is None else t_max)
+
+
+def occluded(target, origins, directions, t_max, accel="bvh"):
+    """Whether anything blocks each ray with 0 < t < t_max (required: inf
+    for anywhere along the ray): ``RayScene(target, accel).occluded(...)``."""
+    if t_max is None:
+        raise RaytraceError("t_max: required (the distance up to which a ray is blocked)")
+    return _scene_for(target, accel).occluded(origins, directions, t_max=t_max)
+
+
+def _scene_for(target, accel):
+    if target is None:
+        raise RaytraceError("target must be a (vertices, faces) pair, a mesh with .vertices and "
+                            ".faces (such as a trimesh.Trimesh), or a Scene; got None")
+    return RayScene(target, accel)

@@ -1,0 +1,129 @@
+"""RayScene: built once, queried many times; geometry ids, t_min, normals
+and hit points, the same answers from every structure."""
+import numpy as np
+import pytest
+
+import raytrace
+from raytrace import RayScene, RaytraceError
+from raytrace.scene import Camera, Material, Mesh, Plane, Scene, Sphere
+from .structures import STRUCTURES
+
+# Two unit squares in z = 0 and z = -2, faces wound so their normals point +z.
+SQUARE_V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+SQUARE_F = np.array([[0, 1, 2], [0, 2, 3]])
+DOWN = [0.0, 0.0, -1.0]
+
+
+def two_squares(accel="bvh"):
+    scene = RayScene(accel=accel)
+    assert scene.add_mesh(SQUARE_V, SQUARE_F) == 0
+    assert scene.add_mesh((SQUARE_V - [0, 0, 2], SQUARE_F)) == 1
+    return scene
+
+
+@pytest.mark.parametrize("accel", STRUCTURES)
+def test_geometry_ids_faces_normals_and_points(accel):
+    s = two_squares(accel)
+    o = [[0.75, 0.25, 1.0], [0.25, 0.75, 1.0], [5, 5, 1.0]]
+    h = s.cast_rays(o, DOWN)
+    assert h.geometry_id.tolist() == [0, 0, -1]
+    assert h.prim_id.tolist() == [0, 1, -1]
+    assert h.t[:2].tolist() == [1.0, 1.0] and h.t[2] == np.inf
+    assert np.array_equal(h.normal[:2], [[0, 0, 1.0], [0, 0, 1.0]])
+    assert np.allclose(h.point[:2], [[0.75, 0.25, 0], [0.25, 0.75, 0]], atol=1e-15, rtol=0)
+    assert np.isnan(h.normal[2]).all() and np.isnan(h.point[2]).all()
+
+
+@pytest.mark.parametrize("accel", STRUCTURES)
+def test_t_min_skips_nearer_hits(accel):
+    s = two_squares(accel)
+    o = [[0.5, 0.3, 1.0]] * 4
+    h = s.cast_rays(o, DOWN, t_min=[0.0, 1.0, 2.5, 3.0], t_max=[np.inf, np.inf, np.inf, 3.5])
+    # Both ends are exclusive: at t_min = 1.0 the first square (t = 1) no
+    # longer counts, and at t_min = 3.0 the second (t = 3) neither.
+    assert h.geometry_id.tolist() == [0, 1, 1, -1]
+    assert h.t.tolist() == [1.0, 3.0, 3.0, np.inf]
+    occ = s.occluded(o, DOWN, t_min=[0.0, 1.0, 3.0, 0.5], t_max=[1.5, 3.5, 10.0, 1.0])
+    assert occ.tolist() == [True, True, False, False]
+
+
+def test_sphere_and_plane_normals_and_points():
+    m = Material()
+    scene = Scene("s", Camera((0, 0, 5), (0, 0, 0)), objects=[
+        Plane((0, -1, 0), (0, 2, 0), m), Sphere((3, 0, 0), 1.0, m)])
+    h = RayScene(scene).cast_rays([[3.0, 0.0, 5.0], [-4.0, 0.0, 0.0]], [[0, 0, -1.0], [0, -1.0, 0]])
+    assert h.geometry_id.tolist() == [1, 0]
+    assert np.allclose(h.normal, [[0, 0, 1.0], [0, 1.0, 0]])
+    assert np.allclose(h.point, [[3, 0, 1.0], [-4, -1.0, 0]])
+    assert np.isnan(h.u).all()    # only triangles have barycentrics
+
+
+def test_inside_a_sphere_t_min_finds_the_far_side():
+    scene = Scene("s", Camera((0, 0, 5), (0, 0, 0)), objects=[Sphere((0, 0, 0), 1.0)])
+    rs = RayScene(scene)
+    h = rs.cast_rays([[0.0, 0.0, 2.0]], DOWN, t_min=1.5)    # past the near side at t = 1
+    assert h.t[0] == pytest.approx(3.0) and np.allclose(h.normal[0], [0, 0, -1.0])
+
+
+def test_built_once_and_rebuilt_after_add_mesh():
+    s = two_squares()
+    s.cast_rays([[0.5, 0.5, 1.0]], DOWN)
+    built = s._prepared
+    s.occluded([[0.5, 0.5, 1.0]], DOWN)
+    assert s._prepared is built
+    s.add_mesh(SQUARE_V + [0, 0, 0.5], SQUARE_F)
+    assert s.cast_rays([[0.5, 0.5, 1.0]], DOWN).geometry_id.tolist() == [2]
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_every_structure_same_answers_with_random_bounds(seed):
+    rng = np.random.default_rng(seed)
+    v = rng.normal(size=(90, 3))
+    f = rng.integers(0, 90, size=(60, 3))
+    o = rng.normal(size=(400, 3)) * 3
+    d = rng.normal(size=(400, 3))
+    t_min = rng.uniform(0, 2, 400)
+    t_max = t_min + rng.uniform(0.01, 5, 400)
+    ref = None
+    for accel in STRUCTURES:
+        s = RayScene((v, f), accel=accel)
+        h = s.cast_rays(o, d, t_min=t_min, t_max=t_max)
+        got = (h.t, h.prim_id, h.u, h.v, s.occluded(o, d, t_min=t_min, t_max=t_max))
+        hit = h.hit
+        assert ((h.t[hit] > t_min[hit]) & (h.t[hit] < t_max[hit])).all()
+        if ref is None:
+            ref = got
+        for a, b in zip(ref, got):
+            assert np.array_equal(a, b, equal_nan=True), accel
+        assert np.array_equal(got[4][hit], np.ones(hit.sum(), bool))
+
+
+def test_same_answers_as_the_one_call_functions():
+    rng = np.random.default_rng(4)
+    v, f = rng.normal(size=(30, 3)), rng.integers(0, 30, size=(20, 3))
+    o, d = rng.normal(size=(200, 3)) * 2, rng.normal(size=(200, 3))
+    a = RayScene((v, f)).cast_rays(o, d)
+    b = raytrace.cast_rays((v, f), o, d)
+    for name in a.FIELDS:
+        assert np.array_equal(a[name], b[name], equal_nan=True), name
+
+
+@pytest.mark.parametrize("kw, message", [
+    (dict(t_min=-1.0), r"t_min\[0\]: must be finite, at least 0"),
+    (dict(t_min=2.0, t_max=1.0), r"t_min\[0\]: .* below t_max"),
+    (dict(t_min=np.nan), r"t_min\[0\]"),
+    (dict(t_min=[0.0, 0.0]), r"t_min: expected a number or shape \(1,\)"),
+    (dict(t_max=0.0), r"t_max\[0\]: must be positive"),
+])
+def test_bad_bounds_name_the_argument(kw, message):
+    with pytest.raises(RaytraceError, match=message):
+        two_squares().cast_rays([[0.5, 0.5, 1.0]], DOWN, **kw)
+
+
+def test_bad_meshes_and_structures():
+    with pytest.raises(RaytraceError, match=r"mesh 0: face 0 indexes a vertex out of range"):
+        RayScene().add_mesh(SQUARE_V, [[0, 1, 9]])
+    with pytest.raises(RaytraceError, match="target must be"):
+        RayScene().add_mesh("square.obj")
+    with pytest.raises(RaytraceError, match="unknown acceleration structure"):
+        RayScene(accel="kd")
