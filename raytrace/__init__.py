@@ -12,7 +12,11 @@ Numba and trimesh are imported by the first call that needs them.
 """
 from .errors import RaytraceError
 
-__all__ = ["load_scene", "render", "RayScene", "cast_rays", "occluded", "RaytraceError"]
+__all__ = ["load_scene", "render", "RayScene", "cast_rays", "occluded", "create_rays_pinhole",
+           "create_rays_from_matrices", "RaytraceError"]
+# Imported on first use, so that `import raytrace` stays light.
+_LAZY = {"RayScene": "rayscene", "create_rays_pinhole": "rayscene",
+         "create_rays_from_matrices": "rayscene"}
 
 
 def load_scene(name_or_path, **opts):
@@ -63,8 +67,7 @@ def occluded(target, origins, directions, t_max, accel="bvh"):
 
 
 def __getattr__(name):
-    # RayScene is imported on first use, so `import raytrace` stays light.
-    if name == "RayScene":
-        from .rayscene import RayScene
-        return RayScene
+    if name in _LAZY:
+        import importlib
+        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
     raise AttributeError(f"module 'raytrace' has no attribute {name!r}")

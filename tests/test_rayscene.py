@@ -127,3 +127,50 @@ def test_bad_meshes_and_structures():
         RayScene().add_mesh("square.obj")
     with pytest.raises(RaytraceError, match="unknown acceleration structure"):
         RayScene(accel="kd")
+
+
+def test_pinhole_rays_follow_the_camera():
+    rays = raytrace.create_rays_pinhole(90, center=[0, 0, 0], eye=[0, 0, 5], up=[0, 1, 0],
+                                        width=4, height=2)
+    assert rays.shape == (2, 4, 6)
+    assert np.array_equal(rays[..., :3], np.broadcast_to([0, 0, 5.0], (2, 4, 3)))
+    # 90 degrees across 4 pixels: focal length 2, pixel centres at x - 2 = -1.5 .. 1.5;
+    # unit depth along -z.  Open3D's frame: camera x along up x forward (world -x
+    # here), camera y along up, so row 0 looks down: half a turn from a photograph.
+    d = rays[..., 3:]
+    assert np.allclose(d[..., 2], -1.0)
+    assert np.allclose(d[0, :, 0], [0.75, 0.25, -0.25, -0.75])
+    assert np.allclose(d[:, 0, 1], [-0.25, 0.25])
+    hits = RayScene((SQUARE_V - [0.5, 0.5, 0], SQUARE_F)).cast_rays(
+        rays[..., :3].reshape(-1, 3), rays[..., 3:].reshape(-1, 3))
+    assert np.allclose(hits.t[hits.hit], 5.0)      # t is depth: directions have unit depth
+
+
+def test_rays_from_matrices_match_the_pinhole_helper():
+    k = np.array([[100.0, 0, 32], [0, 100.0, 24], [0, 0, 1]])
+    a = np.radians(30)
+    r = np.array([[np.cos(a), 0, -np.sin(a)], [0, 1, 0], [np.sin(a), 0, np.cos(a)]])
+    e = np.eye(4)
+    e[:3, :3] = r
+    e[:3, 3] = [0.5, -1.0, 2.0]
+    rays = raytrace.create_rays_from_matrices(k, e, 64, 48)
+    centre = -r.T @ e[:3, 3]
+    assert np.allclose(rays[..., :3], centre)
+    # Projecting a ray's point at depth 1 back through [R | t] and K gives its pixel centre.
+    p = rays[10, 20, :3] + rays[10, 20, 3:]
+    cam = r @ p + e[:3, 3]
+    pix = k @ (cam / cam[2])
+    assert np.allclose(pix[:2], [20.5, 10.5])
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: raytrace.create_rays_pinhole(0, [0, 0, 0], [0, 0, 1], [0, 1, 0], 4, 4), "fov"),
+    (lambda: raytrace.create_rays_pinhole(60, [0, 0, 0], [0, 0, 0], [0, 1, 0], 4, 4), "center"),
+    (lambda: raytrace.create_rays_pinhole(60, [0, 0, 0], [0, 0, 1], [0, 0, 1], 4, 4), "up"),
+    (lambda: raytrace.create_rays_pinhole(60, [0, 0, 0], [0, 0, 1], [0, 1, 0], 4.5, 4), "width"),
+    (lambda: raytrace.create_rays_from_matrices(np.zeros((3, 3)), np.eye(4), 4, 4), "singular"),
+    (lambda: raytrace.create_rays_from_matrices(np.eye(3), np.eye(3), 4, 4), "extrinsic"),
+])
+def test_bad_camera_arguments(call, message):
+    with pytest.raises(RaytraceError, match=message):
+        call()
