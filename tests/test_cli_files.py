@@ -11,7 +11,7 @@ from PIL import Image
 from raytrace import cli
 from raytrace.cli import main
 from raytrace.heatmap import VIRIDIS, colormap, cost_heatmap, legend_height
-from raytrace.scenes.examples import assets_dir
+from raytrace.scenes.assets import assets_dir
 
 from .test_mesh_io import bad_mesh_files
 from .test_scenefile import BAD

@@ -5,7 +5,7 @@ import raytrace
 from raytrace.errors import RaytraceError
 from raytrace.load import scene_kind
 from raytrace.scene import Plane
-from raytrace.scenes.examples import assets_dir
+from raytrace.scenes.assets import assets_dir
 
 
 @pytest.mark.parametrize("name, kind", [

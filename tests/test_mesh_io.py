@@ -32,7 +32,7 @@ def test_quads_are_split_into_triangles(tmp_path):
 
 
 def test_shipped_house_is_closed_and_outward():
-    from raytrace.scenes.examples import assets_dir
+    from raytrace.scenes.assets import assets_dir
     v, f = read_mesh(assets_dir() / "house.obj")
     assert f.shape == (14, 3)
     # Signed volume of a closed, outward-wound mesh: cube 1 + roof 1 * 0.6 / 3.

@@ -10,7 +10,8 @@ from raytrace.io.scenefile import read_scene_file
 from raytrace.load import load_scene
 from raytrace.scene import Mesh, Plane, Sphere
 from raytrace.scenes.builtin import spheres, teapot
-from raytrace.scenes.examples import assets_dir, example_files
+from raytrace.scenes.assets import assets_dir
+from raytrace.scenes.examples import example_files
 from raytrace.transform import rotation, transform_mesh
 
 

@@ -3,7 +3,7 @@ import json
 
 import numpy as np
 
-from .examples import assets_dir
+from .assets import assets_dir
 
 
 def load_patches():
