@@ -3,19 +3,8 @@ import json
 
 from .kernels import counters as C
 
-# (key, label, meaning) -- the README's statistics section is this list.
-COUNTERS = [
-    ("primary_rays", "Primary rays", "camera rays cast (width x height x spp)", C.PRIMARY_RAYS),
-    ("shadow_rays", "Shadow rays", "any-hit rays towards a light (sample)", C.SHADOW_RAYS),
-    ("prim_tests", "Ray-primitive tests", "calls of the triangle/sphere/plane intersection test", C.PRIM_TESTS),
-    ("prim_hits", "Ray-primitive hits", "tests that returned a hit inside the ray's interval", C.PRIM_HITS),
-    ("box_tests", "Ray-box tests", "slab tests against object boxes, BVH nodes or grid bounds", C.BOX_TESTS),
-    ("nodes_visited", "BVH nodes visited", "BVH nodes taken off the traversal stack", C.NODES_VISITED),
-    ("cells_visited", "Grid cells visited", "grid cells stepped through by the 3D-DDA", C.CELLS_VISITED),
-    ("shading_points", "Shading points", "camera rays that hit a surface", C.SHADING_POINTS),
-    ("shadow_points", "Shadow points", "(shading point, light) pairs that cast shadow rays", C.SHADOW_POINTS),
-    ("occluded_rays", "Occluded shadow rays", "shadow rays that found an occluder", C.OCCLUDED_RAYS),
-]
+# (key, label, meaning, index), from the one declaration in kernels/counters.py.
+COUNTERS = [(key, label, meaning, idx) for idx, (key, label, meaning) in C.DECLARED.items()]
 
 
 def counters_from_rows(rows):

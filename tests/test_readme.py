@@ -31,3 +31,12 @@ def test_readme_python_example_runs(tmp_path, monkeypatch):
             assert re.sub(r"\s+", " ", want) in got, (want, got)
     hits = ns["hits"]
     assert np.allclose(hits.u[:2], [0.25, 0.5]) and np.allclose(hits.v[:2], [0.5, 0.25])
+
+
+def test_readme_statistics_list_is_the_counter_declaration():
+    """Every counter's row in the README is derived from its declaration
+    (raytrace/kernels/counters.py): label, JSON key, meaning."""
+    from raytrace.kernels.counters import DECLARED
+    text = README.read_text()
+    rows = re.findall(r"^\| (.+?) \| `counters\.(\w+)` \| (.+?) \|$", text, flags=re.M)
+    assert [(key, label, meaning) for label, key, meaning in rows] == list(DECLARED.values())

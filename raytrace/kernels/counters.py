@@ -1,17 +1,43 @@
-"""Indices of the per-row statistics counters.
+"""The statistics counters, each declared once, here: its index, its JSON
+key, its label in the table and what it counts (pbrt-v4's STAT_COUNTER).
+The table, ``--json`` and the README's statistics list are derived from
+this declaration (raytrace/stats.py; tests/test_readme.py checks the
+README).
 
-Kernels count into a small int64 array private to the row (never a shared
-counter inside prange, which would race) and the driver sums the rows.
-Module-level ints are compile-time constants to Numba.
+Kernels count into a small int64 array private to an image row or a
+thread's block of rays (never a shared counter inside prange, which would
+race) and the Python layer sums the rows.  Module-level ints are
+compile-time constants to Numba.
 """
 PRIMARY_RAYS = 0
 SHADOW_RAYS = 1
-PRIM_TESTS = 2     # ray-primitive intersection tests (triangles, spheres, planes)
-PRIM_HITS = 3      # tests that returned a hit inside the ray's interval
-BOX_TESTS = 4      # ray-box (slab) tests: object boxes, BVH nodes, grid bounds
-NODES_VISITED = 5  # BVH nodes popped and processed
-CELLS_VISITED = 6  # grid cells stepped through
-SHADING_POINTS = 7  # camera-ray hits that were shaded
-SHADOW_POINTS = 8   # shading points that cast shadow rays
-OCCLUDED_RAYS = 9   # shadow rays that found an occluder
-N_COUNTERS = 10
+PRIM_TESTS = 2
+PRIM_HITS = 3
+BOX_TESTS = 4
+NODES_VISITED = 5
+CELLS_VISITED = 6
+SHADING_POINTS = 7
+SHADOW_POINTS = 8
+OCCLUDED_RAYS = 9
+
+# index -> (JSON key, label, meaning), in the table's order.
+DECLARED = {
+    PRIMARY_RAYS: ("primary_rays", "Primary rays", "camera rays: width x height x spp"),
+    SHADOW_RAYS: ("shadow_rays", "Shadow rays",
+                  "any-hit rays from a shading point towards a light sample"),
+    PRIM_TESTS: ("prim_tests", "Ray-primitive tests",
+                 "calls of the triangle, sphere or plane intersection test"),
+    PRIM_HITS: ("prim_hits", "Ray-primitive hits",
+                "those tests that found an intersection inside the ray's interval"),
+    BOX_TESTS: ("box_tests", "Ray-box tests",
+                "slab tests against object boxes, BVH nodes or the grid's bounds"),
+    NODES_VISITED: ("nodes_visited", "BVH nodes visited", "BVH nodes taken off the traversal stack"),
+    CELLS_VISITED: ("cells_visited", "Grid cells visited", "grid cells the 3D-DDA stepped through"),
+    SHADING_POINTS: ("shading_points", "Shading points", "camera rays that hit a surface"),
+    SHADOW_POINTS: ("shadow_points", "Shadow points",
+                    "(shading point, light) pairs that cast shadow rays: a point facing away "
+                    "from a light casts none"),
+    OCCLUDED_RAYS: ("occluded_rays", "Occluded shadow rays", "shadow rays that found an occluder"),
+}
+N_COUNTERS = len(DECLARED)
+assert sorted(DECLARED) == list(range(N_COUNTERS)), "counter indices must be 0 .. N_COUNTERS - 1"
