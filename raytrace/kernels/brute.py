@@ -1,13 +1,11 @@
 """Brute force: every bounded primitive, every ray (the workshop's Step 1)."""
-import numpy as np
 from numba import njit
 
 from ..accel.brute import Brute
-from .counters import PRIM_HITS, PRIM_TESTS
 from .jit import JIT
-from .prims import n_bounded, test_prim
+from .prims import n_bounded, test_and_keep
 from .query import register
-from .ray import Hit, closer, no_hit
+from .ray import no_hit
 
 
 def _scan(any_hit):
@@ -19,12 +17,7 @@ def _scan(any_hit):
         best = no_hit()
         p = 0
         while p < n and not (any_hit and best.prim >= 0):
-            cnt[PRIM_TESTS] += 1
-            t, u, v = test_prim(geo, ray, p, t_max)
-            if t < np.inf:
-                cnt[PRIM_HITS] += 1
-                if closer(t, p, best):
-                    best = Hit(t, p, u, v)
+            best = test_and_keep(geo, ray, p, t_max, best, cnt)
             p += 1
         return best
     return scan

@@ -4,12 +4,12 @@ import numpy as np
 from numba import njit
 
 from ..accel.bvol import BoundingVolumes
-from .counters import BOX_TESTS, PRIM_HITS, PRIM_TESTS
+from .counters import BOX_TESTS
 from .intersect import ray_aabb
 from .jit import JIT
-from .prims import test_prim
+from .prims import test_and_keep
 from .query import register
-from .ray import Hit, closer, no_hit
+from .ray import no_hit
 
 
 def _traversal(any_hit):
@@ -25,12 +25,7 @@ def _traversal(any_hit):
                 p = start[j]
                 end = p + count[j]
                 while p < end and not (any_hit and best.prim >= 0):
-                    cnt[PRIM_TESTS] += 1
-                    t, u, v = test_prim(geo, ray, p, t_max)
-                    if t < np.inf:
-                        cnt[PRIM_HITS] += 1
-                        if closer(t, p, best):
-                            best = Hit(t, p, u, v)
+                    best = test_and_keep(geo, ray, p, t_max, best, cnt)
                     p += 1
             j += 1
         return best

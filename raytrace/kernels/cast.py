@@ -24,15 +24,19 @@ CHUNK = 64
 
 
 @njit(**JIT)
+def _ray(origins, dirs, t_min, i):
+    return make_ray(origins[i, 0], origins[i, 1], origins[i, 2],
+                    dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i])
+
+
+@njit(**JIT)
 def _closest_block(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v, cnt,
                    b, n_blocks):
     n = origins.shape[0]
     n_chunks = (n + CHUNK - 1) // CHUNK
     for c in range(b, n_chunks, n_blocks):
         for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
-            ray = make_ray(origins[i, 0], origins[i, 1], origins[i, 2],
-                           dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i])
-            hit = closest_hit(geo, acc, ray, t_max[i], cnt)
+            hit = closest_hit(geo, acc, _ray(origins, dirs, t_min, i), t_max[i], cnt)
             out_t[i] = hit.t
             out_prim[i] = hit.prim
             out_u[i] = hit.u
@@ -45,9 +49,7 @@ def _occluded_block(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt, b, n_bl
     n_chunks = (n + CHUNK - 1) // CHUNK
     for c in range(b, n_chunks, n_blocks):
         for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
-            ray = make_ray(origins[i, 0], origins[i, 1], origins[i, 2],
-                           dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i])
-            out_hit[i] = occluded(geo, acc, ray, t_max[i], cnt)
+            out_hit[i] = occluded(geo, acc, _ray(origins, dirs, t_min, i), t_max[i], cnt)
 
 
 @njit(**PARALLEL)

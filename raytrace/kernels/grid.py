@@ -49,12 +49,12 @@ from numba import njit
 
 from ..accel.grid import Grid, grid_eps
 from .brute import scan_any, scan_closest
-from .counters import BOX_TESTS, CELLS_VISITED, PRIM_HITS, PRIM_TESTS
+from .counters import BOX_TESTS, CELLS_VISITED
 from .intersect import ray_aabb
 from .jit import JIT
-from .prims import test_prim
+from .prims import test_and_keep
 from .query import register
-from .ray import Hit, closer, no_hit
+from .ray import no_hit
 
 # Keep stepping until the next cell starts beyond best_t by this relative
 # margin (see the module docstring: belt and braces, ~free).
@@ -187,12 +187,7 @@ def _traversal(any_hit):
                 p = cell_items[k]
                 if p != m0 and p != m1 and p != m2 and p != m3:
                     m3, m2, m1, m0 = m2, m1, m0, p
-                    cnt[PRIM_TESTS] += 1
-                    t, u, v = test_prim(geo, ray, p, t_max)
-                    if t < np.inf:
-                        cnt[PRIM_HITS] += 1
-                        if closer(t, p, best):
-                            best = Hit(t, p, u, v)
+                    best = test_and_keep(geo, ray, p, t_max, best, cnt)
                 k += 1
             inside, ix, iy, iz, tx, ty, tz = _dda_step(ray, glo, cell, rx, ry, rz, ix, iy, iz,
                                                        sx, sy, sz, tx, ty, tz,

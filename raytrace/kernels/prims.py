@@ -33,6 +33,20 @@ def test_prim(geo, ray, p, t_max):
 
 
 @njit(**JIT)
+def test_and_keep(geo, ray, p, t_max, best, cnt):
+    """Test bounded primitive p and count it; returns the closer of its hit
+    and best (the loop body of every structure but the BVH, which counts
+    in locals)."""
+    cnt[PRIM_TESTS] += 1
+    t, u, v = test_prim(geo, ray, p, t_max)
+    if t < np.inf:
+        cnt[PRIM_HITS] += 1
+        if closer(t, p, best):
+            return Hit(t, p, u, v)
+    return best
+
+
+@njit(**JIT)
 def planes_closest(geo, ray, t_max, best, cnt):
     """Infinite planes have no box: every structure tests them all, after
     its own primitives; returns the closer of best and the planes' hits."""
