@@ -227,8 +227,94 @@ class RayScene:
         p = self._built()
         return _any_hit(p.geo, p.acc, o, d, tmin, tmax)[0]
 
+    def count_intersections(self, origins, directions, t_min=0.0, t_max=np.inf, max_hits=None):
+        """How many times each ray meets the surfaces with t_min < t < t_max:
+        an int64 (n,) array.  A ray through a shared edge or vertex of a
+        closed mesh crosses it once and is counted once; one grazing an
+        edge where the surface folds away is counted 0 or 2 times, so the
+        parity of the count still says inside or outside.  max_hits: stop
+        counting there (default: no limit)."""
+        o, d, tmin, tmax = _rays(origins, directions, t_min, t_max)
+        p = self._built()
+        counts, _ = _crossings(p.geo, p.acc, o, d, tmin, tmax, _max_hits(max_hits, p), fill=False)
+        return counts
+
+    def list_intersections(self, origins, directions, t_min=0.0, t_max=np.inf, max_hits=None):
+        """Every hit along each ray with t_min < t < t_max, nearest first,
+        each crossing counted as in count_intersections, at most max_hits per
+        ray.  Flat arrays, Open3D's layout: the hits of ray i are rows
+        ray_splits[i]:ray_splits[i + 1] of t, geometry_id, prim_id, u, v,
+        normal, point (as in RayHits) and ray_id."""
+        o, d, tmin, tmax = _rays(origins, directions, t_min, t_max)
+        p = self._built()
+        counts, (t, prim, u, v) = _crossings(p.geo, p.acc, o, d, tmin, tmax,
+                                             _max_hits(max_hits, p), fill=True)
+        splits = np.zeros(len(d) + 1, np.int64)
+        np.cumsum(counts, out=splits[1:])
+        ray_id = np.repeat(np.arange(len(d)), counts)
+        gid, face = p.ids(prim)
+        tri = prim < p.n_tris
+        normal, point = p.surface(prim, u, v, t, o[ray_id], d[ray_id])
+        return {"ray_splits": splits, "ray_id": ray_id, "t": t, "geometry_id": gid,
+                "prim_id": face, "u": np.where(tri, u, np.nan), "v": np.where(tri, v, np.nan),
+                "normal": normal, "point": point}
+
+    def contains(self, points):
+        """Whether each point is inside the closed surfaces: a boolean (n,)
+        array.  Three rays from the point (fixed directions far from any
+        axis) each count their crossings; the point is inside when at least
+        two counts are odd.  One ray suffices on a closed mesh, since each
+        crossing counts once even through edges and vertices; the vote
+        keeps a small hole or a stray face from deciding alone.  On an open
+        mesh the answer is that vote, meaningful only where the mesh
+        encloses the point; a point on the surface may go either way."""
+        q = _as_rows("points", points)
+        n = len(q)
+        odd = np.zeros(n, np.int64)
+        for direction in _VOTE_DIRECTIONS:
+            odd += self.count_intersections(q, direction) & 1
+        return odd >= 2
+
     def __repr__(self):
         return f"RayScene({len(self._objects)} geometries, accel={self.accel!r})"
+
+
+# Directions of contains()'s three rays: unit vectors with no zero or equal
+# components, so an axis-aligned mesh's edges and faces are never met
+# edge-on by construction.
+_VOTE_DIRECTIONS = np.array([[0.5773, 0.6133, 0.5392], [-0.7071, 0.2588, 0.6580],
+                             [0.3090, -0.8090, 0.5000]])
+
+
+def _max_hits(max_hits, prepared):
+    """A valid bound on hits per ray; None: every primitive twice (a
+    sphere's two roots), which no ray can exceed."""
+    if max_hits is None:
+        g = prepared.geo
+        return int(2 * (g.tri_v0.shape[0] + g.sph_center.shape[0] + g.pl_point.shape[0]) + 1)
+    if isinstance(max_hits, bool) or not isinstance(max_hits, (int, np.integer)) or max_hits < 1:
+        raise RaytraceError(f"max_hits: must be a positive integer or None, got {max_hits!r}")
+    return int(max_hits)
+
+
+def _crossings(geo, acc, origins, dirs, t_min, t_max, max_hits, fill):
+    """(counts, (t, prim, u, v) flat, or None) of every hit along each ray."""
+    from .kernels.cast import cast_crossings
+    from .kernels.counters import N_COUNTERS
+    n = len(origins)
+    counts = np.zeros(n, np.int64)
+    empty_f, empty_i = np.zeros(0), np.zeros(0, np.int64)
+    cnt = np.zeros((_blocks(n), N_COUNTERS), np.int64)
+    args = (geo, acc, origins, dirs, t_min, t_max, max_hits)
+    cast_crossings(*args, empty_i, empty_f, empty_i, empty_f, empty_f, counts, cnt)
+    if not fill:
+        return counts, None
+    offsets = np.zeros(n, np.int64)
+    np.cumsum(counts[:-1], out=offsets[1:])
+    m = int(counts.sum())
+    out = (np.empty(m), np.empty(m, np.int64), np.empty(m), np.empty(m))
+    cast_crossings(*args, offsets, *out, counts, cnt)
+    return counts, out
 
 
 def _as_rows(name, a):

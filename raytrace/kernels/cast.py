@@ -18,9 +18,10 @@ from numba import njit, prange
 
 from .jit import JIT, PARALLEL
 from .query import closest_hit, occluded
-from .ray import make_ray
+from .ray import make_crossing_ray, make_ray
 
 CHUNK = 64
+_ALL_PEELED = 1 << 62   # above every primitive id
 
 
 @njit(**JIT)
@@ -68,3 +69,47 @@ def cast_occluded(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows):
     n_blocks = cnt_rows.shape[0]
     for b in prange(n_blocks):
         _occluded_block(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows[b], b, n_blocks)
+
+
+@njit(**JIT)
+def _crossings_block(geo, acc, origins, dirs, t_min, t_max, max_hits, offsets, out_t,
+                     out_prim, out_u, out_v, counts, cnt, b, n_blocks):
+    n = origins.shape[0]
+    n_chunks = (n + CHUNK - 1) // CHUNK
+    fill = offsets.shape[0] > 0
+    for c in range(b, n_chunks, n_blocks):
+        for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
+            t_lo = t_min[i]
+            after = _ALL_PEELED   # t_min itself is excluded, as for every query
+            k = 0
+            more = True
+            while more and k < max_hits:
+                ray = make_crossing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
+                                        dirs[i, 0], dirs[i, 1], dirs[i, 2], t_lo, after)
+                hit = closest_hit(geo, acc, ray, t_max[i], cnt)
+                more = hit.prim >= 0
+                if more:
+                    if fill:
+                        j = offsets[i] + k
+                        out_t[j] = hit.t
+                        out_prim[j] = hit.prim
+                        out_u[j] = hit.u
+                        out_v[j] = hit.v
+                    t_lo = hit.t
+                    after = hit.prim
+                    k += 1
+            counts[i] = k
+
+
+@njit(**PARALLEL)
+def cast_crossings(geo, acc, origins, dirs, t_min, t_max, max_hits, offsets, out_t, out_prim,
+                   out_u, out_v, counts, cnt_rows):
+    """Every hit of ray i with t_min[i] < t < t_max[i], at most max_hits, in
+    order of (t, primitive id), each crossing of a closed surface once: the
+    closest hit, then the closest past it, and so on (CrossingRay).  counts
+    gets the number; with offsets (n,) the hits are written from
+    out_*[offsets[i]] on; with offsets empty, only counted."""
+    n_blocks = cnt_rows.shape[0]
+    for b in prange(n_blocks):
+        _crossings_block(geo, acc, origins, dirs, t_min, t_max, max_hits, offsets, out_t,
+                         out_prim, out_u, out_v, counts, cnt_rows[b], b, n_blocks)

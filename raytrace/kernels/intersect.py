@@ -59,14 +59,41 @@ def ray_aabb(ray, lo, hi, i, t_max):
     return t0
 
 
+def _triangle_test(crossing):
+    """The triangle test; with ``crossing`` (a compile-time constant) the
+    variant that counts every crossing of a closed surface once."""
+    @njit(**JIT)
+    def test(ray, v0, v1, v2, i, t_max):
+        return _triangle(ray, v0, v1, v2, i, t_max, crossing)
+    return test
+
+
 @njit(**JIT)
-def ray_triangle(ray, v0, v1, v2, i, t_max):
+def _owned(dx, dy):
+    """Whether a triangle owns the points of its edge with direction (dx,
+    dy) in the ray's sheared plane (oriented by the triangle's winding): a
+    half-plane rule, so of two opposite directions exactly one owns."""
+    return dy > 0.0 or (dy == 0.0 and dx > 0.0)
+
+
+@njit(**JIT)
+def _triangle(ray, v0, v1, v2, i, t_max, crossing):
     """Watertight ray-triangle test (Woop, Benthin & Wald 2013; pbrt-v4).
 
     Returns (t, b1, b2): distance and the barycentric weights of v1 and v2,
     or (inf, 0, 0) on a miss.  Hits need ray.t_min < t < t_max.  Rays through a
     shared edge or vertex hit at least one of the triangles sharing it,
     because the edge functions are evaluated identically on both sides.
+
+    With ``crossing`` a hit exactly on an edge or vertex counts for one
+    triangle only, so that a ray crossing a closed mesh there crosses it
+    once: a shared edge's function is the exact negative of its neighbour's
+    (the same products, subtracted the other way), and each triangle owns
+    the edge points of its edges whose direction, taken in the winding
+    seen from the ray, lies in one half-plane (the rasteriser's top-left
+    rule).  Where the surface folds away from the ray (a silhouette), both
+    or neither triangle owns the edge, so the parity is kept.  Hits need
+    ray.t_min <= t < t_max: the caller breaks ties at t_min.
     """
     kx, ky, kz = ray.kx, ray.ky, ray.kz
     sx, sy, sz = ray.sx, ray.sy, ray.sz
@@ -96,6 +123,12 @@ def ray_triangle(ray, v0, v1, v2, i, t_max):
     det = e0 + e1 + e2
     if det == 0.0:
         return np.inf, 0.0, 0.0
+    if crossing and (e0 == 0.0 or e1 == 0.0 or e2 == 0.0):
+        s = 1.0 if det > 0.0 else -1.0
+        if ((e0 == 0.0 and not _owned(s * (cx - bx), s * (cy - by)))
+                or (e1 == 0.0 and not _owned(s * (ax - cx), s * (ay - cy)))
+                or (e2 == 0.0 and not _owned(s * (bx - ax), s * (by - ay)))):
+            return np.inf, 0.0, 0.0
     az *= sz
     bz *= sz
     cz *= sz
@@ -108,9 +141,13 @@ def ray_triangle(ray, v0, v1, v2, i, t_max):
             return np.inf, 0.0, 0.0
     inv_det = 1.0 / det
     t = t_scaled * inv_det
-    if not (t > ray.t_min and t < t_max):
+    if not ((t >= ray.t_min if crossing else t > ray.t_min) and t < t_max):
         return np.inf, 0.0, 0.0
     return t, e1 * inv_det, e2 * inv_det
+
+
+ray_triangle = _triangle_test(False)
+ray_triangle_crossing = _triangle_test(True)
 
 
 @njit(**JIT)

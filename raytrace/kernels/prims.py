@@ -9,11 +9,12 @@ Conventions every structure follows, so all give the same answer:
 """
 import numpy as np
 from numba import njit
+from numba.extending import overload
 
 from .counters import PRIM_HITS, PRIM_TESTS
-from .intersect import ray_plane, ray_sphere, ray_triangle
-from .jit import JIT
-from .ray import Hit, closer
+from .intersect import ray_plane, ray_sphere, ray_triangle, ray_triangle_crossing
+from .jit import JIT, OVERLOAD
+from .ray import CrossingRay, Hit, closer
 
 
 @njit(**JIT)
@@ -22,14 +23,43 @@ def n_bounded(geo):
     return geo.tri_v0.shape[0] + geo.sph_center.shape[0]
 
 
-@njit(**JIT)
 def test_prim(geo, ray, p, t_max):
-    """Test bounded primitive p (triangle or sphere); returns (t, b1, b2)."""
+    """Test bounded primitive p (triangle or sphere); returns (t, b1, b2).
+    Chosen by the ray's type: a CrossingRay's test counts each crossing of
+    a closed surface once.  Compiled code only."""
+    raise NotImplementedError("compiled code only")
+
+
+@njit(**JIT)
+def _test_prim(geo, ray, p, t_max):
     n_tris = geo.tri_v0.shape[0]
     if p < n_tris:
         return ray_triangle(ray, geo.tri_v0, geo.tri_v1, geo.tri_v2, p, t_max)
     t = ray_sphere(ray, geo.sph_center, geo.sph_radius, p - n_tris, t_max)
     return t, 0.0, 0.0
+
+
+@njit(**JIT)
+def _test_prim_crossing(geo, ray, p, t_max):
+    n_tris = geo.tri_v0.shape[0]
+    if p < n_tris:
+        t, u, v = ray_triangle_crossing(ray, geo.tri_v0, geo.tri_v1, geo.tri_v2, p, t_max)
+    else:
+        # A sphere's roots count from t_min exclusive: a tangent ray's
+        # double root is one hit.
+        t, u, v = ray_sphere(ray, geo.sph_center, geo.sph_radius, p - n_tris, t_max), 0.0, 0.0
+    if t == ray.t_min and p <= ray.after_prim:   # found by an earlier peel
+        return np.inf, 0.0, 0.0
+    return t, u, v
+
+
+@overload(test_prim, jit_options=OVERLOAD)
+def _choose_test_prim(geo, ray, p, t_max):
+    test = _test_prim_crossing if ray.instance_class is CrossingRay else _test_prim
+
+    def impl(geo, ray, p, t_max):
+        return test(geo, ray, p, t_max)
+    return impl
 
 
 @njit(**JIT)

@@ -15,6 +15,12 @@ from .jit import JIT
 Ray = namedtuple("Ray", ["ox", "oy", "oz", "dx", "dy", "dz", "inv_x", "inv_y", "inv_z",
                          "kx", "ky", "kz", "sx", "sy", "sz", "okx", "oky", "okz", "t_min"])
 
+# A ray of a crossing query (every hit along it, in order): hits count from
+# t_min on, and at t_min only primitives with a larger id than after_prim
+# (the last hit found), so peeling closest hits visits each hit once.  Its
+# triangle test gives an edge or vertex to one triangle only (intersect.py).
+CrossingRay = namedtuple("CrossingRay", Ray._fields + ("after_prim",))
+
 # A hit: distance, unified primitive id (-1: none) and the barycentric
 # weights of a triangle's second and third vertices.
 Hit = namedtuple("Hit", ["t", "prim", "u", "v"])
@@ -52,6 +58,14 @@ def make_ray(ox, oy, oz, dx, dy, dz, t_min=0.0):
     o = (ox, oy, oz)
     return Ray(ox, oy, oz, dx, dy, dz, idx, idy, idz, kx, ky, kz, sx, sy, sz, o[kx], o[ky], o[kz],
                t_min)
+
+
+@njit(**JIT)
+def make_crossing_ray(ox, oy, oz, dx, dy, dz, t_min, after_prim):
+    r = make_ray(ox, oy, oz, dx, dy, dz, t_min)
+    return CrossingRay(r.ox, r.oy, r.oz, r.dx, r.dy, r.dz, r.inv_x, r.inv_y, r.inv_z,
+                       r.kx, r.ky, r.kz, r.sx, r.sy, r.sz, r.okx, r.oky, r.okz, r.t_min,
+                       after_prim)
 
 
 @njit(**JIT)

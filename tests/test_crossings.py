@@ -1,0 +1,161 @@
+"""count_intersections, list_intersections and contains: every crossing of
+a closed mesh counted once, also through its edges and vertices."""
+import numpy as np
+import pytest
+
+from raytrace import RayScene, RaytraceError
+from raytrace.scene import Camera, Scene, Sphere
+
+from .structures import STRUCTURES
+
+
+def box(n=2):
+    """The cube [-1, 1]^3, each face an n x n grid of squares cut into two
+    triangles, wound outwards: vertices at exactly representable
+    coordinates, so rays can pass exactly through edges and vertices."""
+    verts, faces = [], []
+    g = np.linspace(-1.0, 1.0, n + 1)
+    for axis in range(3):
+        for side in (-1.0, 1.0):
+            base = len(verts)
+            for a in g:
+                for b in g:
+                    p = [0.0, 0.0, 0.0]
+                    p[axis], p[(axis + 1) % 3], p[(axis + 2) % 3] = side, a, b
+                    verts.append(p)
+            for i in range(n):
+                for j in range(n):
+                    q = [base + i * (n + 1) + j, base + (i + 1) * (n + 1) + j,
+                         base + (i + 1) * (n + 1) + j + 1, base + i * (n + 1) + j + 1]
+                    tri = [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]
+                    faces += tri if side > 0 else [t[::-1] for t in tri]
+    v, f = np.array(verts), np.array(faces)
+    # Merge the duplicated vertices along the cube's edges.
+    uniq, inv = np.unique(v, axis=0, return_inverse=True)
+    return uniq, inv.reshape(-1)[f]
+
+
+def crossing_targets(v, f):
+    """Points exactly on the mesh: its vertices, edge midpoints and face
+    centroids where exactly representable (the grid's are)."""
+    e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    mids = 0.5 * (v[e[:, 0]] + v[e[:, 1]])
+    return np.unique(np.concatenate([v, mids]), axis=0)
+
+
+@pytest.mark.parametrize("accel", STRUCTURES)
+def test_rays_through_edges_and_vertices_cross_once(accel):
+    v, f = box()
+    rs = RayScene((v, f), accel=accel)
+    targets = crossing_targets(v, f)
+    # From a point inside (not the centre, so rays are not all axis-aligned
+    # through the middle) straight through each vertex and edge midpoint.
+    inside = np.array([0.25, -0.125, 0.375])
+    counts = rs.count_intersections(inside, targets - inside)
+    assert counts.tolist() == [1] * len(targets)
+    # From outside, through the mesh and out again.
+    outside = targets * 3.0 - 2.0 * inside
+    counts = rs.count_intersections(outside, targets - outside)
+    odd = counts % 2
+    assert not odd.any(), targets[odd.astype(bool)]
+
+
+def test_the_inclusive_test_would_count_a_diagonal_twice():
+    """The control: the renderer's closest hit reports both triangles of a
+    face at its diagonal, so counting by plain hits would say 2."""
+    v, f = box()
+    rs = RayScene((v, f))
+    o = np.array([0.0, 0.0, 0.0])
+    d = np.array([1.0, 0.5, 0.5])           # meets face x = 1 at (1, .5, .5): a diagonal
+    hits = rs.list_intersections(o, d)
+    assert len(hits["t"]) == 1 and hits["t"][0] == 1.0
+    # Both triangles sharing that diagonal contain the point:
+    tri = v[f]
+    on_face = np.flatnonzero((tri[:, :, 0] == 1.0).all(axis=1))
+    p = np.array([1.0, 0.5, 0.5])
+    containing = [k for k in on_face if _in_triangle(p, tri[k])]
+    assert len(containing) == 2
+
+
+def _in_triangle(p, t):
+    a, b, c = t
+    n = np.cross(b - a, c - a)
+    return all(np.dot(np.cross(y - x, p - x), n) >= 0 for x, y in ((a, b), (b, c), (c, a)))
+
+
+def test_grazing_a_silhouette_edge_keeps_the_parity():
+    v, f = box()
+    rs = RayScene((v, f))
+    # Along the plane y = 1 - 0, touching the cube's top edge at x = 1, y = 1
+    # from outside: the surface folds away, so 0 or 2, never 1.
+    o = np.array([3.0, 3.0, 0.25])
+    d = np.array([-1.0, -1.0, 0.0])
+    assert rs.count_intersections(o, d)[0] % 2 == 0
+
+
+def test_list_intersections_layout_and_order():
+    v, f = box()
+    rs = RayScene(accel="bvh")
+    rs.add_mesh(v, f)
+    rs.add_mesh(v * 0.5, f)
+    o = np.array([[-3.0, 0.1, 0.2], [-3.0, 5.0, 5.0], [0.0, 0.1, 0.2]])
+    d = np.array([1.0, 0.0, 0.0])
+    h = rs.list_intersections(o, d)
+    assert h["ray_splits"].tolist() == [0, 4, 4, 6]
+    assert h["ray_id"].tolist() == [0, 0, 0, 0, 2, 2]
+    assert h["t"][:4] == pytest.approx([2.0, 2.5, 3.5, 4.0], rel=1e-15)
+    assert h["geometry_id"][:4].tolist() == [0, 1, 1, 0]
+    assert np.allclose(h["point"][:4, 0], [-1, -0.5, 0.5, 1])
+    assert np.allclose(h["normal"][:4], [[-1, 0, 0], [-1, 0, 0], [1, 0, 0], [1, 0, 0]])
+    assert rs.count_intersections(o, d).tolist() == [4, 0, 2]
+    assert rs.count_intersections(o, d, max_hits=3).tolist() == [3, 0, 2]
+    # Both ends exclusive: of ray 0's hits at 2, 2.5, 3.5 and 4, two remain.
+    assert rs.count_intersections(o, d, t_min=2.0, t_max=4.0).tolist() == [2, 0, 0]
+    assert rs.count_intersections(o, d, t_min=0.5, t_max=4.0).tolist() == [3, 0, 1]
+    assert len(rs.list_intersections(o, d, max_hits=1)["t"]) == 2
+
+
+def test_spheres_have_two_roots():
+    scene = Scene("s", Camera((0, 0, 5), (0, 0, 0)), objects=[Sphere((0, 0, 0), 1.0)])
+    rs = RayScene(scene)
+    assert rs.count_intersections([[0, 0, 5.0], [0.0, 0.0, 0.0]], [0, 0, -1.0]).tolist() == [2, 1]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_every_structure_lists_the_same_hits(seed):
+    rng = np.random.default_rng(seed)
+    v = rng.normal(size=(60, 3))
+    f = rng.integers(0, 60, size=(50, 3))
+    o, d = rng.normal(size=(300, 3)) * 3, rng.normal(size=(300, 3))
+    ref = None
+    for accel in STRUCTURES:
+        h = RayScene((v, f), accel=accel).list_intersections(o, d)
+        got = [h[k] for k in ("ray_splits", "t", "prim_id", "u", "v")]
+        if ref is None:
+            ref = got
+            # Nearest first, and never two hits of one primitive at one t.
+            for i in range(len(o)):
+                s = slice(h["ray_splits"][i], h["ray_splits"][i + 1])
+                assert np.all(np.diff(h["t"][s]) >= 0)
+        for a, b in zip(ref, got):
+            assert np.array_equal(a, b, equal_nan=True), accel
+
+
+@pytest.mark.parametrize("accel", STRUCTURES)
+def test_contains(accel):
+    v, f = box(3)
+    rs = RayScene((v, f), accel=accel)
+    rng = np.random.default_rng(7)
+    p = rng.uniform(-1.5, 1.5, (3000, 3))
+    far = np.abs(np.abs(p).max(axis=1) - 1.0) > 1e-9
+    inside = rs.contains(p)
+    assert np.array_equal(inside[far], (np.abs(p).max(axis=1) < 1.0)[far])
+    # Points whose rays pass exactly through the grid's edges and vertices.
+    q = np.array([[0.0, 0.0, 0.0], [1 / 3, 1 / 3, 1 / 3], [0.5, 0.0, 0.0], [1.5, 0.0, 0.0]])
+    assert rs.contains(q).tolist() == [True, True, True, False]
+
+
+def test_bad_max_hits():
+    v, f = box()
+    with pytest.raises(RaytraceError, match="max_hits"):
+        RayScene((v, f)).count_intersections([0, 0, 0.0], [1, 0, 0.0], max_hits=0)
