@@ -110,10 +110,20 @@ class _Prepared:
         from .flatten import flatten
         from .structures import build_structure
         scene = Scene(name="rays", camera=None, objects=objects)
-        self.geo, obj_ranges, _, (self.prim_object, self.prim_face) = flatten(
+        self.geo, self.obj_ranges, _, (self.prim_object, self.prim_face) = flatten(
             scene, with_sources=True)
-        self.acc, self.build_s = build_structure(accel, self.geo, obj_ranges)
+        self.accel = accel
+        self.acc, self.build_s = build_structure(accel, self.geo, self.obj_ranges)
         self.n_tris = self.geo.tri_v0.shape[0]
+        self._bvh = None
+
+    def bvh(self):
+        """The BVH that point queries use, whatever structure casts rays."""
+        if self._bvh is None:
+            from .structures import build_structure
+            self._bvh = (self.acc if self.accel == "bvh"
+                         else build_structure("bvh", self.geo, self.obj_ranges)[0])
+        return self._bvh
 
     def ids(self, prim):
         hit = prim >= 0
@@ -269,11 +279,42 @@ class RayScene:
         mesh the answer is that vote, meaningful only where the mesh
         encloses the point; a point on the surface may go either way."""
         q = _as_rows("points", points)
+        _check_coordinates("points", q)
         n = len(q)
         odd = np.zeros(n, np.int64)
         for direction in _VOTE_DIRECTIONS:
             odd += self.count_intersections(q, direction) & 1
         return odd >= 2
+
+    def closest_points(self, points):
+        """The surfaces' point closest to each query point: a dict of
+        ``point`` (n, 3), ``distance``, ``geometry_id`` and ``prim_id`` (as in
+        RayHits; -1 for an empty scene) and ``u``, ``v`` (barycentric weights
+        of a face's second and third vertex; NaN for spheres and planes).
+        Ties between primitives at one distance go to the smaller id.  Point
+        queries use a BVH whatever ``accel`` is, so every RayScene answers
+        alike."""
+        q = _as_rows("points", points)
+        _check_coordinates("points", q)
+        p = self._built()
+        from .kernels.points import closest_points
+        n = len(q)
+        point, prim = np.empty((n, 3)), np.empty(n, np.int64)
+        u, v, d2 = np.empty(n), np.empty(n), np.empty(n)
+        closest_points(p.geo, p.bvh(), q, point, prim, u, v, d2, _blocks(n))
+        gid, face = p.ids(prim)
+        tri = (prim >= 0) & (prim < p.n_tris)
+        return {"point": point, "distance": np.sqrt(d2), "geometry_id": gid, "prim_id": face,
+                "u": np.where(tri, u, np.nan), "v": np.where(tri, v, np.nan)}
+
+    def distance(self, points):
+        """Distance from each point to the nearest surface (inf if none)."""
+        return self.closest_points(points)["distance"]
+
+    def signed_distance(self, points):
+        """distance(), negative inside the closed surfaces (contains())."""
+        d = self.distance(points)
+        return np.where(self.contains(points), -d, d)
 
     def __repr__(self):
         return f"RayScene({len(self._objects)} geometries, accel={self.accel!r})"
@@ -364,15 +405,20 @@ def _rays(origins, directions, t_min, t_max):
     return o, d, tmin, tmax
 
 
+def _check_coordinates(name, arr):
+    """Raise RaytraceError naming the first row of NaN, inf or too large values."""
+    bad = bad_coordinate_rows(arr)
+    if bad is not None and bad[0] == "nonfinite":
+        raise RaytraceError(f"{name}[{bad[1]}]: NaN or infinite value ({bad[2]} such rows)")
+    if bad is not None:
+        raise RaytraceError(f"{name}[{bad[1]}]: a value beyond {MAX_COORD:g} "
+                            f"(products of such values overflow; {bad[2]} such rows)")
+
+
 def _name_the_problem(o, d, tmin, tmax):
     """Raise RaytraceError naming the first bad ray and how many share it."""
-    for name, arr in (("origins", o), ("directions", d)):
-        bad = bad_coordinate_rows(arr)
-        if bad is not None and bad[0] == "nonfinite":
-            raise RaytraceError(f"{name}[{bad[1]}]: NaN or infinite value ({bad[2]} such rows)")
-        if bad is not None:
-            raise RaytraceError(f"{name}[{bad[1]}]: a value beyond {MAX_COORD:g} "
-                                f"(products of such values overflow; {bad[2]} such rows)")
+    _check_coordinates("origins", o)
+    _check_coordinates("directions", d)
     zero = (d[:, 0] == 0.0) & (d[:, 1] == 0.0) & (d[:, 2] == 0.0)
     if zero.any():
         raise RaytraceError(f"directions[{int(np.argmax(zero))}]: zero vector (a ray needs a direction)")
