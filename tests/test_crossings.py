@@ -159,3 +159,25 @@ def test_bad_max_hits():
     v, f = box()
     with pytest.raises(RaytraceError, match="max_hits"):
         RayScene((v, f)).count_intersections([0, 0, 0.0], [1, 0, 0.0], max_hits=0)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_contains_sign_and_parity_agree_on_random_closed_meshes(seed):
+    """A bumpy sphere (an icosphere's vertices moved in and out along their
+    rays: closed and consistently wound) and random points, some very near
+    the surface: contains, the sign of signed_distance and the parity of
+    the count along any direction agree."""
+    trimesh = pytest.importorskip("trimesh")
+    rng = np.random.default_rng(seed)
+    m = trimesh.creation.icosphere(subdivisions=2)
+    v = m.vertices * rng.uniform(0.6, 1.4, (len(m.vertices), 1))
+    rs = RayScene((v, m.faces))
+    q = rng.uniform(-1.5, 1.5, (600, 3))
+    # Points just off the surface: along a vertex's ray, 1e-9 in and out.
+    k = rng.integers(0, len(v), 100)
+    q = np.concatenate([q, v[k] * (1 - 1e-9), v[k] * (1 + 1e-9)])
+    inside = rs.contains(q)
+    assert np.array_equal(inside[-200:], [True] * 100 + [False] * 100)
+    assert np.array_equal(inside, rs.signed_distance(q) < 0)
+    for d in rng.normal(size=(3, 3)):
+        assert np.array_equal(inside, rs.count_intersections(q, d) % 2 == 1)
