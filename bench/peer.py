@@ -238,6 +238,62 @@ def run_case(detail, width, height, runs, peer_list):
     return result
 
 
+def run_queries(quick, runs):
+    """count_intersections, contains, distance and signed_distance against
+    Open3D's count_intersections, compute_occupancy, compute_distance and
+    compute_signed_distance, on a closed mesh (a bumpy icosphere: Open3D's
+    occupancy and sign come from ray parity, which needs one) with random
+    points in its box and random rays through it."""
+    try:
+        import open3d as o3d
+        import trimesh
+    except ImportError:
+        return None
+    from raytrace import RayScene
+    rng = np.random.default_rng(0)
+    m = trimesh.creation.icosphere(subdivisions=3 if quick else 5)
+    v = m.vertices * rng.uniform(0.8, 1.2, (len(m.vertices), 1))
+    f = np.asarray(m.faces, np.int64)
+    n = 20_000 if quick else 200_000
+    pts = rng.uniform(-1.3, 1.3, (n, 3))
+    ro = rng.uniform(-1.3, 1.3, (n, 3))
+    rd = rng.normal(size=(n, 3))
+    ours = RayScene((v, f))
+    theirs = o3d.t.geometry.RaycastingScene()
+    theirs.add_triangles(o3d.core.Tensor(v.astype(np.float32)),
+                         o3d.core.Tensor(f.astype(np.uint32)))
+    p32 = o3d.core.Tensor(pts.astype(np.float32))
+    r32 = o3d.core.Tensor(np.hstack([ro, rd]).astype(np.float32))
+    tasks = {
+        "count_intersections": (lambda: ours.count_intersections(ro, rd),
+                                lambda: theirs.count_intersections(r32).numpy()),
+        "contains / compute_occupancy": (lambda: ours.contains(pts),
+                                         lambda: theirs.compute_occupancy(p32).numpy()),
+        "distance / compute_distance": (lambda: ours.distance(pts),
+                                        lambda: theirs.compute_distance(p32).numpy()),
+        "signed_distance / compute_signed_distance": (
+            lambda: ours.signed_distance(pts), lambda: theirs.compute_signed_distance(p32).numpy()),
+    }
+    out = {"triangles": len(f), "count": n, "open3d": o3d.__version__, "rows": {}}
+    for name, (a, b) in tasks.items():
+        ra, rb = a(), b()   # warm-up: compile, build
+        ta, tb = [], []
+        for _ in range(runs):
+            ta += _time(a, 1)
+            tb += _time(b, 1)
+        if name.startswith("count"):
+            agree = np.mean(ra == rb)
+        elif name.startswith("contains"):
+            agree = np.mean(ra == (rb > 0.5))
+        elif name.startswith("distance"):
+            agree = np.mean(np.abs(ra - rb) <= 1e-5 * np.maximum(1.0, ra))
+        else:
+            agree = np.mean((np.sign(ra) == np.sign(rb)) & (np.abs(np.abs(ra) - np.abs(rb)) <= 1e-5))
+        out["rows"][name] = {"ours_s": median(ta), "peer_s": median(tb),
+                             "ratio": median(tb) / median(ta), "agree": float(agree)}
+    return out
+
+
 def run(quick):
     plist = peers()
     if not plist:
@@ -248,7 +304,8 @@ def run(quick):
     details = (4,) if quick else (4, 43)
     runs = 5 if quick else 7
     return {"peers": [p["name"] for p in plist],
-            "cases": [run_case(d, w, h, runs, plist) for d in details]}
+            "cases": [run_case(d, w, h, runs, plist) for d in details],
+            "queries": run_queries(quick, runs)}
 
 
 def markdown(res):
@@ -297,4 +354,13 @@ def markdown(res):
                          f"{e['primary_with_build']['ratio_ours_api']:.2f} in rays/s); builds alone: "
                          f"ours {fmt_g(case['ours_build_s'] * 1e3)} ms, {name} "
                          f"{fmt_g(e['build_s'] * 1e3)} ms.")
+    q = res.get("queries")
+    if q:
+        lines += ["", f"Queries on a closed mesh ({q['triangles']:,} triangles, a bumpy icosphere), "
+                      f"{q['count']:,} random points or rays in its box, against Open3D "
+                      f"{q['open3d']} (float32), medians of {case0['runs']} interleaved runs:", ""]
+        body = [[name, fmt_g(r["ours_s"] * 1e3), fmt_g(r["peer_s"] * 1e3), f"{r['ratio']:.2f}",
+                 f"{r['agree']:.4%}"] for name, r in q["rows"].items()]
+        lines.append(markdown_table(["Query (ours / Open3D)", "Ours ms", "Open3D ms",
+                                     "Ours / peer (speed)", "Same answer"], body, align="lrrrr"))
     return "\n".join(out + [""] + lines)

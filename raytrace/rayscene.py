@@ -243,11 +243,18 @@ class RayScene:
         closed mesh crosses it once and is counted once; one grazing an
         edge where the surface folds away is counted 0 or 2 times, so the
         parity of the count still says inside or outside.  max_hits: stop
-        counting there (default: no limit)."""
+        counting there (default: no limit).  One traversal per ray, which
+        never narrows its interval (the grid scans every primitive: it
+        cannot tell a primitive met in two cells from two crossings)."""
         o, d, tmin, tmax = _rays(origins, directions, t_min, t_max)
-        p = self._built()
-        counts, _ = _crossings(p.geo, p.acc, o, d, tmin, tmax, _max_hits(max_hits, p), fill=False)
-        return counts
+        limit = _max_hits(max_hits, self._built())
+        from .kernels.cast import cast_counts
+        from .kernels.counters import N_COUNTERS
+        p = self._prepared
+        counts = np.empty(len(d), np.int64)
+        cnt = np.zeros((_blocks(len(d)), N_COUNTERS), np.int64)
+        cast_counts(p.geo, p.acc, o, d, tmin, tmax, counts, cnt)
+        return np.minimum(counts, limit)
 
     def list_intersections(self, origins, directions, t_min=0.0, t_max=np.inf, max_hits=None):
         """Every hit along each ray with t_min < t < t_max, nearest first,

@@ -4,37 +4,33 @@ from numba import njit
 from ..accel.brute import Brute
 from .jit import JIT
 from .prims import n_bounded, test_and_keep
-from .query import register
+from .query import ALL_HITS, ANY_HIT, CLOSEST, register
 from .ray import no_hit
 
 
-def _scan(any_hit):
-    """The scan; with any_hit (a compile-time constant) it stops at the
-    first hit (tinybvh's IsAnyHit: one loop for both queries)."""
+def _scan(mode):
+    """The scan, for one of query.py's modes (a compile-time constant: one
+    loop for every query, tinybvh's IsAnyHit)."""
     @njit(**JIT)
     def scan(geo, ray, t_max, cnt):
         n = n_bounded(geo)
         best = no_hit()
         p = 0
-        while p < n and not (any_hit and best.prim >= 0):
-            best = test_and_keep(geo, ray, p, t_max, best, cnt)
+        while p < n and not (mode == ANY_HIT and best.prim >= 0):
+            best = test_and_keep(geo, ray, p, t_max, best, cnt, mode != ALL_HITS)
             p += 1
         return best
     return scan
 
 
-scan_closest = _scan(False)
-scan_any = _scan(True)
+SCANS = tuple(_scan(mode) for mode in (CLOSEST, ANY_HIT, ALL_HITS))
 
 
-@njit(**JIT)
-def closest(geo, acc, ray, t_max, cnt):
-    return scan_closest(geo, ray, t_max, cnt)
+def _with_layout(scan):
+    @njit(**JIT)
+    def traverse(geo, acc, ray, t_max, cnt):
+        return scan(geo, ray, t_max, cnt)
+    return traverse
 
 
-@njit(**JIT)
-def any_hit(geo, acc, ray, t_max, cnt):
-    return scan_any(geo, ray, t_max, cnt)
-
-
-register(Brute, closest, any_hit)
+register(Brute, *(_with_layout(scan) for scan in SCANS))

@@ -9,8 +9,9 @@ next.  A popped entry is skipped when a hit closer than its entry distance
 has been found since.  Leaves are children too: a stack entry below zero is
 ``~(node * 4 + lane)``, the leaf in that lane.  Any hit is the same loop
 stopped at the first hit (tinybvh's and madmann91/bvh's IsAnyHit flag, here
-a compile-time constant of ``_traversal``): until then its best distance is
-inf, so it tests boxes against t_max.
+the compile-time mode of ``_traversal``): until then its best distance is
+inf, so it tests boxes against t_max.  Every hit (counting) is the loop
+that never keeps a hit, so it never narrows the interval nor stops.
 
 The stack lives in the function's frame (``frame_array``, an alloca), not
 in ``np.empty``: that would need the reference-counted runtime and a heap
@@ -32,7 +33,7 @@ from .counters import BOX_TESTS, NODES_VISITED, PRIM_HITS, PRIM_TESTS
 from .jit import JIT
 from .lowlevel import frame_array, ray_aabb4
 from .prims import test_prim
-from .query import register
+from .query import ALL_HITS, ANY_HIT, CLOSEST, register
 from .ray import Hit, closer, no_hit
 
 STACK_SIZE = 3 * MAX_DEPTH + 4
@@ -86,7 +87,7 @@ def _leaf_range(node_child, node_count, entry):
     return start, start + node_count[node, lane]
 
 
-def _traversal(any_hit):
+def _traversal(mode):
     @njit(**JIT)
     def traverse(geo, acc, ray, t_max, cnt):
         node_box, node_child, node_count, prim_ids = (acc.node_box, acc.node_child,
@@ -118,18 +119,18 @@ def _traversal(any_hit):
             else:
                 n_leaves += 1
                 k, end = _leaf_range(node_child, node_count, entry)
-                while k < end and not (any_hit and best.prim >= 0):
+                while k < end and not (mode == ANY_HIT and best.prim >= 0):
                     p = prim_ids[k]
                     n_tests += 1
                     t, u, v = test_prim(geo, ray, p, t_max)
                     if t < np.inf:
                         n_hits += 1
-                        if closer(t, p, best):
+                        if mode != ALL_HITS and closer(t, p, best):
                             best = Hit(t, p, u, v)
                     k += 1
             # Pop the nearest pending entry that may still hold a closer hit.
             entry = _DONE
-            if not (any_hit and best.prim >= 0):
+            if not (mode == ANY_HIT and best.prim >= 0):
                 while sp > 0 and entry == _DONE:
                     sp -= 1
                     if stack_t[sp] <= best.t:
@@ -142,6 +143,4 @@ def _traversal(any_hit):
     return traverse
 
 
-closest = _traversal(False)
-any_hit = _traversal(True)
-register(BVH, closest, any_hit)
+register(BVH, *(_traversal(mode) for mode in (CLOSEST, ANY_HIT, ALL_HITS)))

@@ -8,30 +8,28 @@ from .counters import BOX_TESTS
 from .intersect import ray_aabb
 from .jit import JIT
 from .prims import test_and_keep
-from .query import register
+from .query import ALL_HITS, ANY_HIT, CLOSEST, register
 from .ray import no_hit
 
 
-def _traversal(any_hit):
+def _traversal(mode):
     @njit(**JIT)
     def traverse(geo, acc, ray, t_max, cnt):
         lo, hi, start, count = acc.obj_lo, acc.obj_hi, acc.obj_start, acc.obj_count
         best = no_hit()
         n = start.shape[0]
         j = 0
-        while j < n and not (any_hit and best.prim >= 0):
+        while j < n and not (mode == ANY_HIT and best.prim >= 0):
             cnt[BOX_TESTS] += 1
             if ray_aabb(ray, lo, hi, j, min(best.t, t_max)) < np.inf:
                 p = start[j]
                 end = p + count[j]
-                while p < end and not (any_hit and best.prim >= 0):
-                    best = test_and_keep(geo, ray, p, t_max, best, cnt)
+                while p < end and not (mode == ANY_HIT and best.prim >= 0):
+                    best = test_and_keep(geo, ray, p, t_max, best, cnt, mode != ALL_HITS)
                     p += 1
             j += 1
         return best
     return traverse
 
 
-closest = _traversal(False)
-any_hit = _traversal(True)
-register(BoundingVolumes, closest, any_hit)
+register(BoundingVolumes, *(_traversal(mode) for mode in (CLOSEST, ANY_HIT, ALL_HITS)))

@@ -17,7 +17,7 @@ Each kernel is compiled once per structure (query.py), on first use.
 from numba import njit, prange
 
 from .jit import JIT, PARALLEL
-from .query import closest_hit, occluded
+from .query import closest_hit, count_hits, occluded
 from .ray import make_crossing_ray, make_ray
 
 CHUNK = 64
@@ -113,3 +113,24 @@ def cast_crossings(geo, acc, origins, dirs, t_min, t_max, max_hits, offsets, out
     for b in prange(n_blocks):
         _crossings_block(geo, acc, origins, dirs, t_min, t_max, max_hits, offsets, out_t,
                          out_prim, out_u, out_v, counts, cnt_rows[b], b, n_blocks)
+
+
+@njit(**JIT)
+def _counts_block(geo, acc, origins, dirs, t_min, t_max, out_count, cnt, b, n_blocks):
+    n = origins.shape[0]
+    n_chunks = (n + CHUNK - 1) // CHUNK
+    for c in range(b, n_chunks, n_blocks):
+        for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
+            ray = make_crossing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
+                                    dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i], _ALL_PEELED)
+            out_count[i] = count_hits(geo, acc, ray, t_max[i], cnt)
+
+
+@njit(**PARALLEL)
+def cast_counts(geo, acc, origins, dirs, t_min, t_max, out_count, cnt_rows):
+    """How many times ray i meets the surfaces with t_min[i] < t < t_max[i],
+    each crossing of a closed surface once: one traversal that never
+    narrows the interval, with the crossing triangle test (CrossingRay)."""
+    n_blocks = cnt_rows.shape[0]
+    for b in prange(n_blocks):
+        _counts_block(geo, acc, origins, dirs, t_min, t_max, out_count, cnt_rows[b], b, n_blocks)

@@ -48,12 +48,12 @@ import numpy as np
 from numba import njit
 
 from ..accel.grid import Grid, grid_eps
-from .brute import scan_any, scan_closest
+from .brute import SCANS
 from .counters import BOX_TESTS, CELLS_VISITED
 from .intersect import ray_aabb
 from .jit import JIT
 from .prims import test_and_keep
-from .query import register
+from .query import ALL_HITS, ANY_HIT, CLOSEST, register
 from .ray import no_hit
 
 # Keep stepping until the next cell starts beyond best_t by this relative
@@ -157,10 +157,14 @@ def _dda_step(ray, glo, cell, rx, ry, rz, ix, iy, iz, sx, sy, sz, tx, ty, tz, t_
     return inside, ix, iy, iz, tx, ty, tz
 
 
-def _traversal(any_hit):
-    """The DDA walk; with any_hit (a compile-time constant) it stops at the
-    first hit.  Until then best.t is inf, so the walk is bounded by t_max."""
-    scan = scan_any if any_hit else scan_closest
+def _traversal(mode):
+    """The DDA walk, for one of query.py's modes (a compile-time constant).
+    Until a hit is kept best.t is inf, so the walk is bounded by t_max.
+
+    Every hit (ALL_HITS) scans all primitives instead: a primitive lies in
+    every cell its box overlaps, and the mailbox remembers only the last
+    four, so a walk could count one twice."""
+    scan = SCANS[mode]
 
     @njit(**JIT)
     def traverse(geo, acc, ray, t_max, cnt):
@@ -168,7 +172,7 @@ def _traversal(any_hit):
         status, ix, iy, iz, sx, sy, sz, tx, ty, tz = _grid_enter(acc, ray, t_max, cnt)
         if status == _MISS:
             return best
-        if status == _ALL:
+        if status == _ALL or mode == ALL_HITS:
             return scan(geo, ray, t_max, cnt)
         rx, ry, rz = acc.grid_res[0], acc.grid_res[1], acc.grid_res[2]
         glo, cell = acc.grid_lo, acc.grid_cell
@@ -178,16 +182,16 @@ def _traversal(any_hit):
         # (t, id), which `closer` rejects, so skipping it changes nothing.
         m0 = m1 = m2 = m3 = -1
         inside = True
-        while inside and not (any_hit and best.prim >= 0):
+        while inside and not (mode == ANY_HIT and best.prim >= 0):
             cnt[CELLS_VISITED] += 1
             c = ix + rx * (iy + ry * iz)
             k = cell_start[c]
             end = cell_start[c + 1]
-            while k < end and not (any_hit and best.prim >= 0):
+            while k < end and not (mode == ANY_HIT and best.prim >= 0):
                 p = cell_items[k]
                 if p != m0 and p != m1 and p != m2 and p != m3:
                     m3, m2, m1, m0 = m2, m1, m0, p
-                    best = test_and_keep(geo, ray, p, t_max, best, cnt)
+                    best = test_and_keep(geo, ray, p, t_max, best, cnt, mode != ALL_HITS)
                 k += 1
             inside, ix, iy, iz, tx, ty, tz = _dda_step(ray, glo, cell, rx, ry, rz, ix, iy, iz,
                                                        sx, sy, sz, tx, ty, tz,
@@ -196,6 +200,4 @@ def _traversal(any_hit):
     return traverse
 
 
-closest = _traversal(False)
-any_hit = _traversal(True)
-register(Grid, closest, any_hit)
+register(Grid, *(_traversal(mode) for mode in (CLOSEST, ANY_HIT, ALL_HITS)))

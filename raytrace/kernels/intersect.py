@@ -151,8 +151,8 @@ ray_triangle_crossing = _triangle_test(True)
 
 
 @njit(**JIT)
-def ray_sphere(ray, center, radius, i, t_max):
-    """Nearest root of |o + t d - c| = r with ray.t_min < t < t_max, else inf.
+def sphere_roots(ray, center, radius, i):
+    """Both roots t0 <= t1 of |o + t d - c| = r, or (inf, inf).
 
     Uses the discriminant form of Ray Tracing Gems ch. 7 ("Precision
     Improvements for Ray/Sphere Intersection"): r^2 - |f - (f.d/d.d) d|^2
@@ -172,16 +172,23 @@ def ray_sphere(ray, center, radius, i, t_max):
     lz = fz - s * dz
     h = a * (r * r - (lx * lx + ly * ly + lz * lz))
     if h < 0.0:
-        return np.inf
+        return np.inf, np.inf
     c = fx * fx + fy * fy + fz * fz - r * r
     sq = np.sqrt(h)
     q = -(b + sq) if b >= 0.0 else -(b - sq)
     if q == 0.0:
-        return np.inf
+        return np.inf, np.inf
     t0 = c / q
     t1 = q / a
     if t0 > t1:
         t0, t1 = t1, t0
+    return t0, t1
+
+
+@njit(**JIT)
+def ray_sphere(ray, center, radius, i, t_max):
+    """Nearest root of |o + t d - c| = r with ray.t_min < t < t_max, else inf."""
+    t0, t1 = sphere_roots(ray, center, radius, i)
     if t0 > ray.t_min and t0 < t_max:
         return t0
     if t1 > ray.t_min and t1 < t_max:

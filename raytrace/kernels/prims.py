@@ -12,7 +12,7 @@ from numba import njit
 from numba.extending import overload
 
 from .counters import PRIM_HITS, PRIM_TESTS
-from .intersect import ray_plane, ray_sphere, ray_triangle, ray_triangle_crossing
+from .intersect import ray_plane, ray_sphere, ray_triangle, ray_triangle_crossing, sphere_roots
 from .jit import JIT, OVERLOAD
 from .ray import CrossingRay, Hit, closer
 
@@ -63,17 +63,30 @@ def _choose_test_prim(geo, ray, p, t_max):
 
 
 @njit(**JIT)
-def test_and_keep(geo, ray, p, t_max, best, cnt):
+def test_and_keep(geo, ray, p, t_max, best, cnt, keep):
     """Test bounded primitive p and count it; returns the closer of its hit
-    and best (the loop body of every structure but the BVH, which counts
-    in locals)."""
+    and best, or with keep False (counting every hit) best unchanged.  The
+    loop body of every structure but the BVH, which counts in locals."""
     cnt[PRIM_TESTS] += 1
     t, u, v = test_prim(geo, ray, p, t_max)
     if t < np.inf:
         cnt[PRIM_HITS] += 1
-        if closer(t, p, best):
+        if keep and closer(t, p, best):
             return Hit(t, p, u, v)
     return best
+
+
+@njit(**JIT)
+def far_sphere_roots(geo, ray, t_max):
+    """Spheres whose both roots lie in t_min < t < t_max: a primitive test
+    reports one hit a sphere, and a ray through a sphere crosses it twice.
+    A loop over every sphere: scenes hold few."""
+    n = 0
+    for k in range(geo.sph_center.shape[0]):
+        t0, t1 = sphere_roots(ray, geo.sph_center, geo.sph_radius, k)
+        if t0 > ray.t_min and t1 < t_max and t0 < t1:
+            n += 1
+    return n
 
 
 @njit(**JIT)

@@ -11,17 +11,25 @@ compiles, or branches over, the grid's code.
 from numba.core.errors import TypingError
 from numba.extending import overload
 
+from .counters import PRIM_HITS
 from .jit import OVERLOAD
-from .prims import planes_closest, planes_occluded
+from .prims import far_sphere_roots, planes_closest, planes_occluded
+from .ray import no_hit
 
-# layout class -> (closest, any_hit): compiled functions (geo, acc, ray,
-# t_max, cnt) -> Hit; any_hit returns the first hit it finds.
+# What a traversal is made for, a compile-time constant of each structure's
+# one traversal loop: the closest hit; any hit (stop at the first); every
+# hit (never stop, never narrow the interval: each hit is counted in
+# cnt[PRIM_HITS] and none kept).
+CLOSEST, ANY_HIT, ALL_HITS = 0, 1, 2
+
+# layout class -> (closest, any_hit, all_hits): compiled functions (geo,
+# acc, ray, t_max, cnt) -> Hit made from one loop each (MODES order).
 _TRAVERSALS = {}
 
 
-def register(layout, closest, any_hit):
+def register(layout, closest, any_hit, all_hits):
     """Make ``layout`` (a structure's namedtuple class) queryable."""
-    _TRAVERSALS[layout] = (closest, any_hit)
+    _TRAVERSALS[layout] = (closest, any_hit, all_hits)
 
 
 def _traversal(acc):
@@ -50,6 +58,25 @@ def _closest_hit(geo, acc, ray, t_max, cnt):
 
     def impl(geo, acc, ray, t_max, cnt):
         return planes_closest(geo, ray, t_max, closest(geo, acc, ray, t_max, cnt), cnt)
+    return impl
+
+
+def count_hits(geo, acc, ray, t_max, cnt):
+    """How many primitives the ray hits with its t_min < t < t_max, planes
+    included: with a CrossingRay, each crossing of a closed surface once.
+    Compiled code only."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(count_hits, jit_options=OVERLOAD)
+def _count_hits(geo, acc, ray, t_max, cnt):
+    all_hits = _traversal(acc)[2]
+
+    def impl(geo, acc, ray, t_max, cnt):
+        before = cnt[PRIM_HITS]
+        all_hits(geo, acc, ray, t_max, cnt)
+        planes_closest(geo, ray, t_max, no_hit(), cnt)
+        return cnt[PRIM_HITS] - before + far_sphere_roots(geo, ray, t_max)
     return impl
 
 
