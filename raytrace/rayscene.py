@@ -276,22 +276,24 @@ class RayScene:
                 "prim_id": face, "u": np.where(tri, u, np.nan), "v": np.where(tri, v, np.nan),
                 "normal": normal, "point": point}
 
-    def contains(self, points):
+    def contains(self, points, votes=1):
         """Whether each point is inside the closed surfaces: a boolean (n,)
-        array.  Three rays from the point (fixed directions far from any
-        axis) each count their crossings; the point is inside when at least
-        two counts are odd.  One ray suffices on a closed mesh, since each
-        crossing counts once even through edges and vertices; the vote
-        keeps a small hole or a stray face from deciding alone.  On an open
-        mesh the answer is that vote, meaningful only where the mesh
-        encloses the point; a point on the surface may go either way."""
+        array, by the parity of crossings along a ray from the point (a
+        fixed direction far from any axis).  One ray is exact on a closed
+        mesh, since each crossing counts once even through edges and
+        vertices.  ``votes=3`` casts three rays and takes the majority, so a
+        small hole or a stray face cannot decide alone (three times the
+        cost).  On an open mesh the answer is that parity, meaningful only
+        where the mesh encloses the point; a point on the surface may go
+        either way."""
+        if votes not in (1, 3):
+            raise RaytraceError(f"votes: must be 1 or 3, got {votes!r}")
         q = _as_rows("points", points)
         _check_coordinates("points", q)
-        n = len(q)
-        odd = np.zeros(n, np.int64)
-        for direction in _VOTE_DIRECTIONS:
+        odd = np.zeros(len(q), np.int64)
+        for direction in _VOTE_DIRECTIONS[:votes]:
             odd += self.count_intersections(q, direction) & 1
-        return odd >= 2
+        return 2 * odd > votes
 
     def closest_points(self, points):
         """The surfaces' point closest to each query point: a dict of
@@ -327,7 +329,7 @@ class RayScene:
         return f"RayScene({len(self._objects)} geometries, accel={self.accel!r})"
 
 
-# Directions of contains()'s three rays: unit vectors with no zero or equal
+# Directions of contains()'s rays: unit vectors with no zero or equal
 # components, so an axis-aligned mesh's edges and faces are never met
 # edge-on by construction.
 _VOTE_DIRECTIONS = np.array([[0.5773, 0.6133, 0.5392], [-0.7071, 0.2588, 0.6580],

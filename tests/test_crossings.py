@@ -150,15 +150,33 @@ def test_contains(accel):
     far = np.abs(np.abs(p).max(axis=1) - 1.0) > 1e-9
     inside = rs.contains(p)
     assert np.array_equal(inside[far], (np.abs(p).max(axis=1) < 1.0)[far])
+    assert np.array_equal(rs.contains(p, votes=3)[far], inside[far])
     # Points whose rays pass exactly through the grid's edges and vertices.
     q = np.array([[0.0, 0.0, 0.0], [1 / 3, 1 / 3, 1 / 3], [0.5, 0.0, 0.0], [1.5, 0.0, 0.0]])
     assert rs.contains(q).tolist() == [True, True, True, False]
 
 
-def test_bad_max_hits():
+def test_bad_max_hits_and_votes():
     v, f = box()
     with pytest.raises(RaytraceError, match="max_hits"):
         RayScene((v, f)).count_intersections([0, 0, 0.0], [1, 0, 0.0], max_hits=0)
+    with pytest.raises(RaytraceError, match="votes"):
+        RayScene((v, f)).contains([0, 0, 0.0], votes=2)
+
+
+def test_a_vote_outweighs_a_hole():
+    """A cube with one face triangle missing: a single ray from inside that
+    leaves through the hole says outside, the three-ray vote says inside."""
+    v, f = box(1)
+    rs_full = RayScene((v, f))
+    p = np.array([[0.0, 0.0, 0.0]])
+    from raytrace.rayscene import _VOTE_DIRECTIONS
+    d = _VOTE_DIRECTIONS[0]
+    exit_tri = RayScene((v, f)).cast_rays(p, d).prim_id[0]
+    holed = RayScene((v, np.delete(f, exit_tri, axis=0)))
+    assert rs_full.contains(p)[0]
+    assert not holed.contains(p)[0]
+    assert holed.contains(p, votes=3)[0]
 
 
 @pytest.mark.parametrize("seed", range(6))
