@@ -39,6 +39,8 @@ STRUCTURES = {s.name: s for s in (
               "nodes_visited", "nodes_per_ray"),
     Structure("grid", "uniform grid walked by 3D-DDA", "grid",
               "cells_visited", "cells_per_ray"),
+    Structure("kdtree", "kd-tree, binned SAH build, front-to-back traversal", "kdtree",
+              "nodes_visited", "nodes_per_ray"),
 )}
 DEFAULT = "bvh"
 

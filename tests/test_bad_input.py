@@ -90,7 +90,7 @@ def test_cli_bad_mesh_files_leave_an_existing_output_alone(bad_files, tmp_path, 
     (["--width", "2000000"], 1, "width must be between 1 and 1048576, got 2000000"),
     (["--width", "1048576", "--height", "1048576"], 1, "a 1048576x1048576 image needs 1536"),
     (["--frobnicate"], 2, "--frobnicate"),
-    (["--accel", "kdtree"], 2, "Invalid value for '--accel'"),
+    (["--accel", "octree"], 2, "Invalid value for '--accel'"),
     (["--spp", "0"], 2, "Invalid value for '--spp'"),
 ])
 def test_cli_bad_options_leave_an_existing_output_alone(tmp_path, monkeypatch, args, code, words):

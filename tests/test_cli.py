@@ -62,7 +62,7 @@ def test_bvol_flags_map_to_accel(run):
     (["teapot", "--height", "-5"], 2, "--height"),
     (["teapot", "--light-samples", "-4"], 2, "--light-samples"),
     (["teapot", "--shadows", "soft", "--light-samples", "10"], 1, "square number"),
-    (["teapot", "--accel", "kdtree"], 2, "--accel"),
+    (["teapot", "--accel", "octree"], 2, "--accel"),
     (["teapot", "--frobnicate"], 2, "No such option"),
     (["teapot", "--width", "1048576", "--height", "1048576"], 1, "GiB"),
     (["teapot", "-o", "missing_dir/out.png"], 1, "does not exist"),

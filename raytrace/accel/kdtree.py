@@ -1,0 +1,223 @@
+"""kd-tree build: binned SAH over primitive boxes (the cost model of
+pbrt-v3's KdTreeAccel and of Wald & Havran 2006, "On building fast
+kd-Trees for Ray Tracing, and on doing that in O(N log N)", here with
+binning instead of sorted event lists: O(N) per level).
+
+A node splits its box by an axis-aligned plane; a primitive goes to every
+side its box, widened by the grid's insertion tolerance ``grid_eps``,
+touches.  That widening is what lets the traversal (kernels/kdtree.py)
+return exactly the brute-force answer despite rounding, as for the grid.
+"""
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from ..buffers import FLOAT, INDEX, prim_bounds
+from .grid import grid_eps
+
+# The layout traversal reads: nodes in depth-first order, a node's first
+# child (below its plane) right after it.  node_axis 0, 1, 2: an interior
+# node split at node_split along that axis, its second child node_index;
+# node_axis LEAF: a leaf over prim_list[node_index : node_index + node_count].
+# lo, hi: the tree's bounds, (3,) each.
+KdTree = namedtuple("KdTree", ["node_axis", "node_split", "node_index", "node_count",
+                               "prim_list", "lo", "hi"])
+LEAF = 3
+
+N_BINS = 16            # split candidates per axis and node
+TRAVERSAL_COST = 1.0   # one node step against one primitive test (pbrt-v3: 1 and 80, scaled)
+EMPTY_BONUS = 0.5      # cost discount for a split with an empty side (pbrt-v3)
+MAX_LEAF = 2           # a node this small becomes a leaf
+# Leaves are forced at this depth: the traversal's fixed-size stack holds at
+# most one pending node a level (kernels/kdtree.py).
+MAX_DEPTH = 48
+
+
+@njit(cache=True)
+def _half_area(ex, ey, ez):
+    return ex * ey + ey * ez + ez * ex
+
+
+@njit(cache=True)
+def build_kdtree_kernel(lo, hi, glo, ghi, eps, max_depth):
+    """Returns (node_axis, node_split, node_index, node_count, prim_list)."""
+    n = lo.shape[0]
+    cap = max(16, 4 * n)
+    axis_of = np.empty(cap, np.int64)
+    split_of = np.empty(cap, np.float64)
+    index_of = np.empty(cap, np.int64)
+    count_of = np.empty(cap, np.int64)
+    pcap = max(16, 4 * n)
+    plist = np.empty(pcap, np.int64)
+    n_plist = 0
+    # Work: the primitives of pending nodes live in a scratch list; each
+    # stack entry is (start, count, depth, parent, box lo xyz, box hi xyz).
+    scap = max(16, 4 * n)
+    scratch = np.empty(scap, np.int64)
+    for i in range(n):
+        scratch[i] = i
+    top = n
+    st_i = np.empty((max_depth + 2, 4), np.int64)
+    st_f = np.empty((max_depth + 2, 6), np.float64)
+    sp = 0
+    cnt_lo = np.empty((3, N_BINS), np.int64)
+    cnt_hi = np.empty((3, N_BINS), np.int64)
+    n_nodes = 0
+    start, count, depth, parent = 0, n, 0, -1
+    bl = np.array([glo[0], glo[1], glo[2]])
+    bh = np.array([ghi[0], ghi[1], ghi[2]])
+    while True:
+        if n_nodes == cap:
+            cap *= 2
+            axis_of = _grow_i(axis_of, cap)
+            split_of = _grow_f(split_of, cap)
+            index_of = _grow_i(index_of, cap)
+            count_of = _grow_i(count_of, cap)
+        node = n_nodes
+        n_nodes += 1
+        if parent >= 0:
+            index_of[parent] = node     # this is parent's second child
+        ex, ey, ez = bh[0] - bl[0], bh[1] - bl[1], bh[2] - bl[2]
+        area = _half_area(ex, ey, ez)
+        best_cost = np.inf
+        best_axis = -1
+        best_split = 0.0
+        if count > MAX_LEAF and depth < max_depth and area > 0.0:
+            cnt_lo[:, :] = 0
+            cnt_hi[:, :] = 0
+            for k in range(start, start + count):
+                p = scratch[k]
+                for a in range(3):
+                    w = bh[a] - bl[a]
+                    if w > 0.0:
+                        b0 = int((lo[p, a] - eps - bl[a]) / w * N_BINS)
+                        b1 = int((hi[p, a] + eps - bl[a]) / w * N_BINS)
+                        cnt_lo[a, min(max(b0, 0), N_BINS - 1)] += 1
+                        cnt_hi[a, min(max(b1, 0), N_BINS - 1)] += 1
+            for a in range(3):
+                w = bh[a] - bl[a]
+                if w <= 0.0:
+                    continue
+                n_below = 0
+                n_ended = 0
+                for b in range(1, N_BINS):
+                    n_below += cnt_lo[a, b - 1]   # started below this plane
+                    n_ended += cnt_hi[a, b - 1]   # ended below it
+                    n_above = count - n_ended
+                    t = b / N_BINS
+                    e = (ex, ey, ez)
+                    # Child boxes: the node's, cut at the plane.
+                    wa = e[a] * t
+                    wb = e[a] - wa
+                    if a == 0:
+                        area_b = _half_area(wa, ey, ez)
+                        area_a = _half_area(wb, ey, ez)
+                    elif a == 1:
+                        area_b = _half_area(ex, wa, ez)
+                        area_a = _half_area(ex, wb, ez)
+                    else:
+                        area_b = _half_area(ex, ey, wa)
+                        area_a = _half_area(ex, ey, wb)
+                    bonus = EMPTY_BONUS if n_below == 0 or n_above == 0 else 0.0
+                    cost = TRAVERSAL_COST + (1.0 - bonus) * (area_b * n_below
+                                                             + area_a * n_above) / area
+                    if cost < best_cost:
+                        best_cost = cost
+                        best_axis = a
+                        best_split = bl[a] + wa
+        if best_axis >= 0 and best_cost < count:
+            a = best_axis
+            s = best_split
+            # Left list, then right list, appended to the scratch top.
+            if top + 2 * count > scap:
+                scap = max(2 * scap, top + 2 * count)
+                scratch = _grow_i(scratch, scap)
+            left = top
+            for k in range(start, start + count):
+                p = scratch[k]
+                if lo[p, a] - eps <= s:
+                    scratch[top] = p
+                    top += 1
+            n_left = top - left
+            right = top
+            for k in range(start, start + count):
+                p = scratch[k]
+                if hi[p, a] + eps >= s:
+                    scratch[top] = p
+                    top += 1
+            n_right = top - right
+            axis_of[node] = a
+            split_of[node] = s
+            count_of[node] = 0
+            # Right child waits on the stack with its box; the left is next.
+            st_i[sp, 0] = right
+            st_i[sp, 1] = n_right
+            st_i[sp, 2] = depth + 1
+            st_i[sp, 3] = node
+            for j in range(3):
+                st_f[sp, j] = bl[j]
+                st_f[sp, 3 + j] = bh[j]
+            st_f[sp, a] = s
+            sp += 1
+            bh[a] = s
+            start, count, depth, parent = left, n_left, depth + 1, -1
+        else:
+            axis_of[node] = LEAF
+            split_of[node] = 0.0
+            if n_plist + count > pcap:
+                pcap = max(2 * pcap, n_plist + count)
+                plist = _grow_i(plist, pcap)
+            index_of[node] = n_plist
+            count_of[node] = count
+            for k in range(start, start + count):
+                plist[n_plist] = scratch[k]
+                n_plist += 1
+            if sp == 0:
+                break
+            sp -= 1
+            start, count, depth, parent = st_i[sp, 0], st_i[sp, 1], st_i[sp, 2], st_i[sp, 3]
+            for j in range(3):
+                bl[j] = st_f[sp, j]
+                bh[j] = st_f[sp, 3 + j]
+            # The scratch above the popped right list is free again.
+            top = start + count
+    return (axis_of[:n_nodes].copy(), split_of[:n_nodes].copy(), index_of[:n_nodes].copy(),
+            count_of[:n_nodes].copy(), plist[:n_plist].copy())
+
+
+@njit(cache=True)
+def _grow_i(a, size):
+    out = np.empty(size, np.int64)
+    out[:a.shape[0]] = a
+    return out
+
+
+@njit(cache=True)
+def _grow_f(a, size):
+    out = np.empty(size, np.float64)
+    out[:a.shape[0]] = a
+    return out
+
+
+def build_kdtree(lo, hi):
+    """kd-tree over (n, 3) primitive boxes (row = unified id)."""
+    lo = np.ascontiguousarray(lo, dtype=FLOAT).reshape(-1, 3)
+    hi = np.ascontiguousarray(hi, dtype=FLOAT).reshape(-1, 3)
+    n = lo.shape[0]
+    if n == 0:
+        z = np.zeros(0, INDEX)
+        return KdTree(z, np.zeros(0, FLOAT), z, z, z, np.zeros(3, FLOAT), np.zeros(3, FLOAT))
+    raw_lo, raw_hi = lo.min(axis=0), hi.max(axis=0)
+    # Bounds padded as the grid's: boundary primitives lie strictly inside.
+    pad = 2.0 * grid_eps(raw_lo, raw_hi)
+    glo, ghi = raw_lo - pad, raw_hi + pad
+    eps = grid_eps(glo, ghi)
+    # pbrt-v3's depth limit, 8 + 1.3 log2(N), capped for the stack.
+    max_depth = int(min(MAX_DEPTH, round(8 + 1.3 * np.log2(n))))
+    axis, split, index, count, plist = build_kdtree_kernel(lo, hi, glo, ghi, eps, max_depth)
+    return KdTree(axis, split, index, count, plist, glo, ghi)
+
+
+def build(geo, obj_ranges):
+    return build_kdtree(*prim_bounds(geo))
