@@ -227,7 +227,7 @@ def render(scene, opts=None, **kw):
     from .kernels.counters import N_COUNTERS
     from .kernels.render import render_rows
     from .stats import counters_from_rows, derive
-    from .structures import build_structure
+    from .structures import build_structure, get
 
     threads = int(opts.threads or numba.config.NUMBA_NUM_THREADS)
     numba.set_num_threads(threads)
@@ -273,6 +273,7 @@ def render(scene, opts=None, **kw):
         "time": {"render_s": t_render, "build_s": t_build, "compile_s": t_compile,
                  "setup_s": t_import},
         "counters": counters_from_rows(stats_rows),
+        "structure": get(opts.accel).statistics(acc, geo.tri_v0.shape[0] + geo.sph_center.shape[0]),
     }
     result_aovs = aovs._asdict() if opts.aov else {}
     return RenderResult(image=to_srgb8(image), linear=image, stats=derive(stats), aovs=result_aovs)

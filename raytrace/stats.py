@@ -7,6 +7,27 @@ from .kernels import counters as C
 COUNTERS = [(key, label, meaning, idx) for idx, (key, label, meaning) in C.DECLARED.items()]
 
 
+# Structure statistics shown in the table (all are in --json under
+# "structure"), with their labels; each structure reports its own subset
+# (raytrace/accel/<name>.py, statistics()).
+STRUCTURE_ROWS = [
+    ("nodes", "Structure: nodes"),
+    ("leaves", "Structure: leaves"),
+    ("max_depth", "Structure: max depth"),
+    ("mean_leaf_depth", "Structure: mean leaf depth"),
+    ("primitives_per_leaf_mean", "Structure: primitives per leaf"),
+    ("primitives_per_leaf_max", "Structure: most primitives in a leaf"),
+    ("sah_cost", "Structure: SAH cost"),
+    ("duplication", "Structure: references per primitive"),
+    ("boxes", "Structure: boxes"),
+    ("resolution", "Structure: grid resolution"),
+    ("empty_cells", "Structure: empty cells"),
+    ("references_per_primitive", "Structure: references per primitive"),
+    ("memory_bytes", "Structure: memory (bytes)"),
+    ("bytes_per_primitive", "Structure: bytes per primitive"),
+]
+
+
 def counters_from_rows(rows):
     total = rows.sum(axis=0)
     return {key: int(total[idx]) for key, _, _, idx in COUNTERS}
@@ -60,6 +81,9 @@ def format_table(stats):
         ("Box tests per ray", d["box_tests_per_ray"]),
         ("Mrays/s", d["mrays_per_s"]),
     ]
+    st = stats.get("structure", {})
+    rows += [(label, "x".join(map(str, st[key])) if isinstance(st[key], list) else st[key])
+             for key, label in STRUCTURE_ROWS if key in st]
     width = max(len(k) for k, _ in rows)
     vals = [_fmt(v) for _, v in rows]
     vwidth = max(len(v) for v in vals)

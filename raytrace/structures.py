@@ -3,8 +3,8 @@ driver, the ray-casting API, the bench and the tests (pbrt-v4's
 CreateAccelerator).
 
 A structure ``x`` is two modules and the line below:
-``raytrace/accel/x.py`` defines its layout (a namedtuple class) and
-``build(geo, obj_ranges)``; ``raytrace/kernels/x.py`` its traversal,
+``raytrace/accel/x.py`` defines its layout (a namedtuple class),
+``build(geo, obj_ranges)`` and ``statistics(layout, n_prims)``; ``raytrace/kernels/x.py`` its traversal,
 registered for the layout (kernels/query.py).  Nothing is imported, built
 or compiled for a structure the run does not use.
 """
@@ -30,6 +30,10 @@ class Structure:
         t0 = time.perf_counter()
         layout = builder.build(geo, obj_ranges)
         return layout, time.perf_counter() - t0
+
+    def statistics(self, layout, n_prims):
+        """The structure's own figures (nodes, leaves, depth, memory, ...)."""
+        return importlib.import_module(f"raytrace.accel.{self.module}").statistics(layout, n_prims)
 
 
 STRUCTURES = {s.name: s for s in (

@@ -376,3 +376,32 @@ def build(geo, obj_ranges):
     node_lo, node_hi, node_start, node_count, prim_ids = build_bvh(*prim_bounds(geo))
     node_box, node_child, node_count4 = collapse_bvh4(node_lo, node_hi, node_start, node_count)
     return BVH(node_box=node_box, node_child=node_child, node_count=node_count4, prim_ids=prim_ids)
+
+
+def statistics(bvh, n_prims):
+    """Node and leaf counts, depths, leaf sizes, SAH cost and memory of a
+    4-wide BVH.  SAH cost: the expected number of node visits (TRAVERSAL_COST
+    each) and primitive tests of a random ray that hits the root box, by
+    the surface area heuristic (MacDonald & Booth 1990)."""
+    from .statistics import half_area, leaves, memory
+    m = len(bvh.node_child)
+    out = {"nodes": int(m)}
+    if m == 0:
+        return out | leaves([], []) | memory(bvh, n_prims)
+    used = bvh.node_box[:, 0, :] < np.inf           # lanes holding a child
+    is_leaf = used & (bvh.node_count > 0)
+    inner = used & ~is_leaf
+    depth = np.zeros(m, np.int64)                    # wide nodes, depth-first numbered
+    for node in range(m):
+        kids = bvh.node_child[node][inner[node]]
+        depth[kids] = depth[node] + 1
+    lo = np.moveaxis(bvh.node_box[:, 0:3, :], 1, 2)  # (m, 4, 3)
+    hi = np.moveaxis(bvh.node_box[:, 3:6, :], 1, 2)
+    area = np.where(used, half_area(np.where(used[..., None], lo, 0.0),
+                                    np.where(used[..., None], hi, 0.0)), 0.0)
+    root = half_area(lo[0][used[0]].min(axis=0), hi[0][used[0]].max(axis=0))
+    visits = 1.0 + area[inner].sum() / root if root > 0 else float(m)
+    tests = (area[is_leaf] * bvh.node_count[is_leaf]).sum() / root if root > 0 else 0.0
+    out["sah_cost"] = float(TRAVERSAL_COST * visits + tests)
+    leaf_depth = np.repeat(depth, is_leaf.sum(axis=1)) + 1
+    return out | leaves(bvh.node_count[is_leaf], leaf_depth) | memory(bvh, n_prims)

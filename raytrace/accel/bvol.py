@@ -32,3 +32,8 @@ def build(geo, obj_ranges):
         obj_hi = obj_hi + pad
     return BoundingVolumes(obj_lo=f64(obj_lo, 3), obj_hi=f64(obj_hi, 3),
                            obj_start=starts, obj_count=counts)
+
+
+def statistics(bvol, n_prims):
+    from .statistics import memory
+    return {"boxes": int(len(bvol.obj_lo))} | memory(bvol, n_prims)

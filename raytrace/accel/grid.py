@@ -141,3 +141,16 @@ def build_grid(lo, hi):
 
 def build(geo, obj_ranges):
     return Grid(*build_grid(*prim_bounds(geo)))
+
+
+def statistics(grid, n_prims):
+    """Resolution, cells, empty cells, references and memory of a grid."""
+    from .statistics import memory
+    cells = int(np.prod(grid.grid_res))
+    per_cell = np.diff(grid.cell_start)
+    refs = int(len(grid.cell_items))
+    return {"resolution": [int(r) for r in grid.grid_res], "cells": cells,
+            "empty_cells": int((per_cell == 0).sum()),
+            "cells_per_primitive": cells / n_prims if n_prims else 0.0,
+            "references": refs, "references_per_primitive": refs / n_prims if n_prims else 0.0,
+            } | memory(grid, n_prims)

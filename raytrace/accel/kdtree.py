@@ -221,3 +221,22 @@ def build_kdtree(lo, hi):
 
 def build(geo, obj_ranges):
     return build_kdtree(*prim_bounds(geo))
+
+
+def statistics(tree, n_prims):
+    """Nodes, leaves, depths, leaf sizes, references (a primitive is listed
+    in every leaf it touches: the duplication factor) and memory."""
+    from .statistics import leaves, memory
+    m = len(tree.node_axis)
+    out = {"nodes": int(m)}
+    if m == 0:
+        return out | leaves([], []) | memory(tree, n_prims)
+    depth = np.zeros(m, np.int64)
+    inner = np.flatnonzero(tree.node_axis != LEAF)
+    for node in inner:                 # depth-first numbered: parents first
+        depth[node + 1] = depth[tree.node_index[node]] = depth[node] + 1
+    leaf = tree.node_axis == LEAF
+    refs = int(len(tree.prim_list))
+    return (out | leaves(tree.node_count[leaf], depth[leaf])
+            | {"references": refs, "duplication": refs / n_prims if n_prims else 0.0}
+            | memory(tree, n_prims))

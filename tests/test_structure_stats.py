@@ -1,0 +1,68 @@
+"""Structure statistics, exact on small hand-made scenes, and shown by the
+CLI for every structure."""
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from raytrace.buffers import prim_bounds
+from raytrace.cli import main
+from raytrace.flatten import flatten
+from raytrace.scene import Camera, Mesh, Scene
+from raytrace.structures import STRUCTURES, get
+
+
+def scene_of(*tri_sets):
+    objs = [Mesh(np.array(v, float), np.array([[0, 1, 2]]), name=f"m{k}")
+            for k, v in enumerate(tri_sets)]
+    geo, ranges, _ = flatten(Scene("s", Camera((0, 0, 5), (0, 0, 0)), objs))
+    return geo, ranges
+
+
+TWO_APART = ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[10, 0, 0], [11, 0, 0], [10, 1, 0]])
+
+
+def test_bvh_of_two_triangles_far_apart():
+    geo, ranges = scene_of(*TWO_APART)
+    s = get("bvh")
+    bvh, _ = s.build(geo, ranges)
+    st = s.statistics(bvh, 2)
+    assert (st["nodes"], st["leaves"], st["max_depth"], st["mean_leaf_depth"]) == (1, 2, 1, 1.0)
+    assert st["primitives_per_leaf_mean"] == 1.0 and st["primitives_per_leaf_max"] == 1
+    assert st["leaf_size_histogram"]["1"] == 2
+    # One root visit, then each leaf's test weighted by its box's share of the
+    # root box's area (the boxes are flat triangles' boxes, padded by 1e-9).
+    lo, hi = prim_bounds(geo)
+    e = hi - lo
+    leaf = e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0]
+    r = hi.max(axis=0) - lo.min(axis=0)
+    root = r[0] * r[1] + r[1] * r[2] + r[2] * r[0]
+    assert st["sah_cost"] == pytest.approx(1.0 + leaf.sum() / root, rel=1e-6)
+    assert st["memory_bytes"] == sum(a.nbytes for a in bvh)
+    assert st["bytes_per_primitive"] == st["memory_bytes"] / 2
+
+
+def test_grid_and_kdtree_counts():
+    geo, ranges = scene_of(*TWO_APART)
+    grid, _ = get("grid").build(geo, ranges)
+    st = get("grid").statistics(grid, 2)
+    assert st["cells"] == int(np.prod(grid.grid_res)) == np.prod(st["resolution"])
+    assert st["empty_cells"] == int((np.diff(grid.cell_start) == 0).sum())
+    assert st["references"] == len(grid.cell_items) and st["references_per_primitive"] == st["references"] / 2
+    kd, _ = get("kdtree").build(geo, ranges)
+    st = get("kdtree").statistics(kd, 2)
+    # Two primitives are a leaf already (MAX_LEAF): one node, listing each once.
+    assert (st["nodes"], st["leaves"], st["max_depth"], st["references"], st["duplication"]) == (1, 1, 0, 2, 1.0)
+
+
+@pytest.mark.parametrize("accel", list(STRUCTURES))
+def test_cli_shows_structure_statistics(accel, tmp_path):
+    r = CliRunner().invoke(main, ["teapot", "--accel", accel, "--width", "16", "--height", "12",
+                                  "--json", "-o", str(tmp_path / "t.png")])
+    assert r.exit_code == 0, r.output
+    st = json.loads(r.output)["structure"]
+    assert st["memory_bytes"] >= 0
+    table = CliRunner().invoke(main, ["teapot", "--accel", accel, "--width", "16", "--height", "12",
+                                      "-o", str(tmp_path / "t.png")]).output
+    assert "Structure: memory (bytes)" in table
