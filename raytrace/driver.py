@@ -36,6 +36,9 @@ class RenderOptions:
     seed: int = 0
     threads: int = None          # None: all cores
     aov: bool = False
+    bvh_build: str = "sah"       # BVH builder: sah, median, lbvh
+    leaf_size: int = 4           # BVH leaves: at most this many primitives
+    grid_density: float = 3.0    # grid cells along the longest axis per cbrt(primitives)
     progress: object = None      # callable(rows_done, rows_total) or None
 
 
@@ -89,6 +92,13 @@ def validate(opts, scene):
                 if opts.pattern in ("grid", "stratified") and side * side != light.samples:
                     raise RaytraceError(f"the {opts.pattern} pattern needs a square number of "
                                         f"light samples (light {k} has {light.samples})")
+    from .accel.bvh import BUILDERS
+    if opts.bvh_build not in BUILDERS:
+        raise RaytraceError(f"unknown BVH builder {opts.bvh_build!r} (choose from {', '.join(BUILDERS)})")
+    _check_int("leaf size", opts.leaf_size, 1, 64)
+    if isinstance(opts.grid_density, bool) or not isinstance(opts.grid_density, (int, float)) \
+            or not 0.01 <= opts.grid_density <= 64:
+        raise RaytraceError(f"grid density must be a number from 0.01 to 64, got {opts.grid_density!r}")
     if not isinstance(opts.aov, (bool, np.bool_)):
         raise RaytraceError(f"aov must be True or False, got {opts.aov!r}")
     if opts.threads is not None:
@@ -238,7 +248,8 @@ def render(scene, opts=None, **kw):
     shadows = shadow_record(opts.shadows, opts.pattern)
     t_import = time.perf_counter() - t_start
 
-    acc, t_build = build_structure(opts.accel, geo, obj_ranges)
+    acc, t_build = build_structure(opts.accel, geo, obj_ranges, bvh_build=opts.bvh_build,
+                                   leaf_size=opts.leaf_size, grid_density=opts.grid_density)
 
     image = np.zeros((height, width, 3), np.float32)
     stats_rows = np.zeros((height, N_COUNTERS), np.int64)
@@ -267,6 +278,7 @@ def render(scene, opts=None, **kw):
     stats = {
         "scene": scene.name, "accel": opts.accel, "shadows": opts.shadows,
         "light_samples": int(lights.samples.max()) if len(lights.samples) else 0,
+        "bvh_build": opts.bvh_build, "leaf_size": opts.leaf_size, "grid_density": opts.grid_density,
         "pattern": opts.pattern, "width": width, "height": height, "spp": opts.spp,
         "seed": opts.seed, "threads": threads,
         **info,

@@ -23,12 +23,14 @@ class Structure:
     visit_counter: str = None     # its own counter, if any (stats.COUNTERS)
     visit_metric: str = None      # that counter per ray (stats.derive), a bench column
 
-    def build(self, geo, obj_ranges):
-        """(layout, build seconds); also loads the traversal for the layout."""
+    def build(self, geo, obj_ranges, **options):
+        """(layout, build seconds); also loads the traversal for the layout.
+        options: the build options (bvh_build, leaf_size, grid_density); a
+        structure takes those it knows."""
         builder = importlib.import_module(f"raytrace.accel.{self.module}")
         importlib.import_module(f"raytrace.kernels.{self.module}")
         t0 = time.perf_counter()
-        layout = builder.build(geo, obj_ranges)
+        layout = builder.build(geo, obj_ranges, **options)
         return layout, time.perf_counter() - t0
 
     def statistics(self, layout, n_prims):
@@ -57,6 +59,6 @@ def get(name):
     return STRUCTURES[name]
 
 
-def build_structure(name, geo, obj_ranges):
+def build_structure(name, geo, obj_ranges, **options):
     """Returns (layout, build seconds) for structure ``name``."""
-    return get(name).build(geo, obj_ranges)
+    return get(name).build(geo, obj_ranges, **options)

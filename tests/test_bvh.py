@@ -280,7 +280,7 @@ def test_build_accel_fields():
 
 def test_build_kernel_depth_reported():
     lo, hi = boxes_of(random_soup(np.random.default_rng(2), 1000, 0.01))
-    *_, depth = build_bvh_kernel(lo, hi)
+    *_, depth = build_bvh_kernel(lo, hi, 4)
     assert 0 < depth <= MAX_DEPTH
 
 
@@ -431,3 +431,22 @@ def test_occlusion_stops_early(aimed):
     hit, co = occluded(geo, bvh, o, d, np.full(500, np.inf))
     assert np.array_equal(hit, p >= 0)
     assert co[PRIM_TESTS] <= cc[PRIM_TESTS]
+
+
+@pytest.mark.parametrize("builder", ["sah", "median", "lbvh"])
+@pytest.mark.parametrize("leaf_size", [1, 4, 9])
+def test_every_builder_gives_the_brute_force_image(builder, leaf_size):
+    from raytrace.driver import render
+    from raytrace.scenes.builtin import spheres
+    from raytrace.structures import get
+    scene = spheres()
+    kw = dict(width=48, height=36, shadows="hard")
+    ref = render(scene, accel="none", **kw)
+    r = render(scene, accel="bvh", bvh_build=builder, leaf_size=leaf_size, **kw)
+    assert np.array_equal(r.linear, ref.linear)
+    assert r.stats["structure"]["primitives_per_leaf_max"] <= max(leaf_size, 1) or builder == "sah"
+    geo, ranges = make_scene(random_soup(np.random.default_rng(leaf_size), 300, 0.05))
+    bvh, _ = get("bvh").build(geo, ranges, bvh_build=builder, leaf_size=leaf_size)
+    lo, hi = prim_bounds(geo)
+    wide_check(lo, hi, bvh.node_box, bvh.node_child, bvh.node_count, bvh.prim_ids)
+    assert bvh.node_count.max() <= leaf_size

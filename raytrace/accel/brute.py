@@ -4,7 +4,7 @@ from collections import namedtuple
 Brute = namedtuple("Brute", [])
 
 
-def build(geo, obj_ranges):
+def build(geo, obj_ranges, **_):
     return Brute()
 
 

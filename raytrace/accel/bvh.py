@@ -41,7 +41,7 @@ WIDTH = 4
 N_BINS = 12
 # Leaves hold at most this many primitives unless no split is possible; the
 # SAH may still make a smaller node a leaf.  2, 4 and 8 measured within
-# noise (+-5% rays/s) on 1k and 100k triangle meshes.
+# noise (+-5% rays/s) on 1k and 100k triangle meshes.  --leaf-size sets it.
 MAX_LEAF = 4
 # Cost of one node visit (two child box tests) relative to one primitive
 # test, in the SAH: C = TRAVERSAL_COST + (A_L N_L + A_R N_R) / A.  0.5, 1
@@ -72,7 +72,7 @@ def _half_area(x0, y0, z0, x1, y1, z1):
 
 
 @njit(cache=True)
-def build_bvh_kernel(lo, hi):
+def build_bvh_kernel(lo, hi, max_leaf):
     """Returns (node_lo, node_hi, node_start, node_count, prim_ids, depth)."""
     n = lo.shape[0]
     max_nodes = max(2 * n - 1, 0)
@@ -224,7 +224,7 @@ def build_bvh_kernel(lo, hi):
                 area = _half_area(bx0, by0, bz0, bx1, by1, bz1)
                 leaf_cost = count * area
                 split_cost = TRAVERSAL_COST * area + best_cost
-                if best_axis >= 0 and (count > MAX_LEAF or split_cost < leaf_cost):
+                if best_axis >= 0 and (count > max_leaf or split_cost < leaf_cost):
                     # Partition prim_ids[start:end] by bin; the same
                     # expression as the binning, so the sides match the counts.
                     a = best_axis
@@ -242,7 +242,7 @@ def build_bvh_kernel(lo, hi):
                             prim_ids[j] = p
                             j -= 1
                     mid = i
-            elif count > MAX_LEAF:
+            elif count > max_leaf:
                 # All centroids coincide: no plane separates them, so halve
                 # the list (any order is as good as another).
                 mid = start + count // 2
@@ -354,7 +354,7 @@ def collapse_bvh4(node_lo, node_hi, node_start, node_count):
     return node_box[:n_wide].copy(), node_child[:n_wide].copy(), count4[:n_wide].copy()
 
 
-def build_bvh(lo, hi):
+def build_bvh(lo, hi, max_leaf=MAX_LEAF):
     """Binned-SAH BVH over (n, 3) float64 primitive boxes ``lo``, ``hi``.
 
     Returns (node_lo, node_hi, node_start, node_count, prim_ids) as documented
@@ -366,14 +366,25 @@ def build_bvh(lo, hi):
     hi = np.ascontiguousarray(hi, dtype=np.float64).reshape(-1, 3)
     if lo.shape != hi.shape:
         raise ValueError(f"box arrays differ in shape: {lo.shape} vs {hi.shape}")
-    return build_bvh_kernel(lo, hi)[:5]
+    return build_bvh_kernel(lo, hi, int(max_leaf))[:5]
 
 
-def build(geo, obj_ranges):
-    """Binned-SAH BVH over every bounded primitive (planes have no box and
-    are tested separately by every structure), collapsed to 4 children per
-    node for traversal."""
-    node_lo, node_hi, node_start, node_count, prim_ids = build_bvh(*prim_bounds(geo))
+# The binary tree's builders: name -> module with build_binary(lo, hi,
+# leaf_size); "sah" is this module's.  Each gives the same images.
+BUILDERS = {"sah": None, "median": "raytrace.accel.bvh_median", "lbvh": "raytrace.accel.bvh_lbvh"}
+
+
+def build(geo, obj_ranges, bvh_build="sah", leaf_size=MAX_LEAF, **_):
+    """A BVH over every bounded primitive (planes have no box and are tested
+    separately by every structure), built by ``bvh_build`` with leaves of at
+    most ``leaf_size`` primitives, collapsed to 4 children per node."""
+    lo, hi = prim_bounds(geo)
+    if BUILDERS[bvh_build] is None:
+        binary = build_bvh(lo, hi, leaf_size)
+    else:
+        import importlib
+        binary = importlib.import_module(BUILDERS[bvh_build]).build_binary(lo, hi, int(leaf_size))
+    node_lo, node_hi, node_start, node_count, prim_ids = binary
     node_box, node_child, node_count4 = collapse_bvh4(node_lo, node_hi, node_start, node_count)
     return BVH(node_box=node_box, node_child=node_child, node_count=node_count4, prim_ids=prim_ids)
 

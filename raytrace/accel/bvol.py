@@ -12,7 +12,7 @@ from .grid import grid_eps
 BoundingVolumes = namedtuple("BoundingVolumes", ["obj_lo", "obj_hi", "obj_start", "obj_count"])
 
 
-def build(geo, obj_ranges):
+def build(geo, obj_ranges, **_):
     lo, hi = prim_bounds(geo)
     starts = i64(obj_ranges[:, 0]) if len(obj_ranges) else i64([])
     counts = i64(obj_ranges[:, 1]) if len(obj_ranges) else i64([])

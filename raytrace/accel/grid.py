@@ -104,15 +104,15 @@ def _fill_cells(lo, hi, glo, cell, res, eps):
     return cell_start, cell_items
 
 
-def grid_resolution(ext, n):
-    """Cells per axis: GRID_DENSITY * cbrt(n) along the longest axis, the
-    others proportional to their extent, each in [1, GRID_MAX_RES]."""
-    longest = GRID_DENSITY * np.cbrt(n)
+def grid_resolution(ext, n, density=GRID_DENSITY):
+    """Cells per axis: density * cbrt(n) along the longest axis, the others
+    proportional to their extent, each in [1, GRID_MAX_RES]."""
+    longest = density * np.cbrt(n)
     res = np.rint(longest * ext / ext.max())
     return np.clip(res, 1, GRID_MAX_RES).astype(INDEX)
 
 
-def build_grid(lo, hi):
+def build_grid(lo, hi, density=GRID_DENSITY):
     """Uniform grid over (n, 3) primitive boxes lo, hi (row = unified id).
 
     Returns (grid_lo, grid_hi, grid_cell, grid_res, cell_start, cell_items).
@@ -132,15 +132,15 @@ def build_grid(lo, hi):
     pad = 2.0 * grid_eps(raw_lo, raw_hi)
     grid_lo = raw_lo - pad
     grid_hi = raw_hi + pad
-    res = grid_resolution(grid_hi - grid_lo, n)
+    res = grid_resolution(grid_hi - grid_lo, n, density)
     cell = (grid_hi - grid_lo) / res
     eps = grid_eps(grid_lo, grid_hi)
     cell_start, cell_items = _fill_cells(lo, hi, grid_lo, cell, res, eps)
     return grid_lo, grid_hi, cell, res, cell_start, cell_items
 
 
-def build(geo, obj_ranges):
-    return Grid(*build_grid(*prim_bounds(geo)))
+def build(geo, obj_ranges, grid_density=GRID_DENSITY, **_):
+    return Grid(*build_grid(*prim_bounds(geo), density=grid_density))
 
 
 def statistics(grid, n_prims):

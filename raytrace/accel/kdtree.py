@@ -219,7 +219,7 @@ def build_kdtree(lo, hi):
     return KdTree(axis, split, index, count, plist, glo, ghi)
 
 
-def build(geo, obj_ranges):
+def build(geo, obj_ranges, **_):
     return build_kdtree(*prim_bounds(geo))
 
 
