@@ -8,10 +8,8 @@ import time
 
 import click
 
-from .errors import RaytraceError
-
-from .structures import DEFAULT as DEFAULT_ACCEL
-from .structures import STRUCTURES
+from .errors import OptionError, RaytraceError
+from .options import DETAIL, FOV_RANGE, OPTIONS
 
 
 class DefaultRenderGroup(click.Group):
@@ -158,35 +156,43 @@ def _up_choices():
     return UP_AXES
 
 
+def _click_type(opt):
+    """The click type of a render option, from its definition (options.py).
+    A range given by a function (threads: the machine's cores) is checked
+    at render time, and still exits 2."""
+    if opt.kind == "choice":
+        return click.Choice(opt.choice_list())
+    hi = None if callable(opt.hi) else opt.hi
+    if opt.kind == "int":
+        return click.IntRange(min=opt.lo, max=hi)
+    return click.FloatRange(min=opt.lo, max=hi)
+
+
+def _render_options(command):
+    """Add every render option of options.py to a click command."""
+    for opt in reversed(OPTIONS):
+        shown = opt.default_text or opt.default
+        command = click.option(opt.flag, opt.name, type=_click_type(opt), default=None,
+                               metavar=opt.metavar,
+                               help=f"{opt.help.replace('`', '')} [default: {shown}]")(command)
+    return command
+
+
 @main.command("render")
 @click.argument("scene")
-@click.option("--accel", type=click.Choice(list(STRUCTURES)), default=None,
-              help=f"Acceleration structure [default: {DEFAULT_ACCEL}].")
 @click.option("--bvol/--no-bvol", default=None,
               help="Per-object bounding boxes on/off: shorthand for --accel bvol / --accel none.")
-@click.option("--shadows", type=click.Choice(["none", "hard", "soft"]), default="hard", show_default=True,
-              help="none: no shadow rays; hard: one per light; soft: an area light sampled.")
-@click.option("--light-samples", type=click.IntRange(min=1), default=81, show_default=True,
-              help="Shadow rays per shading point for soft shadows (9x9 by default).")
-@click.option("--pattern", type=click.Choice(["grid", "random", "stratified", "halton"]),
-              default="stratified", show_default=True, help="Area-light sampling pattern.")
-@click.option("--detail", type=click.IntRange(min=1, max=256), default=None,
-              help="Teapot tessellation: N x N quads per patch [default: 4, ~1k triangles].")
+@_render_options
+@click.option("--detail", type=click.IntRange(min=DETAIL.lo, max=DETAIL.hi), default=None,
+              metavar=DETAIL.metavar, help=f"{DETAIL.help} [default: {DETAIL.default}].")
 @click.option("--view", type=ViewType(), default=None,
               help="Mesh files: front, back, left, right, top, bottom, iso, or AZIMUTH,ELEVATION "
                    "in degrees [default: iso].")
 @click.option("--up", type=click.Choice(_up_choices()), default=None,
               help="Mesh files: the model's up axis [default: y].")
-@click.option("--fov", type=click.FloatRange(min=0, max=180, min_open=True, max_open=True),
+@click.option("--fov", type=click.FloatRange(min=FOV_RANGE[0], max=FOV_RANGE[1], min_open=True,
+                                             max_open=True),
               default=None, help="Vertical field of view in degrees [default: the scene's, 60 for meshes].")
-@click.option("--width", type=click.IntRange(min=1), default=None, help="Image width [default: 640].")
-@click.option("--height", type=click.IntRange(min=1), default=None, help="Image height [default: 480].")
-@click.option("--spp", type=click.IntRange(min=1, max=4096), default=1, show_default=True,
-              help="Camera samples per pixel (jittered anti-aliasing).")
-@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
-              help="Seed for every random sample (same seed, same image).")
-@click.option("--threads", type=click.IntRange(min=1), default=None,
-              help="Render threads [default: all cores].")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
               help="PNG to write [default: SCENE.png].")
 @click.option("--aov", type=AovType(), default=None,
@@ -195,8 +201,8 @@ def _up_choices():
               help="Also write a false-colour PNG of per-pixel cost (box + primitive tests).")
 @click.option("--json", "as_json", is_flag=True, help="Print the statistics as JSON on stdout.")
 @click.option("-q", "--quiet", is_flag=True, help="No table, no progress bar.")
-def render_cmd(scene, accel, bvol, shadows, light_samples, pattern, detail, view, up, fov, width,
-               height, spp, seed, threads, output, aov, heatmap, as_json, quiet):
+def render_cmd(scene, bvol, detail, view, up, fov, output, aov, heatmap, as_json, quiet,
+               **options):
     """Render SCENE to PNG and print the statistics table.
 
     SCENE is a built-in scene name (see `raytrace scenes`), a TOML scene
@@ -209,10 +215,14 @@ def render_cmd(scene, accel, bvol, shadows, light_samples, pattern, detail, view
 
     if bvol is not None:
         implied = "bvol" if bvol else "none"
-        if accel is not None and accel != implied:
-            raise click.UsageError(f"--{'bvol' if bvol else 'no-bvol'} contradicts --accel {accel}")
-        accel = implied
-    accel = accel or DEFAULT_ACCEL
+        if options["accel"] is not None and options["accel"] != implied:
+            raise click.UsageError(f"--{'bvol' if bvol else 'no-bvol'} contradicts "
+                                   f"--accel {options['accel']}")
+        options["accel"] = implied
+    # Options not given keep RenderOptions' defaults; the image size goes to
+    # the scene, whose camera a mesh file's framing fits to it.
+    width, height = options.pop("width"), options.pop("height")
+    options = {k: v for k, v in options.items() if v is not None}
     kind = scene_kind(scene)
     if kind is None:
         raise click.UsageError(unknown_scene_message(scene))
@@ -241,14 +251,14 @@ def render_cmd(scene, accel, bvol, shadows, light_samples, pattern, detail, view
         sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
                         **_view_options(view, up))
         progress = _Progress(enabled=not quiet)
-        opts = RenderOptions(accel=accel, shadows=shadows, light_samples=light_samples,
-                             pattern=pattern, spp=spp, seed=seed, threads=threads,
-                             aov=bool(aov or heatmap), progress=progress)
+        opts = RenderOptions(aov=bool(aov or heatmap), progress=progress, **options)
         try:
             result = render(sc, opts)
         finally:
             progress.close()
         notes = _write_outputs(result, output, aov, aov_out, heatmap)
+    except OptionError as exc:
+        raise click.UsageError(str(exc)) from None
     except RaytraceError as exc:
         raise click.ClickException(str(exc)) from None
     except MemoryError:

@@ -5,17 +5,14 @@ Python owns validation and dtype casting; the kernels see only arrays.
 import math
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, make_dataclass
 
 import numpy as np
 
 from .buffers import Lights, f64, i64
 from .errors import RaytraceError
+from .options import BY_NAME, OPTIONS
 
-SHADOW_CHOICES = ("none", "hard", "soft")
-PATTERN_CHOICES = ("grid", "random", "stratified", "halton")
-MAX_SPP = 4096
-MAX_LIGHT_SAMPLES = 65536
 # Bytes a pixel costs while rendering: float32 RGB + uint8 RGB, and with AOVs
 # depth f32, normal 3xf32, prim id i64, cost i64.
 BYTES_PER_PIXEL = 12 + 3
@@ -24,22 +21,14 @@ BYTES_PER_PIXEL_AOV = 4 + 12 + 8 + 8
 SRGB_BAND_VALUES = 1 << 18
 
 
-@dataclass
-class RenderOptions:
-    accel: str = "bvh"
-    shadows: str = "hard"
-    light_samples: int = 81
-    pattern: str = "stratified"
-    width: int = None            # None: the scene camera's
-    height: int = None
-    spp: int = 1
-    seed: int = 0
-    threads: int = None          # None: all cores
-    aov: bool = False
-    bvh_build: str = "sah"       # BVH builder: sah, median, lbvh
-    leaf_size: int = 4           # BVH leaves: at most this many primitives
-    grid_density: float = 3.0    # grid cells along the longest axis per cbrt(primitives)
-    progress: object = None      # callable(rows_done, rows_total) or None
+# The render's options: every field of options.OPTIONS with its default,
+# plus the AOV switch and a progress callback.
+RenderOptions = make_dataclass(
+    "RenderOptions",
+    [(o.name, object, field(default=o.default)) for o in OPTIONS]
+    + [("aov", bool, field(default=False)),
+       ("progress", object, field(default=None))])    # callable(rows_done, rows_total)
+RenderOptions.__doc__ = "Options of render(); see raytrace/options.py for each."
 
 
 @dataclass
@@ -66,19 +55,12 @@ def available_memory():
 
 def validate(opts, scene):
     """Raise RaytraceError for any option the render cannot honour."""
-    from .structures import get
-    get(opts.accel)
-    if opts.shadows not in SHADOW_CHOICES:
-        raise RaytraceError(f"unknown shadow mode {opts.shadows!r}")
-    if opts.pattern not in PATTERN_CHOICES:
-        raise RaytraceError(f"unknown sampling pattern {opts.pattern!r}")
+    for opt in OPTIONS:
+        opt.check(getattr(opts, opt.name))
     w = scene.camera.width if opts.width is None else opts.width
     h = scene.camera.height if opts.height is None else opts.height
-    _check_int("width", w, 1, 1 << 20)
-    _check_int("height", h, 1, 1 << 20)
-    _check_int("spp", opts.spp, 1, MAX_SPP)
-    _check_int("light samples", opts.light_samples, 1, MAX_LIGHT_SAMPLES)
-    _check_int("seed", opts.seed, 0, 2 ** 63 - 1)
+    BY_NAME["width"].check(w)
+    BY_NAME["height"].check(h)
     if opts.pattern in ("grid", "stratified") and opts.shadows == "soft":
         side = math.isqrt(opts.light_samples)
         if side * side != opts.light_samples:
@@ -87,23 +69,13 @@ def validate(opts, scene):
     if opts.shadows == "soft":
         for k, light in enumerate(scene.lights):
             if light.samples:  # a light's own count overrides light_samples
-                _check_int(f"light {k} samples", light.samples, 1, MAX_LIGHT_SAMPLES)
+                _check_int(f"light {k} samples", light.samples, 1, BY_NAME["light_samples"].hi)
                 side = math.isqrt(light.samples)
                 if opts.pattern in ("grid", "stratified") and side * side != light.samples:
                     raise RaytraceError(f"the {opts.pattern} pattern needs a square number of "
                                         f"light samples (light {k} has {light.samples})")
-    from .accel.bvh import BUILDERS
-    if opts.bvh_build not in BUILDERS:
-        raise RaytraceError(f"unknown BVH builder {opts.bvh_build!r} (choose from {', '.join(BUILDERS)})")
-    _check_int("leaf size", opts.leaf_size, 1, 64)
-    if isinstance(opts.grid_density, bool) or not isinstance(opts.grid_density, (int, float)) \
-            or not 0.01 <= opts.grid_density <= 64:
-        raise RaytraceError(f"grid density must be a number from 0.01 to 64, got {opts.grid_density!r}")
     if not isinstance(opts.aov, (bool, np.bool_)):
         raise RaytraceError(f"aov must be True or False, got {opts.aov!r}")
-    if opts.threads is not None:
-        import numba
-        _check_int("threads", opts.threads, 1, numba.config.NUMBA_NUM_THREADS)
     # Each row also has an int64 counter row: little, but a 1-pixel-wide
     # image of a million rows needs 80 MB of them.
     from .kernels.counters import N_COUNTERS

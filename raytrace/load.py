@@ -4,6 +4,7 @@ from pathlib import Path
 
 from .errors import RaytraceError
 from .io.mesh import MESH_EXTENSIONS, is_mesh_path
+from .options import DETAIL
 
 SCENE_EXTENSIONS = (".toml",)
 MESH_ONLY = ("view", "azimuth", "elevation", "up")
@@ -50,8 +51,9 @@ def load_scene(name_or_path, *, detail=None, view=None, azimuth=None, elevation=
     if detail is not None:
         if not (kind == "builtin" and str(name_or_path) == "teapot"):
             raise RaytraceError("detail applies to the teapot scene only")
-        if isinstance(detail, bool) or not isinstance(detail, int) or not 1 <= detail <= 256:
-            raise RaytraceError(f"detail must be an integer from 1 to 256, got {detail!r}")
+        if isinstance(detail, bool) or not isinstance(detail, int) or not DETAIL.lo <= detail <= DETAIL.hi:
+            raise RaytraceError(f"detail must be an integer from {DETAIL.lo} to {DETAIL.hi}, "
+                                f"got {detail!r}")
 
     if kind == "mesh":
         from .io.mesh import read_mesh

@@ -85,9 +85,14 @@ def test_cli_bad_mesh_files_leave_an_existing_output_alone(bad_files, tmp_path, 
 
 
 @pytest.mark.parametrize("args, code, words", [
-    (["--width", "0"], 2, "Invalid value for '--width': 0 is not in the range x>=1"),
-    (["--height", "-3"], 2, "Invalid value for '--height': -3 is not in the range x>=1"),
-    (["--width", "2000000"], 1, "width must be between 1 and 1048576, got 2000000"),
+    (["--width", "0"], 2, "Invalid value for '--width': 0 is not in the range 1<=x<=1048576"),
+    (["--height", "-3"], 2, "Invalid value for '--height': -3 is not in the range 1<=x<=1048576"),
+    # A bad argument exits 2 wherever it is found (the range comes from options.py).
+    (["--width", "2000000"], 2, "Invalid value for '--width': 2000000 is not in the range"),
+    (["--threads", "999"], 2, "threads must be between 1 and"),
+    (["--leaf-size", "0"], 2, "Invalid value for '--leaf-size'"),
+    (["--bvh-build", "sweep"], 2, "Invalid value for '--bvh-build'"),
+    (["--grid-density", "0"], 2, "Invalid value for '--grid-density'"),
     (["--width", "1048576", "--height", "1048576"], 1, "a 1048576x1048576 image needs 1536"),
     (["--frobnicate"], 2, "--frobnicate"),
     (["--accel", "octree"], 2, "Invalid value for '--accel'"),

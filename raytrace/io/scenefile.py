@@ -7,12 +7,11 @@ key or a wrong type is an error naming the file and the key.
 from pathlib import Path
 
 from ..errors import RaytraceError
+from ..options import BY_NAME, DETAIL, FOV_RANGE
 from ..scene import Camera, Light, Material, Plane, Scene, Sphere
 from .fields import Fields
 from .mesh import check_readable
 
-MAX_DETAIL = 256          # teapot tessellation, as on the command line
-MAX_LIGHT_SAMPLES = 65536
 
 TOP_KEYS = ("name", "description", "background", "camera", "materials", "lights", "objects")
 CAMERA_KEYS = ("position", "look_at", "up", "fov", "width", "height")
@@ -89,11 +88,13 @@ def _camera(path, table):
     f = Fields(path, "camera", table, CAMERA_KEYS)
     cam = Camera(eye=f.vec3("position", required=True), look_at=f.vec3("look_at", required=True),
                  up=f.vec3("up", default=(0.0, 1.0, 0.0), nonzero=True),
-                 fov=f.number("fov", default=60.0, lo=0.0, hi=180.0),
-                 width=f.integer("width", default=640, lo=1, hi=1 << 20),
-                 height=f.integer("height", default=480, lo=1, hi=1 << 20))
-    if not 0.0 < cam.fov < 180.0:
-        f.fail("fov", f"must be between 0 and 180 degrees (exclusive), got {cam.fov:g}")
+                 fov=f.number("fov", default=60.0, lo=FOV_RANGE[0], hi=FOV_RANGE[1]),
+                 width=f.integer("width", default=640, lo=BY_NAME["width"].lo, hi=BY_NAME["width"].hi),
+                 height=f.integer("height", default=480, lo=BY_NAME["height"].lo,
+                                  hi=BY_NAME["height"].hi))
+    if not FOV_RANGE[0] < cam.fov < FOV_RANGE[1]:
+        f.fail("fov", f"must be between {FOV_RANGE[0]:g} and {FOV_RANGE[1]:g} degrees (exclusive), "
+                      f"got {cam.fov:g}")
     if cam.eye == cam.look_at:
         f.fail("look_at", "must differ from the camera position")
     return cam
@@ -137,7 +138,8 @@ def _light(path, i, table):
     else:
         light.size = f.check_number("size", size, positive=True)
     light.direction = f.vec3("direction", default=(0.0, -1.0, 0.0), nonzero=True)
-    light.samples = f.integer("samples", default=0, lo=1, hi=MAX_LIGHT_SAMPLES)
+    light.samples = f.integer("samples", default=0, lo=BY_NAME["light_samples"].lo,
+                              hi=BY_NAME["light_samples"].hi)
     return light
 
 
@@ -159,7 +161,8 @@ def _object(path, i, table, material):
                      material=material(f))
     if kind == "teapot":
         from ..scenes.builtin import teapot_mesh
-        mesh = teapot_mesh(f.integer("detail", default=4, lo=1, hi=MAX_DETAIL), material(f))
+        mesh = teapot_mesh(f.integer("detail", default=DETAIL.default, lo=DETAIL.lo, hi=DETAIL.hi),
+                           material(f))
     else:
         from ..scene import Mesh
         from .mesh import read_mesh
