@@ -87,7 +87,7 @@ def run_workshop(cfg):
         for a in ACCELS:
             warm_up(scene, a, opts, w, h)
 
-        def once(accel):
+        def once(accel, opts=opts):
             r = render(scene, accel=accel, width=w, height=h, **opts)
             return common.render_time(r), r
         times, first = interleaved(ACCELS, once, cfg["budget_s"], cfg["max_runs"])
@@ -152,8 +152,8 @@ def workshop_markdown(res):
 
 
 def structure_bytes(name, scene):
-    from raytrace.structures import build_structure
     from raytrace.flatten import flatten
+    from raytrace.structures import build_structure
     geo, obj_ranges, _ = flatten(scene)
     acc, _ = build_structure(name, geo, obj_ranges)
     return sum(a.nbytes for a in acc)
@@ -173,12 +173,12 @@ def run_scaling(cfg):
         for a in structures:   # untimed: first render of this mesh size
             render(scene, accel=a, width=16, height=12, shadows="hard")
 
-        def once(accel):
+        def once(accel, scene=scene):
             r = render(scene, accel=accel, width=w, height=h, shadows="hard")
             return common.render_time(r), r
         builds = {a: [] for a in structures}
 
-        def once_logged(accel):
+        def once_logged(accel, once=once, builds=builds):
             t, r = once(accel)
             builds[accel].append(r.stats["time"]["build_s"])
             return t, r

@@ -133,6 +133,7 @@ def _git(*args):
 def machine_info():
     """What a reader needs to weigh the numbers: CPU, cores, threads, load."""
     import numba
+
     import raytrace
     cpu = None
     try:

@@ -20,7 +20,6 @@ Peers, whichever are importable (``pip install '.[peers]'`` for embreex):
 import time
 
 import numpy as np
-
 from common import fmt_g, log, markdown_table, median
 
 GROUND_HALF = 20.0    # the quad spans +-20 around the teapot (~3 units across); the
@@ -132,10 +131,10 @@ def run_case(detail, width, height, runs, peer_list):
     import numba
 
     import raytrace
-    from raytrace.structures import build_structure
     from raytrace.flatten import flatten
     from raytrace.rayscene import RayScene, _any_hit, _closest
     from raytrace.scene import Mesh, Scene
+    from raytrace.structures import build_structure
 
     def closest(geo, acc, o, d, t_max):
         return _closest(geo, acc, o, d, np.zeros(len(o)), t_max)

@@ -88,7 +88,6 @@ def main():
     from raytrace.scenes.builtin import teapot
     from tests.scene_transform import transform_scene
 
-    rng = np.random.default_rng(0)
     print(f"1. brute-force triangle tests, {numba.get_num_threads()} threads, best of {REPEATS}")
     print(f"   {'mesh':<28} {'float64 Mtests/s':>17} {'float32 Mtests/s':>17}")
     for sub, n_rays in ((3, 20000), (6, 400)):

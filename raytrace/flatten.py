@@ -110,7 +110,7 @@ def flatten(scene, with_sources=False):
             pl_src.append((j, 0))
         else:
             raise RaytraceError(f"unknown scene object {type(obj).__name__}")
-    for j, s in enumerate(spheres):
+    for j in range(len(spheres)):
         obj_ranges.append((n_tris + j, 1))
 
     def cat(parts):

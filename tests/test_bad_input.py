@@ -61,8 +61,8 @@ def bad_files(tmp_path):
 
 def test_api_names_the_file_and_the_problem(bad_files):
     for path, words in bad_files.items():
-        for call in (lambda: raytrace.load_scene(str(path)),
-                     lambda: raytrace.render(str(path), width=8, height=6)):
+        for call in (lambda path=path: raytrace.load_scene(str(path)),
+                     lambda path=path: raytrace.render(str(path), width=8, height=6)):
             with pytest.raises(RaytraceError) as info:
                 call()
             msg = str(info.value)

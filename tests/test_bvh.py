@@ -8,13 +8,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from raytrace.structures import build_structure as build_accel
 from raytrace.accel.bvh import MAX_DEPTH, build_bvh, build_bvh_kernel, collapse_bvh4
 from raytrace.buffers import INDEX, prim_bounds
 from raytrace.flatten import flatten
 from raytrace.kernels.cast import cast_closest, cast_occluded
 from raytrace.kernels.counters import BOX_TESTS, N_COUNTERS, NODES_VISITED, PRIM_TESTS
 from raytrace.scene import Camera, Mesh, Plane, Scene, Sphere
+from raytrace.structures import build_structure as build_accel
 
 PROPERTY = settings(derandomize=True, max_examples=25, deadline=None)
 

@@ -5,12 +5,12 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from raytrace.structures import build_structure as build_accel
 from raytrace.accel.grid import GRID_MAX_RES, Grid, _fill_cells, build_grid, grid_eps
 from raytrace.flatten import flatten
-from raytrace.rayscene import _any_hit, _closest
 from raytrace.kernels.counters import BOX_TESTS, CELLS_VISITED, PRIM_TESTS
+from raytrace.rayscene import _any_hit, _closest
 from raytrace.scene import Camera, Mesh, Plane, Scene, Sphere
+from raytrace.structures import build_structure as build_accel
 
 SETTINGS = dict(derandomize=True, deadline=None,
                 suppress_health_check=[HealthCheck.too_slow])

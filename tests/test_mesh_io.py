@@ -2,6 +2,7 @@
 naming the file (the command line's side is in test_cli_files.py)."""
 import numpy as np
 import pytest
+
 from raytrace.errors import RaytraceError
 from raytrace.io.mesh import read_mesh
 

@@ -5,7 +5,8 @@ import pytest
 
 import raytrace
 from raytrace import RayScene, RaytraceError
-from raytrace.scene import Camera, Material, Mesh, Plane, Scene, Sphere
+from raytrace.scene import Camera, Material, Plane, Scene, Sphere
+
 from .structures import STRUCTURES
 
 # Two unit squares in z = 0 and z = -2, faces wound so their normals point +z.

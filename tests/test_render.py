@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from raytrace.errors import RaytraceError
 from raytrace.driver import render
+from raytrace.errors import RaytraceError
 
 from .conftest import H, W
 

@@ -9,8 +9,8 @@ from raytrace.flatten import flatten
 from raytrace.io.scenefile import read_scene_file
 from raytrace.load import load_scene
 from raytrace.scene import Mesh, Plane, Sphere
-from raytrace.scenes.builtin import spheres, teapot
 from raytrace.scenes.assets import assets_dir
+from raytrace.scenes.builtin import spheres, teapot
 from raytrace.scenes.examples import example_files
 from raytrace.transform import rotation, transform_mesh
 
@@ -119,7 +119,8 @@ BAD = [
     (CAMERA + '[[objects]]\nradius = 1\n', "objects[0]: missing key 'type'"),
     (CAMERA + SPHERE.replace("radius = 1", "radius = -1"), "objects[0].radius: must be positive, got -1"),
     (CAMERA + SPHERE.replace("[0, 0, 0]", "[0, nan, 0]"), "objects[0].center[1]: expected a finite number"),
-    (CAMERA + SPHERE + 'material = "gold"\n', "objects[0].material: no material named 'gold' (defined: none)"),
+    (CAMERA + SPHERE + 'material = "gold"\n',
+     "objects[0].material: no material named 'gold' (defined: none)"),
     (CAMERA + '[materials.red]\ncolor = [1, 0]\n', "materials.red.color: expected a list of 3 numbers"),
     (CAMERA + '[materials.red]\ncolor = [1, -1, 0]\n', "materials.red.color[1]: must be at least 0"),
     (CAMERA + '[materials.red]\nshiny = 3\n', "materials.red.shiny: unknown key"),
@@ -139,7 +140,8 @@ BAD = [
     (CAMERA + '[[objects]]\ntype = "teapot"\nscale = 0\n', "objects[0].scale: must be positive, got 0"),
     (CAMERA + '[[objects]]\ntype = "teapot"\nrotate = [0, "a", 0]\n',
      "objects[0].rotate[1]: expected a number, got 'a'"),
-    (CAMERA + '[[objects]]\ntype = "plane"\nnormal = [0, 0, 0]\n', "objects[0].normal: must not be all zeros"),
+    (CAMERA + '[[objects]]\ntype = "plane"\nnormal = [0, 0, 0]\n',
+     "objects[0].normal: must not be all zeros"),
     ('background = "blue"\n' + CAMERA, "background: expected a list of 3 numbers, got 'blue'"),
 ]
 

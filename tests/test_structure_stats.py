@@ -53,7 +53,8 @@ def test_grid_and_kdtree_counts():
     kd, _ = get("kdtree").build(geo, ranges)
     st = get("kdtree").statistics(kd, 2)
     # Two primitives are a leaf already (MAX_LEAF): one node, listing each once.
-    assert (st["nodes"], st["leaves"], st["max_depth"], st["references"], st["duplication"]) == (1, 1, 0, 2, 1.0)
+    got = (st["nodes"], st["leaves"], st["max_depth"], st["references"], st["duplication"])
+    assert got == (1, 1, 0, 2, 1.0)
 
 
 @pytest.mark.parametrize("accel", list(STRUCTURES))

@@ -12,7 +12,6 @@ from ..scene import Camera, Light, Material, Plane, Scene, Sphere
 from .fields import Fields
 from .mesh import check_readable
 
-
 TOP_KEYS = ("name", "description", "background", "camera", "materials", "lights", "objects")
 CAMERA_KEYS = ("position", "look_at", "up", "fov", "width", "height")
 MATERIAL_KEYS = ("color", "ambient", "diffuse", "specular", "shininess", "checker")

@@ -13,8 +13,15 @@ from numba import njit, prange
 from numba.extending import overload
 
 from ..buffers import MAT_AMBIENT, MAT_DIFFUSE, MAT_SHININESS, MAT_SPECULAR
-from .counters import (BOX_TESTS, OCCLUDED_RAYS, PRIM_TESTS, PRIMARY_RAYS,
-                       SHADING_POINTS, SHADOW_POINTS, SHADOW_RAYS)
+from .counters import (
+    BOX_TESTS,
+    OCCLUDED_RAYS,
+    PRIM_TESTS,
+    PRIMARY_RAYS,
+    SHADING_POINTS,
+    SHADOW_POINTS,
+    SHADOW_RAYS,
+)
 from .jit import JIT, OVERLOAD, PARALLEL
 from .query import closest_hit, occluded
 from .ray import make_ray
