@@ -1,4 +1,4 @@
-"""Issue 3's scaling figure: how much dearer a ray is on the 118k-triangle
+"""Scaling through the renderer: how much dearer a ray is on the 118k-triangle
 teapot (``--detail 43``) than on the 1k one, through the renderer.
 
 640x480, BVH, 2 threads; for each shadow mode the two scenes are rendered in

@@ -13,23 +13,13 @@ import raytrace
 from raytrace import RaytraceError, cast_rays, occluded
 from raytrace.scene import Camera, Material, Mesh, Plane, Scene, Sphere
 
+from .structures import STRUCTURES
+
 V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 0], [5, 5, 5]], float)
 # Face 0 is degenerate (a repeated vertex): dropped when flattened, so the
 # kernel's triangle 0 is the user's face 1.
 F = np.array([[0, 1, 3], [0, 1, 2]])
 FLAT = ("none", "bvol")
-
-
-def structures():
-    """Every structure this build constructs (bvh and grid as they land)."""
-    names = []
-    for name in ("none", "bvol", "bvh", "grid"):
-        try:
-            cast_rays((V, F), [0, 0, -1], [[0, 0, 1]], accel=name)
-            names.append(name)
-        except RaytraceError as exc:
-            assert "not available" in str(exc)
-    return names
 
 
 @pytest.mark.parametrize("accel", FLAT)
@@ -162,7 +152,6 @@ def test_every_structure_agrees_with_a_reference(seed, n_tris):
     assert np.allclose(ref[hit, base.prim_id[hit]], ref_t[hit], rtol=1e-9)
 
 
-STRUCTURES = structures()
 
 
 def test_default_structure_is_bvh():
