@@ -83,28 +83,26 @@ class Option:
 OPTIONS = (
     Option("accel", "choice", "bvh", "acceleration structure; every one gives the same image",
            choices=_structures, noun="acceleration structure"),
-    Option("bvh_build", "choice", "sah", "how the BVH is built: binned SAH, object median, or "
-           "LBVH (Morton codes)", choices=_bvh_builders, noun="BVH builder"),
+    Option("bvh_build", "choice", "sah", "BVH builder: binned SAH, object median, or LBVH",
+           choices=_bvh_builders, noun="BVH builder"),
     Option("leaf_size", "int", 4, "BVH leaves hold at most this many primitives", lo=1, hi=64,
            metavar="N"),
-    Option("grid_density", "float", 3.0, "grid cells along the longest axis per cube root of "
-           "the primitive count", lo=0.01, hi=64.0, metavar="D"),
-    Option("shadows", "choice", "hard", "`none` casts no shadow rays; `hard` one per light to its "
-           "centre; `soft` samples the light's area", choices=("none", "hard", "soft"),
-           noun="shadow mode"),
-    Option("light_samples", "int", 81, "shadow rays per shading point with soft shadows (9x9, the "
-           "workshop's count)", lo=1, hi=65536, metavar="N"),
-    Option("pattern", "choice", "stratified", "how those samples are placed on the light; `grid` "
-           "and `stratified` need a square number", choices=("grid", "random", "stratified", "halton"),
+    Option("grid_density", "float", 3.0, "grid cells along the longest axis per cube root of N",
+           lo=0.01, hi=64.0, metavar="D"),
+    Option("shadows", "choice", "hard", "shadow rays: none, one per light, or the light's area "
+           "sampled", choices=("none", "hard", "soft"), noun="shadow mode"),
+    Option("light_samples", "int", 81, "shadow rays per point with soft shadows",
+           lo=1, hi=65536, metavar="N"),
+    Option("pattern", "choice", "stratified", "light sample placement (grid and stratified need a "
+           "square number)", choices=("grid", "random", "stratified", "halton"),
            noun="sampling pattern"),
     Option("width", "int", None, "image width in pixels", lo=1, hi=1 << 20,
            default_text="640, or the scene's", metavar="W"),
     Option("height", "int", None, "image height in pixels", lo=1, hi=1 << 20,
            default_text="480, or the scene's", metavar="H"),
-    Option("spp", "int", 1, "camera rays per pixel, jittered (anti-aliasing)", lo=1, hi=4096,
-           metavar="N"),
-    Option("seed", "int", 0, "seed of every random number; the same seed gives the same image "
-           "on any number of threads", lo=0, hi=2 ** 63 - 1, metavar="S"),
+    Option("spp", "int", 1, "camera rays per pixel (anti-aliasing)", lo=1, hi=4096, metavar="N"),
+    Option("seed", "int", 0, "random seed: the same seed, the same image", lo=0, hi=2 ** 63 - 1,
+           metavar="S"),
     Option("threads", "int", None, "render threads", lo=1, hi=_max_threads,
            default_text="all cores", metavar="N"),
 )

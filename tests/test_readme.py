@@ -52,3 +52,9 @@ def test_readme_options_table_is_the_option_definitions():
         assert readme_row(opt) in lines, readme_row(opt)
     for name, s in STRUCTURES.items():
         assert f"| `{name}` | {s.summary} |" in lines, name
+
+
+def test_readme_is_short():
+    """The README is for users; design notes and full benchmark output live
+    in docs/."""
+    assert len(README.read_text().split()) < 2500
