@@ -41,9 +41,14 @@ def render(scene, **options):
     ("none", "bvol", "bvh", "grid"), shadows ("none", "hard", "soft"),
     light_samples, pattern, width, height, spp, seed, threads, aov.
     """
+    from pathlib import Path
+
     from .driver import render as _render
-    if isinstance(scene, str):
+    from .scene import Scene
+    if isinstance(scene, (str, Path)):
         scene = load_scene(scene)
+    if not isinstance(scene, Scene):
+        raise RaytraceError(f"scene: expected a Scene, a name or a path, got {type(scene).__name__}")
     return _render(scene, **options)
 
 

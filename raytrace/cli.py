@@ -67,8 +67,13 @@ class ViewType(click.ParamType):
         except ValueError:
             self.fail(f"{value!r} is neither a view ({', '.join(VIEWS)}) nor AZIMUTH,ELEVATION "
                       "in degrees", param, ctx)
-        if not -90.0 <= el <= 90.0 or az != az:
-            self.fail(f"elevation must be between -90 and 90 degrees, got {el:g}", param, ctx)
+        import math
+        if not math.isfinite(az):
+            self.fail(f"azimuth must be a finite number of degrees, got {parts[0].strip()!r}",
+                      param, ctx)
+        if not -90.0 <= el <= 90.0:
+            self.fail(f"elevation must be between -90 and 90 degrees, got {parts[1].strip()!r}",
+                      param, ctx)
         return (az, el)
 
 
@@ -130,21 +135,22 @@ def _view_options(view, up):
     return opts
 
 
-def _write_outputs(result, output, aov, aov_out, heatmap):
-    """Write the PNG, then any AOVs and heatmap; record them in the stats
-    and return the lines that report them."""
-    from .output import write_npz, write_png
-    write_png(output, result.image)
-    result.stats["output"] = str(output)
+def _write_outputs(result, output, aov, aov_out, heatmap, outputs):
+    """Write the image, any AOVs and the heatmap as one commit (the Outputs
+    ``outputs``: all or none); record them in the stats and return the lines
+    that report them."""
+    from .output import image_writer, npz_writer
     notes = []
+    outputs.add(output, image_writer(result.image, output))
+    result.stats["output"] = str(output)
     if aov_out is not None:
-        write_npz(aov_out, {k: result.aovs[k] for k in aov})
+        outputs.add(aov_out, npz_writer({k: result.aovs[k] for k in aov}))
         result.stats["aov"] = {"path": str(aov_out), "buffers": list(aov)}
         notes.append(f"wrote {aov_out} ({', '.join(aov)})")
     if heatmap is not None:
         from .heatmap import cost_heatmap
         img, lo, hi = cost_heatmap(result.aovs["cost"])
-        write_png(heatmap, img)
+        outputs.add(heatmap, image_writer(img, heatmap))
         result.stats["heatmap"] = {"path": str(heatmap), "cost_min": lo, "cost_max": hi}
         notes.append(f"wrote {heatmap} (box + primitive tests per pixel, log scale: "
                      f"{lo:,} = dark purple to {hi:,} = yellow)")
@@ -156,6 +162,18 @@ def _up_choices():
     return UP_AXES
 
 
+class FiniteFloatRange(click.FloatRange):
+    """click's FloatRange lets NaN through (every comparison with it is
+    false); this one does not."""
+
+    def convert(self, value, param, ctx):
+        import math
+        rv = super().convert(value, param, ctx)
+        if not math.isfinite(rv):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        return rv
+
+
 def _click_type(opt):
     """The click type of a render option, from its definition (options.py).
     A range given by a function (threads: the machine's cores) is checked
@@ -165,7 +183,7 @@ def _click_type(opt):
     hi = None if callable(opt.hi) else opt.hi
     if opt.kind == "int":
         return click.IntRange(min=opt.lo, max=hi)
-    return click.FloatRange(min=opt.lo, max=hi)
+    return FiniteFloatRange(min=opt.lo, max=hi)
 
 
 def _render_options(command):
@@ -190,8 +208,8 @@ def _render_options(command):
                    "in degrees [default: iso].")
 @click.option("--up", type=click.Choice(_up_choices()), default=None,
               help="Mesh files: the model's up axis [default: y].")
-@click.option("--fov", type=click.FloatRange(min=FOV_RANGE[0], max=FOV_RANGE[1], min_open=True,
-                                             max_open=True),
+@click.option("--fov", type=FiniteFloatRange(min=FOV_RANGE[0], max=FOV_RANGE[1], min_open=True,
+                                            max_open=True),
               default=None, help="Vertical field of view in degrees [default: the scene's, 60 for meshes].")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
               help="PNG to write [default: SCENE.png].")
@@ -231,6 +249,14 @@ def render_cmd(scene, bvol, detail, view, up, fov, output, aov, heatmap, as_json
     for name, value in (("--view", view), ("--up", up)):
         if value is not None and kind != "mesh":
             raise click.UsageError(f"{name} applies to mesh files only")
+    if output == "":
+        raise click.UsageError("-o/--output: empty file name")
+    from .output import IMAGE_FORMATS
+    for flag, path in (("-o/--output", output), ("--heatmap", heatmap)):
+        if path is not None and Path(path).suffix.lower() not in IMAGE_FORMATS:
+            raise click.UsageError(f"{flag}: {path}: unknown image format (use one of "
+                                   f"{', '.join(IMAGE_FORMATS)})")
+    named = output is not None
     output = output or f"{scene if kind == 'builtin' else Path(scene).stem}.png"
     aov_out = None
     if aov:
@@ -239,24 +265,32 @@ def render_cmd(scene, bvol, detail, view, up, fov, output, aov, heatmap, as_json
     outputs = [Path(p).resolve() for p in (output, aov_out, heatmap) if p is not None]
     if len(set(outputs)) != len(outputs):
         raise click.UsageError("--heatmap must differ from the output image and its .aov.npz")
+    outputs = None
     try:
         from .driver import RenderOptions, render
         from .load import load_scene
         from .output import check_writable
         from .stats import format_table, to_json
 
+        sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
+                        **_view_options(view, up))
+        if not named and kind == "toml":      # a scene file's name names its image
+            output = f"{sc.name}.png"
+            if aov:
+                from .aov import aov_path
+                aov_out = aov_path(output)
         for path in (output, aov_out, heatmap):
             if path is not None:
                 check_writable(path)
-        sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
-                        **_view_options(view, up))
         progress = _Progress(enabled=not quiet)
         opts = RenderOptions(aov=bool(aov or heatmap), progress=progress, **options)
         try:
             result = render(sc, opts)
         finally:
             progress.close()
-        notes = _write_outputs(result, output, aov, aov_out, heatmap)
+        from .output import Outputs
+        with Outputs() as outputs:
+            notes = _write_outputs(result, output, aov, aov_out, heatmap, outputs)
     except OptionError as exc:
         raise click.UsageError(str(exc)) from None
     except RaytraceError as exc:
@@ -264,7 +298,8 @@ def render_cmd(scene, bvol, detail, view, up, fov, output, aov, heatmap, as_json
     except MemoryError:
         raise click.ClickException("out of memory: try a smaller image or fewer samples") from None
     except KeyboardInterrupt:
-        click.echo("interrupted: no image written", err=True)
+        done = "outputs written" if outputs is not None and outputs.committed else "no image written"
+        click.echo(f"interrupted: {done}", err=True)
         sys.exit(130)
     if as_json:
         click.echo(to_json(result.stats))
@@ -275,5 +310,23 @@ def render_cmd(scene, bvol, detail, view, up, fov, output, aov, heatmap, as_json
             click.echo(note)
 
 
+def entry():
+    """The `raytrace` command: click's group, with Ctrl-C reported as an
+    interruption (exit 130) wherever it lands, and a bad argument as one
+    line (exit 2), without click's usage lines."""
+    try:
+        rv = main(standalone_mode=False)
+    except (KeyboardInterrupt, click.exceptions.Abort):
+        click.echo("interrupted: no image written", err=True)
+        sys.exit(130)
+    except click.exceptions.UsageError as exc:
+        click.echo(f"Error: {exc.format_message()}", err=True)
+        sys.exit(2)
+    except click.ClickException as exc:
+        exc.show()
+        sys.exit(exc.exit_code)
+    sys.exit(rv if isinstance(rv, int) else 0)
+
+
 if __name__ == "__main__":
-    main()
+    entry()

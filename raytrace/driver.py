@@ -3,14 +3,14 @@
 Python owns validation and dtype casting; the kernels see only arrays.
 """
 import math
-import os
 import time
 from dataclasses import dataclass, field, make_dataclass
 
 import numpy as np
 
 from .buffers import Lights, f64, i64
-from .errors import RaytraceError
+from .errors import OptionError, RaytraceError
+from .io.mesh import available_memory
 from .options import BY_NAME, OPTIONS
 
 # Bytes a pixel costs while rendering: float32 RGB + uint8 RGB, and with AOVs
@@ -46,15 +46,14 @@ def _check_int(name, value, lo, hi):
         raise RaytraceError(f"{name} must be between {lo} and {hi}, got {value}")
 
 
-def available_memory():
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):
-        return 8 << 30
-
-
 def validate(opts, scene):
     """Raise RaytraceError for any option the render cannot honour."""
+    from .scene import Camera
+    if not isinstance(scene.camera, Camera):
+        raise RaytraceError(f"scene {scene.name!r} has no camera (got {scene.camera!r})")
+    if opts.progress is not None and not callable(opts.progress):
+        raise OptionError(f"progress must be a function (rows done, rows in all) or None, "
+                          f"got {opts.progress!r}")
     for opt in OPTIONS:
         opt.check(getattr(opts, opt.name))
     w = scene.camera.width if opts.width is None else opts.width
@@ -64,16 +63,17 @@ def validate(opts, scene):
     if opts.pattern in ("grid", "stratified") and opts.shadows == "soft":
         side = math.isqrt(opts.light_samples)
         if side * side != opts.light_samples:
-            raise RaytraceError(f"the {opts.pattern} pattern needs a square number of light samples "
-                                f"(got {opts.light_samples}; try {side * side} or {(side + 1) ** 2})")
+            raise OptionError(f"the {opts.pattern} pattern needs a square number of light samples "
+                              f"(got {opts.light_samples}; try {side * side} or {(side + 1) ** 2})")
     if opts.shadows == "soft":
         for k, light in enumerate(scene.lights):
             if light.samples:  # a light's own count overrides light_samples
-                _check_int(f"light {k} samples", light.samples, 1, BY_NAME["light_samples"].hi)
+                where = f"{light.where}.samples" if light.where else f"light {k} samples"
+                _check_int(where, light.samples, 1, BY_NAME["light_samples"].hi)
                 side = math.isqrt(light.samples)
                 if opts.pattern in ("grid", "stratified") and side * side != light.samples:
-                    raise RaytraceError(f"the {opts.pattern} pattern needs a square number of "
-                                        f"light samples (light {k} has {light.samples})")
+                    raise RaytraceError(f"{where}: the {opts.pattern} pattern needs a square "
+                                        f"number of light samples, got {light.samples}")
     if not isinstance(opts.aov, (bool, np.bool_)):
         raise RaytraceError(f"aov must be True or False, got {opts.aov!r}")
     # Each row also has an int64 counter row: little, but a 1-pixel-wide
@@ -198,7 +198,7 @@ def render(scene, opts=None, **kw):
     opts = opts or RenderOptions()
     for k, v in kw.items():
         if not hasattr(opts, k):
-            raise TypeError(f"render() got an unknown option {k!r}")
+            raise OptionError(f"render() got an unknown option {k!r}")
         setattr(opts, k, v)
     width, height = (int(n) for n in validate(opts, scene))
 

@@ -1,5 +1,6 @@
 """One entry point for every kind of scene: a built-in name, a mesh file or
 a TOML scene file."""
+import math
 from pathlib import Path
 
 from .errors import RaytraceError
@@ -41,9 +42,12 @@ def load_scene(name_or_path, *, detail=None, view=None, azimuth=None, elevation=
     fov, width, height: override the camera's field of view (degrees) and
     image size; a mesh file's camera is framed for them.
     """
+    if not isinstance(name_or_path, (str, Path)):
+        raise RaytraceError(f"scene: expected a name or a path, got {type(name_or_path).__name__}")
     kind = scene_kind(name_or_path)
     if kind is None:
         raise RaytraceError(unknown_scene_message(name_or_path))
+    _check_view_numbers(width=width, height=height, fov=fov, azimuth=azimuth, elevation=elevation)
     mesh_opts = dict(view=view, azimuth=azimuth, elevation=elevation, up=up)
     given = [k for k, v in mesh_opts.items() if v is not None]
     if given and kind != "mesh":
@@ -60,6 +64,9 @@ def load_scene(name_or_path, *, detail=None, view=None, azimuth=None, elevation=
         from .scenes.framing import mesh_scene
         path = Path(name_or_path)
         vertices, faces = read_mesh(path)
+        from .flatten import degenerate_mask
+        if degenerate_mask(vertices[faces[:, 0]], vertices[faces[:, 1]], vertices[faces[:, 2]]).all():
+            raise RaytraceError(f"{path}: no non-degenerate triangles (every face has no area)")
         extra = {k: v for k, v in dict(fov=fov, width=width, height=height).items() if v is not None}
         return mesh_scene(vertices, faces, name=path.stem, up=up or "y", view=view,
                           azimuth=azimuth, elevation=elevation, source=path, **extra)
@@ -77,3 +84,21 @@ def load_scene(name_or_path, *, detail=None, view=None, azimuth=None, elevation=
     if height is not None:
         scene.camera.height = height
     return scene
+
+
+def _check_view_numbers(**values):
+    """load_scene's numeric arguments, each named with the value given."""
+    from .options import BY_NAME, FOV_RANGE
+    for name in ("width", "height"):
+        if values[name] is not None:
+            BY_NAME[name].check(values[name])
+    for name, lo, hi in (("fov", *FOV_RANGE), ("azimuth", None, None), ("elevation", -90.0, 90.0)):
+        v = values[name]
+        if v is None:
+            continue
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise RaytraceError(f"{name} must be a finite number, got {v!r}")
+        if name == "fov" and not lo < v < hi:
+            raise RaytraceError(f"fov must be between {lo:g} and {hi:g} degrees (exclusive), got {v!r}")
+        if name == "elevation" and not lo <= v <= hi:
+            raise RaytraceError(f"elevation must be between -90 and 90 degrees, got {v!r}")

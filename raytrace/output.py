@@ -1,21 +1,64 @@
-"""Output files are written atomically so no run leaves half a file."""
+"""Output files: every output of a run is written to a temporary file beside
+its target and all are renamed into place together, so no run leaves half
+a file or half of its files, and nothing but a regular file is replaced."""
 import os
+import signal
+import stat
 import tempfile
 from pathlib import Path
 
 from .errors import RaytraceError
 
+# Image formats by extension, written through Pillow.
+IMAGE_FORMATS = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG", ".bmp": "BMP", ".tif": "TIFF",
+                 ".tiff": "TIFF", ".webp": "WEBP"}
+NAME_MAX = 255   # bytes in a file name on the usual file systems
+
+
+def image_format(path):
+    """Pillow's format name for an image path; RaytraceError otherwise."""
+    ext = Path(path).suffix.lower()
+    if ext not in IMAGE_FORMATS:
+        raise RaytraceError(f"{path}: unknown image format {ext or '(no extension)'!r} "
+                            f"(choose from {', '.join(IMAGE_FORMATS)})")
+    return IMAGE_FORMATS[ext]
+
+
+def target(path):
+    """Where writing ``path`` really goes: a symbolic link's target (the
+    link itself is kept)."""
+    path = Path(path)
+    return path.resolve() if path.is_symlink() else path
+
 
 def check_writable(path):
-    """Fail before rendering, not after, if the output cannot be written."""
+    """Fail before rendering, not after, if the output cannot be written:
+    a directory or something that is not a regular file (a device, a FIFO)
+    is never replaced, a read-only file neither, and the directory must
+    take a new file (tried: /proc and full or read-only file systems say
+    so only when asked)."""
     path = Path(path)
-    if path.is_dir():
-        raise RaytraceError(f"{path}: is a directory, not an output file")
-    parent = path.parent if str(path.parent) else Path(".")
-    if not parent.is_dir():
-        raise RaytraceError(f"{path}: directory {parent} does not exist")
-    if not os.access(parent, os.W_OK):
-        raise RaytraceError(f"{path}: directory {parent} is not writable")
+    try:
+        if len(path.name.encode()) > NAME_MAX:
+            raise RaytraceError(f"{path}: file name longer than {NAME_MAX} bytes")
+        real = target(path)
+        if real.is_dir():
+            raise RaytraceError(f"{path}: is a directory, not an output file")
+        parent = real.parent if str(real.parent) else Path(".")
+        if not parent.is_dir():
+            raise RaytraceError(f"{path}: directory {parent} does not exist")
+        if real.exists():
+            if not stat.S_ISREG(real.stat().st_mode):
+                raise RaytraceError(f"{path}: not a regular file; raytrace only replaces regular files")
+            # The mode, not os.access: root may write anything, but a file
+            # made read-only was meant to stay as it is.
+            if not (real.stat().st_mode & 0o222) or not os.access(real, os.W_OK):
+                raise RaytraceError(f"{path}: read-only; left as it is")
+        fd, probe = tempfile.mkstemp(prefix=".raytrace.", suffix=".probe", dir=parent)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise RaytraceError(f"{path}: cannot write ({exc.strerror or exc})") from None
 
 
 def _umask():
@@ -24,33 +67,83 @@ def _umask():
     return mask
 
 
-def write_atomic(path, write):
-    """Call write(fileobj) on a temporary file beside ``path``, then rename it
-    over ``path``: an interrupted run leaves the old file or the new one,
-    never a broken one."""
-    path = Path(path)
-    check_writable(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            write(fh)
-        # mkstemp makes the file private (0600); give it the usual mode.
-        os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+class Outputs:
+    """The outputs of one run, committed together or not at all:
+
+        with Outputs() as out:
+            out.add("teapot.png", writer)      # writer(fileobj) fills a temporary file
+            out.add("teapot.aov.npz", writer)
+        # all renamed into place here; on an exception (or Ctrl-C) none is
+
+    The renames run with SIGINT and SIGTERM held back, so a signal lands
+    before all of them or after all of them (``committed`` says which).
+    """
+
+    def __init__(self):
+        self.pending = []
+        self.committed = False
+
+    def add(self, path, write):
+        check_writable(path)
+        real = target(path)
+        fd, tmp = tempfile.mkstemp(prefix=f".{real.name[:200]}.", suffix=".tmp",
+                                   dir=real.parent if str(real.parent) else ".")
+        self.pending.append((tmp, real))
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                write(fh)
+            # mkstemp makes the file private (0600); give it the usual mode.
+            os.chmod(tmp, 0o666 & ~_umask())
+        except OSError as exc:    # a full disk, a quota
+            raise RaytraceError(f"{path}: cannot write ({exc.strerror or exc})") from None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, kind, exc, tb):
+        if kind is None:
+            held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+            try:
+                for tmp, real in self.pending:
+                    os.replace(tmp, real)
+                self.committed = True
+                self.pending = []
+            except OSError as exc:
+                raise RaytraceError(f"{real}: cannot write ({exc.strerror or exc})") from None
+            finally:
+                self._discard()
+                signal.pthread_sigmask(signal.SIG_SETMASK, held)
+        else:
+            self._discard()
+        return False
+
+    def _discard(self):
+        for tmp, _ in self.pending:
+            try:
+                os.unlink(tmp)
+            except FileNotFoundError:
+                pass
+
+
+def image_writer(image, path):
+    """A writer of an (h, w, 3) uint8 image in the format ``path`` names."""
+    from PIL import Image
+    fmt = image_format(path)
+    return lambda fh: Image.fromarray(image).save(fh, format=fmt)
+
+
+def npz_writer(arrays):
+    """A writer of a dict of arrays as an uncompressed .npz (np.load reads it)."""
+    import numpy as np
+    return lambda fh: np.savez(fh, **arrays)
 
 
 def write_png(path, image):
-    """Write an (h, w, 3) uint8 image as PNG, atomically."""
-    from PIL import Image
-
-    write_atomic(path, lambda fh: Image.fromarray(image).save(fh, format="PNG"))
+    """Write one image (the format by the extension), atomically."""
+    with Outputs() as out:
+        out.add(path, image_writer(image, path))
 
 
 def write_npz(path, arrays):
-    """A dict of arrays as an uncompressed .npz (np.load reads it), atomically."""
-    import numpy as np
-    write_atomic(path, lambda fh: np.savez(fh, **arrays))
+    with Outputs() as out:
+        out.add(path, npz_writer(arrays))

@@ -369,11 +369,12 @@ def _crossings(geo, acc, origins, dirs, t_min, t_max, max_hits, fill):
 
 def _as_rows(name, a):
     """(n, 3) float64 array, or (3,) as one row; values are checked later."""
-    if np.iscomplexobj(a):
-        raise RaytraceError(f"{name}: complex numbers are not coordinates")
     try:
-        arr = np.asarray(a, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
+        raw = np.asarray(a)
+        if np.iscomplexobj(raw):
+            raise RaytraceError(f"{name}: complex numbers are not coordinates")
+        arr = raw.astype(np.float64)
+    except (TypeError, ValueError) as exc:   # ragged rows, text
         raise RaytraceError(f"{name}: not convertible to float64 ({exc})") from None
     if arr.ndim == 1 and arr.shape[0] == 3:
         arr = arr[None, :]

@@ -54,6 +54,8 @@ class Light:
     size: float = 0.0                # or (a, b): a rectangle
     direction: tuple = (0.0, -1.0, 0.0)
     samples: int = 0                 # 0: the render's --light-samples
+    # A scene file's "file: lights[i]", for error messages; not part of the light.
+    where: str = field(default=None, compare=False)
 
 
 @dataclass

@@ -44,7 +44,7 @@ def more_bad_mesh_files(tmp_path):
 
 def all_bad(tmp_path):
     files = {**bad_mesh_files(tmp_path), **more_bad_mesh_files(tmp_path)}
-    files["point.obj"] = (files["point.obj"][0], "no extent")
+    files["point.obj"] = (files["point.obj"][0], "no non-degenerate triangles")
     return files
 
 

@@ -61,7 +61,7 @@ def test_bvol_flags_map_to_accel(run):
     (["teapot", "--width", "0"], 2, "--width"),
     (["teapot", "--height", "-5"], 2, "--height"),
     (["teapot", "--light-samples", "-4"], 2, "--light-samples"),
-    (["teapot", "--shadows", "soft", "--light-samples", "10"], 1, "square number"),
+    (["teapot", "--shadows", "soft", "--light-samples", "10"], 2, "square number"),
     (["teapot", "--accel", "octree"], 2, "--accel"),
     (["teapot", "--frobnicate"], 2, "No such option"),
     (["teapot", "--width", "1048576", "--height", "1048576"], 1, "GiB"),

@@ -60,7 +60,7 @@ def bad_mesh_files(tmp_path):
     return {
         "empty.obj": (b"", "empty"),
         "empty.stl": (b"", "empty"),
-        "comments.obj": (b"# nothing here\n", "no triangles"),
+        "comments.obj": (b"# nothing here\n", "no non-degenerate triangles"),
         "garbage.obj": (garbage, ""),
         "garbage.stl": (garbage, ""),
         "garbage.ply": (garbage, ""),

@@ -101,6 +101,8 @@ class Fields:
         out = tuple(self.check_number(f"{key}[{i}]", x, lo=lo) for i, x in enumerate(value))
         if nonzero and not any(out):
             self.fail(key, "must not be all zeros")
+        if nonzero and not math.hypot(*out) >= 1e-150:
+            self.fail(key, f"too short to give a direction (length {math.hypot(*out):g})")
         return out
 
     def vec3(self, key, default=None, required=False, nonzero=False):

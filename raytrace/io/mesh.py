@@ -6,7 +6,9 @@ exception types on a damaged file (ValueError, IndexError, KeyError,
 struct.error, ...) or returns an empty mesh for garbage; every one of
 them becomes a RaytraceError naming the file.
 """
+import os
 import re
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -59,13 +61,39 @@ def check_obj_indices(path, data):
                             "(OBJ indices start at 1)")
 
 
+# Bytes of memory a byte of input file may take while it is read (a text
+# mesh parsed into arrays, a TOML file into Python objects): a file larger
+# than available memory / this is refused before it is read.
+MEMORY_PER_FILE_BYTE = 8
+
+
+def available_memory():
+    """Bytes of physical memory free now (8 GiB if the system will not say)."""
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return 8 << 30
+
+
 def check_readable(path):
-    """Raise the usual one-line errors for a file that cannot be opened."""
+    """Raise the usual one-line errors for an input file that cannot be read:
+    missing, a directory, not a regular file (a FIFO would block forever, a
+    device never end), a name the system refuses, or too large to load."""
     path = Path(path)
-    if not path.exists():
-        raise RaytraceError(f"{path}: no such file")
-    if path.is_dir():
+    try:
+        st = path.stat()
+    except FileNotFoundError:
+        raise RaytraceError(f"{path}: no such file") from None
+    except OSError as exc:       # a name too long, a loop of links, no permission
+        raise RaytraceError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    if stat.S_ISDIR(st.st_mode):
         raise RaytraceError(f"{path}: is a directory, not a file")
+    if not stat.S_ISREG(st.st_mode):
+        raise RaytraceError(f"{path}: not a regular file (a FIFO, socket or device cannot be read)")
+    limit = available_memory() // MEMORY_PER_FILE_BYTE
+    if st.st_size > limit:
+        raise RaytraceError(f"{path}: {st.st_size / 2**30:.1f} GiB is more than this machine's "
+                            f"free memory can load (at most {limit / 2**30:.1f} GiB of file)")
     try:
         with path.open("rb"):
             pass
@@ -80,6 +108,10 @@ def check_mesh_arrays(name, vertices, faces):
         v = np.asarray(vertices, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise RaytraceError(f"{name}: vertices are not numbers ({exc})") from None
+    try:
+        np.asarray(faces)
+    except ValueError as exc:   # ragged: rows of different lengths
+        raise RaytraceError(f"{name}: faces must be an (m, 3) array of indices ({exc})") from None
     if v.ndim != 2 or v.shape[1] != 3:
         raise RaytraceError(f"{name}: vertices must have shape (n, 3), got {v.shape}")
     bad = bad_coordinate_rows(v)
@@ -130,7 +162,8 @@ def read_mesh(path):
     vertices = getattr(mesh, "vertices", None)
     faces = getattr(mesh, "faces", None)
     if vertices is None or faces is None or len(faces) == 0:
-        raise RaytraceError(f"{path}: no triangles found (damaged, or not really {ext[1:].upper()}?)")
+        raise RaytraceError(f"{path}: no non-degenerate triangles (no faces found: damaged, or "
+                            f"not really {ext[1:].upper()}?)")
     return check_mesh_arrays(path, vertices, faces)
 
 

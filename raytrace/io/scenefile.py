@@ -4,6 +4,7 @@ Parsed with the standard library's tomllib (Python 3.11+; the tomli
 backport is used on 3.10 if installed).  Every key is checked: an unknown
 key or a wrong type is an error naming the file and the key.
 """
+import math
 from pathlib import Path
 
 from ..errors import RaytraceError
@@ -50,11 +51,19 @@ def parse_toml(path):
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise RaytraceError(f"{path}: invalid TOML: {exc}") from None
+    except RecursionError:
+        raise RaytraceError(f"{path}: nested too deeply to be a scene file") from None
 
 
 def read_scene_file(path):
     """A Scene from a TOML scene file; mesh paths are relative to it."""
-    path = Path(path)
+    try:
+        return _read_scene_file(Path(path))
+    except RecursionError:       # a value nested past Python's stack, met while checking it
+        raise RaytraceError(f"{path}: nested too deeply to be a scene file") from None
+
+
+def _read_scene_file(path):
     top = Fields(path, "", parse_toml(path), TOP_KEYS)
     if not top.has("camera"):
         top.fail(None, "missing table [camera]")
@@ -91,6 +100,14 @@ def _camera(path, table):
                  width=f.integer("width", default=640, lo=BY_NAME["width"].lo, hi=BY_NAME["width"].hi),
                  height=f.integer("height", default=480, lo=BY_NAME["height"].lo,
                                   hi=BY_NAME["height"].hi))
+    view = [b - a for a, b in zip(cam.eye, cam.look_at)]
+    if not any(view):
+        f.fail("look_at", "must differ from position")
+    up = cam.up
+    cross = (view[1] * up[2] - view[2] * up[1], view[2] * up[0] - view[0] * up[2],
+             view[0] * up[1] - view[1] * up[0])
+    if not math.hypot(*cross) > 1e-12 * math.hypot(*view) * math.hypot(*up):
+        f.fail("up", "parallel to the view direction (position to look_at)")
     if not FOV_RANGE[0] < cam.fov < FOV_RANGE[1]:
         f.fail("fov", f"must be between {FOV_RANGE[0]:g} and {FOV_RANGE[1]:g} degrees (exclusive), "
                       f"got {cam.fov:g}")
@@ -121,7 +138,8 @@ def _light(path, i, table):
     kind = f.string("type", default="point", choices=("point", "area"))
     light = Light(position=f.vec3("position", required=True),
                   color=f.color("color", default=(1.0, 1.0, 1.0)),
-                  intensity=f.number("intensity", default=1.0, lo=0.0))
+                  intensity=f.number("intensity", default=1.0, lo=0.0),
+                  where=f"{path}: lights[{i}]")
     if kind == "point":
         for key in AREA_ONLY:
             if f.has(key):
