@@ -13,12 +13,41 @@ from .scene import Mesh, Plane, Sphere
 DEGENERATE_RATIO = 1e-14
 
 
+def unit_rows(v):
+    """Each row of an (n, 3) array scaled to unit length (zero rows stay
+    zero).  Where the squares over- or underflow (coordinates near the 1e100
+    limit) a row is first divided by its largest component; other rows are
+    divided by np.linalg.norm's own sum, so their results are unchanged."""
+    with np.errstate(over="ignore", under="ignore"):   # the rows handled below
+        sq = np.add.reduce(v * v, axis=1) if len(v) else np.zeros(0)
+    ok = (sq > 1e-290) & (sq < 1e290)
+    out = np.zeros_like(v)
+    out[ok] = v[ok] / np.sqrt(sq[ok])[:, None]
+    odd = ~ok & (np.abs(v).max(axis=1, initial=0.0) > 0)
+    if odd.any():
+        w = v[odd] / np.abs(v[odd]).max(axis=1, keepdims=True)
+        out[odd] = w / np.sqrt(np.add.reduce(w * w, axis=1))[:, None]
+    return out
+
+
 def degenerate_mask(v0, v1, v2):
     e1 = v1 - v0
     e2 = v2 - v0
     e3 = v2 - v1
+    with np.errstate(over="ignore"):
+        longest2 = np.max([np.einsum("ij,ij->i", e, e) for e in (e1, e2, e3)], axis=0)
+    # The area's square is about longest2 squared: outside this range it
+    # over- or underflows, so compare the edges scaled by their largest
+    # component (the ratio does not change); other rows are divided by 1,
+    # so their results are unchanged.
+    odd = ~((longest2 > 1e-140) & (longest2 < 1e140))
+    if odd.any():
+        s = np.ones(len(e1))
+        s[odd] = np.max([np.abs(e[odd]).max(axis=1, initial=0.0) for e in (e1, e2, e3)], axis=0)
+        s[s == 0] = 1.0
+        e1, e2, e3 = (e / s[:, None] for e in (e1, e2, e3))
+        longest2 = np.max([np.einsum("ij,ij->i", e, e) for e in (e1, e2, e3)], axis=0)
     area2 = np.linalg.norm(np.cross(e1, e2), axis=1)
-    longest2 = np.max([np.einsum("ij,ij->i", e, e) for e in (e1, e2, e3)], axis=0)
     return ~(area2 > DEGENERATE_RATIO * longest2)
 
 
@@ -52,8 +81,7 @@ def mesh_triangles(mesh):
         nrm = np.asarray(mesh.normals, dtype=np.float64)
         n0, n1, n2 = nrm[f[:, 0]], nrm[f[:, 1]], nrm[f[:, 2]]
     else:
-        fn = np.cross(v1 - v0, v2 - v0)
-        fn /= np.linalg.norm(fn, axis=1, keepdims=True)
+        fn = unit_rows(np.cross(v1 - v0, v2 - v0))
         n0 = n1 = n2 = fn
     return v0, v1, v2, n0, n1, n2, np.flatnonzero(keep)
 
@@ -118,13 +146,9 @@ def flatten(scene, with_sources=False):
 
     if not materials:
         mat_id(scene.objects[0].material if scene.objects else _default_material())
-    pl_n = np.array([p.normal for p in planes], dtype=float).reshape(-1, 3)
-    if len(pl_n):
-        pl_n /= np.linalg.norm(pl_n, axis=1, keepdims=True)
+    pl_n = unit_rows(np.array([p.normal for p in planes], dtype=float).reshape(-1, 3))
     tri_n = [cat(tris[k]) for k in (3, 4, 5)]
-    for n in tri_n:  # renormalise shading normals; zero ones fall back later
-        ln = np.linalg.norm(n, axis=1, keepdims=True)
-        np.divide(n, ln, out=n, where=ln > 0)
+    tri_n = [unit_rows(n) for n in tri_n]  # renormalised; zero ones fall back later
     geo = Geometry(
         tri_v0=cat(tris[0]), tri_v1=cat(tris[1]), tri_v2=cat(tris[2]),
         tri_n0=tri_n[0], tri_n1=tri_n[1], tri_n2=tri_n[2],

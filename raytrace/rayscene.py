@@ -145,8 +145,8 @@ class _Prepared:
             a, b, c = g.tri_v0[p], g.tri_v1[p], g.tri_v2[p]
             uu, vv = u[tri, None], v[tri, None]
             point[tri] = (1.0 - uu - vv) * a + uu * b + vv * c
-            nrm = np.cross(b - a, c - a)
-            normal[tri] = nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
+            from .flatten import unit_rows
+            normal[tri] = unit_rows(np.cross(b - a, c - a))
         sph = np.flatnonzero((prim >= n_tris) & (prim < n_tris + n_sph))
         if len(sph):
             k = prim[sph] - n_tris

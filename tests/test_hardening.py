@@ -251,3 +251,43 @@ def _no_camera():
     sc = raytrace.load_scene("spheres")
     sc.camera = None
     return sc
+
+
+def test_6_the_whole_coordinate_range_works():
+    """Near the documented 1e100 limit normals were squares that overflowed
+    to zero (a flat grey render) and cast_rays warned of overflow."""
+    import warnings
+
+    from raytrace.scene import Camera, Light, Mesh, Scene
+    for s in (1e90, 2e99):        # camera and rays at 3 s: within the 1e100 limit
+        v = np.array([[1, 0, -1 / np.sqrt(2)], [-1, 0, -1 / np.sqrt(2)],
+                      [0, 1, 1 / np.sqrt(2)], [0, -1, 1 / np.sqrt(2)]]) * s
+        f = np.array([[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]])
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            h = raytrace.cast_rays((v, f), [[0.1 * s, 0.05 * s, 3 * s]], [[0, 0, -1.0]])
+            assert h.hit[0] and np.isclose(np.linalg.norm(h.normal[0]), 1.0)
+            sc = Scene("tetra", Camera((2 * s, 1.5 * s, 3 * s), (0, 0, 0), width=24, height=18),
+                       objects=[Mesh(v, f)], lights=[Light((3 * s, 5 * s, 4 * s))])
+            r = raytrace.render(sc, aov=True)
+        n = r.aovs["normal"][r.aovs["primid"] >= 0]
+        assert len(n) and np.allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-6)
+        assert len(np.unique(r.image.reshape(-1, 3), axis=0)) > 3    # faces shaded apart
+
+
+@pytest.mark.parametrize("extra, words", [
+    ('[[objects]]\ntype = "teapot"\nscale = 1e300\n', "objects[0].scale: beyond 1e+100"),
+    ('[[objects]]\ntype = "teapot"\nscale = 1e100\n', "objects[0].scale: translate, rotate and scale"),
+    ('[[objects]]\ntype = "sphere"\ncenter = [0, 0, 0]\nradius = 1e300\n',
+     "objects[0].radius: beyond 1e+100"),
+    ('[[lights]]\nposition = [0, 1e300, 0]\n', "lights[0].position[1]: beyond 1e+100"),
+])
+def test_7_scene_values_past_the_limit_name_file_and_key(tmp_path, extra, words):
+    rc, _, err = run([scene_with(tmp_path, extra), *SMALL], tmp_path)
+    assert rc == 1 and words in one_line(err), err
+
+
+def test_7_camera_past_the_limit(tmp_path):
+    p = scene_with(tmp_path, "", camera="position = [0, 0, 1e300]\nlook_at = [0, 0, 0]\n")
+    rc, _, err = run([p, *SMALL], tmp_path)
+    assert rc == 1 and "camera.position[2]: beyond 1e+100" in one_line(err), err

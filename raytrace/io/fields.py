@@ -3,6 +3,7 @@ the key: ``scene.toml: objects[2].radius: expected a number, got 'big'``."""
 import math
 
 from ..errors import RaytraceError
+from .mesh import MAX_COORD
 
 
 def _shown(value):
@@ -65,6 +66,8 @@ class Fields:
         value = float(value)
         if not math.isfinite(value):
             self.fail(key, f"expected a finite number, got {value}")
+        if abs(value) > MAX_COORD:
+            self.fail(key, f"beyond {MAX_COORD:g} (products of such values overflow), got {value:g}")
         if positive and not value > 0:
             self.fail(key, f"must be positive, got {value:g}")
         if lo is not None and value < lo or hi is not None and value > hi:

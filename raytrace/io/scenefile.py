@@ -7,11 +7,13 @@ key or a wrong type is an error naming the file and the key.
 import math
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import RaytraceError
 from ..options import BY_NAME, DETAIL, FOV_RANGE
 from ..scene import Camera, Light, Material, Plane, Scene, Sphere
 from .fields import Fields
-from .mesh import check_readable
+from .mesh import MAX_COORD, check_readable
 
 TOP_KEYS = ("name", "description", "background", "camera", "materials", "lights", "objects")
 CAMERA_KEYS = ("position", "look_at", "up", "fov", "width", "height")
@@ -169,9 +171,12 @@ def _object(path, i, table, material):
         Fields(path, where, {}, ()).fail(None, f"missing key 'type' (one of: {', '.join(OBJECT_KEYS)})")
     f = Fields(path, where, table, OBJECT_KEYS[kind])
     if kind == "sphere":
-        return Sphere(center=f.vec3("center", required=True),
-                      radius=f.number("radius", required=True, positive=True),
-                      material=material(f))
+        sphere = Sphere(center=f.vec3("center", required=True),
+                        radius=f.number("radius", required=True, positive=True),
+                        material=material(f))
+        if max(map(abs, sphere.center)) + sphere.radius > MAX_COORD:
+            f.fail("radius", f"the sphere reaches beyond {MAX_COORD:g}")
+        return sphere
     if kind == "plane":
         return Plane(point=f.vec3("point", default=(0.0, 0.0, 0.0)),
                      normal=f.vec3("normal", default=(0.0, 1.0, 0.0), nonzero=True),
@@ -195,5 +200,8 @@ def _object(path, i, table, material):
                  scale=f.scale3("scale"))
     if place != dict(translate=(0.0,) * 3, rotate=(0.0,) * 3, scale=(1.0,) * 3):
         from ..transform import transform_mesh
-        mesh.vertices, mesh.normals = transform_mesh(mesh.vertices, mesh.normals, **place)
+        with np.errstate(over="ignore", invalid="ignore"):
+            mesh.vertices, mesh.normals = transform_mesh(mesh.vertices, mesh.normals, **place)
+        if not (np.abs(mesh.vertices) <= MAX_COORD).all():
+            f.fail("scale", f"translate, rotate and scale put a vertex beyond {MAX_COORD:g}")
     return mesh

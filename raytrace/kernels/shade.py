@@ -8,9 +8,17 @@ from .jit import JIT
 
 @njit(**JIT)
 def _normalize(x, y, z):
-    ln = np.sqrt(x * x + y * y + z * z)
-    if ln == 0.0:
-        return 0.0, 0.0, 0.0
+    sq = x * x + y * y + z * z
+    if not (sq > 1e-290 and sq < 1e290):
+        # Squares over- or underflow (coordinates near the 1e100 limit):
+        # divide by the largest component first.  Usual sizes never come here,
+        # so their results are unchanged.
+        m = max(abs(x), abs(y), abs(z))
+        if not (m > 0.0 and m < np.inf):
+            return 0.0, 0.0, 0.0
+        x, y, z = x / m, y / m, z / m
+        sq = x * x + y * y + z * z
+    ln = np.sqrt(sq)
     return x / ln, y / ln, z / ln
 
 
