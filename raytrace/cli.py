@@ -319,6 +319,9 @@ def entry():
     except (KeyboardInterrupt, click.exceptions.Abort):
         click.echo("interrupted: no image written", err=True)
         sys.exit(130)
+    except click.exceptions.NoArgsIsHelpError as exc:   # a bare `raytrace`: the help
+        click.echo(exc.ctx.get_help())
+        sys.exit(0)
     except click.exceptions.UsageError as exc:
         click.echo(f"Error: {exc.format_message()}", err=True)
         sys.exit(2)

@@ -92,8 +92,10 @@ class Outputs:
         try:
             with os.fdopen(fd, "wb") as fh:
                 write(fh)
-            # mkstemp makes the file private (0600); give it the usual mode.
-            os.chmod(tmp, 0o666 & ~_umask())
+            # mkstemp makes the file private (0600): a file replaced keeps its
+            # mode, a new one gets the usual one.
+            os.chmod(tmp, stat.S_IMODE(real.stat().st_mode) if real.exists()
+                     else 0o666 & ~_umask())
         except OSError as exc:    # a full disk, a quota
             raise RaytraceError(f"{path}: cannot write ({exc.strerror or exc})") from None
 

@@ -291,3 +291,17 @@ def test_7_camera_past_the_limit(tmp_path):
     p = scene_with(tmp_path, "", camera="position = [0, 0, 1e300]\nlook_at = [0, 0, 0]\n")
     rc, _, err = run([p, *SMALL], tmp_path)
     assert rc == 1 and "camera.position[2]: beyond 1e+100" in one_line(err), err
+
+
+def test_a_bare_raytrace_shows_the_help(tmp_path):
+    rc, out, err = run([], tmp_path)
+    assert rc == 0 and "Usage: " in out and "render" in out and err == ""
+
+
+def test_a_replaced_output_keeps_its_mode(tmp_path):
+    out = tmp_path / "x.png"
+    out.write_bytes(OLD)
+    out.chmod(0o640)
+    rc, _, err = run(["spheres", *SMALL, "-o", out, "-q"], tmp_path)
+    assert rc == 0, err
+    assert (out.stat().st_mode & 0o777) == 0o640 and out.read_bytes() != OLD
