@@ -207,8 +207,11 @@ def test_minor_jpg_is_jpeg_and_scene_name_names_the_output(tmp_path):
 def test_16_ctrl_c_at_any_moment_is_130_and_one_line(tmp_path, delay):
     """From the moment Python runs raytrace's code (python's own start-up,
     ~50 ms, is not ours to handle) to the end of the render."""
+    # A render of several seconds (soft shadows, 8 samples a pixel), so the
+    # signal lands before its end.
     p = subprocess.Popen([sys.executable, "-m", "raytrace", "teapot", "--width", "640",
-                          "--height", "480", "--shadows", "soft", "-o", "t.png"], cwd=tmp_path,
+                          "--height", "480", "--shadows", "soft", "--spp", "8", "-o", "t.png"],
+                         cwd=tmp_path,
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(delay)
     p.send_signal(signal.SIGINT)
