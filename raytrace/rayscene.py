@@ -373,7 +373,7 @@ def _as_rows(name, a):
         raw = np.asarray(a)
         if np.iscomplexobj(raw):
             raise RaytraceError(f"{name}: complex numbers are not coordinates")
-        arr = raw.astype(np.float64)
+        arr = raw.astype(np.float64, copy=False)
     except (TypeError, ValueError) as exc:   # ragged rows, text
         raise RaytraceError(f"{name}: not convertible to float64 ({exc})") from None
     if arr.ndim == 1 and arr.shape[0] == 3:
