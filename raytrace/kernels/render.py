@@ -26,7 +26,7 @@ from .jit import JIT, OVERLOAD, PARALLEL
 from .query import closest_hit, occluded
 from .ray import make_ray
 from .sampling import hash_key, rand01, square_sample
-from .shade import albedo, surface
+from .shade import albedo, smooth_point, surface
 
 # Shadow modes: none casts no shadow rays; hard one ray per light, to its
 # centre; soft samples each area light (``pattern``: sampling.PATTERN_*).
@@ -167,8 +167,10 @@ def shade_sample(geo, acc, cam, lights, shadows, background, seed, pixel, sample
     # Face the normals towards the viewer (surfaces are two-sided).
     if gx * dx + gy * dy + gz * dz > 0.0:
         gx, gy, gz = -gx, -gy, -gz
+    side = 1.0
     if nx * gx + ny * gy + nz * gz < 0.0:
         nx, ny, nz = -nx, -ny, -nz
+        side = -1.0
     ar, ag, ab = albedo(geo, hit.prim, mat, px, py, pz)
     ka = geo.mat_param[mat, MAT_AMBIENT]
     kd = geo.mat_param[mat, MAT_DIFFUSE]
@@ -176,19 +178,25 @@ def shade_sample(geo, acc, cam, lights, shadows, background, seed, pixel, sample
     shin = geo.mat_param[mat, MAT_SHININESS]
     r, g, b = ka * ar, ka * ag, ka * ab
     eps = RAY_OFFSET * max(scale, abs(px), abs(py), abs(pz))
-    ox, oy, oz = px + eps * gx, py + eps * gy, pz + eps * gz
+    # Shadow rays start from the smooth surface the vertex normals imply,
+    # not the flat facet (Hanika 2021), then off it along the facet normal.
+    sx, sy, sz = smooth_point(geo, hit, px, py, pz, side)
+    lifted = (sx - px) * gx + (sy - py) * gy + (sz - pz) * gz > eps
+    ox, oy, oz = sx + eps * gx, sy + eps * gy, sz + eps * gz
     for li in range(lights.pos.shape[0]):
         lx = lights.pos[li, 0] - px
         ly = lights.pos[li, 1] - py
         lz = lights.pos[li, 2] - pz
         dist = np.sqrt(lx * lx + ly * ly + lz * lz)
         lx, ly, lz = lx / dist, ly / dist, lz / dist
-        # Lit only from the side the geometric normal faces: this skips
-        # shadow rays that could only hit the surface itself and avoids
-        # light leaking past the shadow terminator of smooth normals.
-        if gx * lx + gy * ly + gz * lz <= 0.0:
+        # Lit where the shading normal faces the light.  Where the facet
+        # itself faces away, a ray from a point on it could only hit the
+        # facet; from a point lifted off it (a convex patch near the
+        # terminator) the ray decides, as it would on the curved surface.
+        # With flat normals, spheres and planes this is the facet's test.
+        ndl = nx * lx + ny * ly + nz * lz
+        if ndl <= 0.0 or (gx * lx + gy * ly + gz * lz <= 0.0 and not lifted):
             continue
-        ndl = max(0.0, nx * lx + ny * ly + nz * lz)
         hx, hy, hz = lx - dx, ly - dy, lz - dz
         hl = np.sqrt(hx * hx + hy * hy + hz * hz)
         spec = 0.0
