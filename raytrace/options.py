@@ -97,6 +97,10 @@ OPTIONS = (
     Option("pattern", "choice", "stratified", "how those samples are placed on the light; `grid` "
            "and `stratified` need a square number", choices=("grid", "random", "stratified", "halton"),
            noun="sampling pattern"),
+    Option("texture_filter", "choice", "box", "`box` averages a checker over each camera ray's "
+           "footprint (ray differentials), so the far ground fades to its mean colour; `none` "
+           "samples it at the hit point and shows aliasing (moire)", choices=("box", "none"),
+           noun="texture filter"),
     Option("width", "int", None, "image width in pixels", lo=1, hi=1 << 20,
            default_text="640, or the scene's", metavar="W"),
     Option("height", "int", None, "image height in pixels", lo=1, hi=1 << 20,
