@@ -219,8 +219,9 @@ def albedo_filtered(geo, cam, prim, mat, px, py, pz, sxn, syn, step_x, step_y):
     rn = (cam[6] * nx + cam[7] * ny + cam[8] * nz) / dn
     un = (cam[9] * nx + cam[10] * ny + cam[11] * nz) / dn
     # dp/dsxn and dp/dsyn, scaled by the sample's extent on the screen.
-    ax, ay, az = t * (cam[6] - dx * rn) * step_x, t * (cam[7] - dy * rn) * step_x, t * (cam[8] - dz * rn) * step_x
-    bx, by, bz = t * (cam[9] - dx * un) * step_y, t * (cam[10] - dy * un) * step_y, t * (cam[11] - dz * un) * step_y
+    sa, sb = t * step_x, t * step_y
+    ax, ay, az = sa * (cam[6] - dx * rn), sa * (cam[7] - dy * rn), sa * (cam[8] - dz * rn)
+    bx, by, bz = sb * (cam[9] - dx * un), sb * (cam[10] - dy * un), sb * (cam[11] - dz * un)
     # Half extents of the footprint along the tangents, in squares.
     hu = 0.5 * (abs(ax * t1x + ay * t1y + az * t1z) + abs(bx * t1x + by * t1y + bz * t1z)) / size
     hv = 0.5 * (abs(ax * t2x + ay * t2y + az * t2z) + abs(bx * t2x + by * t2y + bz * t2z)) / size
