@@ -160,6 +160,18 @@ def shadow_record(shadows, pattern):
     return SoftShadows(pattern=int(PATTERN_NAMES[pattern]))
 
 
+def texture_record(texture_filter, width, height, spp):
+    """The kernel's texture record: its type picks the code compiled.  A
+    box-filtered texture is averaged over one camera sample's share of
+    the pixel, 1/sqrt(spp) of its width and height (the screen spans 2
+    units in each direction), as pbrt scales its ray differentials."""
+    from .kernels.render import BoxFilteredTextures, PointTextures
+    if texture_filter == "none":
+        return PointTextures()
+    share = 1.0 / math.sqrt(spp)
+    return BoxFilteredTextures(step_x=2.0 / width * share, step_y=2.0 / height * share)
+
+
 def aov_buffers(width, height, enabled):
     """Per-pixel AOV buffers (raytrace/aov.py), or the empty record that
     compiles the kernel without them."""
@@ -218,6 +230,7 @@ def render(scene, opts=None, **kw):
     lights = light_buffers(scene, opts.shadows, opts.light_samples)
     background = f64(scene.background)
     shadows = shadow_record(opts.shadows, opts.pattern)
+    textures = texture_record(opts.texture_filter, width, height, int(opts.spp))
     t_import = time.perf_counter() - t_start
 
     acc, t_build = build_structure(opts.accel, geo, obj_ranges, bvh_build=opts.bvh_build,
@@ -228,7 +241,7 @@ def render(scene, opts=None, **kw):
     aovs = aov_buffers(width, height, opts.aov)
     # Plain Python scalars only: a NumPy integer or a bool where an int is
     # expected would compile the kernel again for that type.
-    args = (geo, acc, cam, lights, shadows, aovs, background, int(width), int(height))
+    args = (geo, acc, cam, lights, shadows, textures, aovs, background, int(width), int(height))
     tail = (threads, int(opts.spp), int(opts.seed), image, stats_rows)
 
     # An empty band compiles the kernel (or loads it from Numba's cache)
@@ -251,8 +264,8 @@ def render(scene, opts=None, **kw):
         "scene": scene.name, "accel": opts.accel, "shadows": opts.shadows,
         "light_samples": int(lights.samples.max()) if len(lights.samples) else 0,
         "bvh_build": opts.bvh_build, "leaf_size": opts.leaf_size, "grid_density": opts.grid_density,
-        "pattern": opts.pattern, "width": width, "height": height, "spp": opts.spp,
-        "seed": opts.seed, "threads": threads,
+        "pattern": opts.pattern, "texture_filter": opts.texture_filter, "width": width,
+        "height": height, "spp": opts.spp, "seed": opts.seed, "threads": threads,
         **info,
         "time": {"render_s": t_render, "build_s": t_build, "compile_s": t_compile,
                  "setup_s": t_import},

@@ -96,6 +96,8 @@ OPTIONS = (
     Option("pattern", "choice", "stratified", "light sample placement (grid and stratified need a "
            "square number)", choices=("grid", "random", "stratified", "halton"),
            noun="sampling pattern"),
+    Option("texture_filter", "choice", "box", "checker: averaged over each pixel's footprint, or "
+           "`none`: point-sampled, aliased", choices=("box", "none"), noun="texture filter"),
     Option("width", "int", None, "image width in pixels", lo=1, hi=1 << 20,
            default_text="640, or the scene's", metavar="W"),
     Option("height", "int", None, "image height in pixels", lo=1, hi=1 << 20,

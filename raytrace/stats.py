@@ -68,7 +68,8 @@ def format_table(stats):
         ("Acceleration", stats["accel"]),
         ("Shadows", stats["shadows"] + (f" ({stats['light_samples']} samples, {stats['pattern']})"
                                         if stats["shadows"] == "soft" else "")),
-        ("Image", f"{stats['width']}x{stats['height']}, {stats['spp']} spp, {stats['threads']} threads"),
+        ("Image", f"{stats['width']}x{stats['height']}, {stats['spp']} spp, {stats['threads']} threads"
+                  + (", textures unfiltered" if stats.get("texture_filter") == "none" else "")),
         ("Degenerate triangles dropped", stats["degenerate_dropped"]),
         ("Render time (s)", t["render_s"]),
         ("Build time (s)", t["build_s"]),

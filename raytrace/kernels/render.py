@@ -4,7 +4,8 @@
 does a part's rows.  What a render needs is chosen by the types of its
 arguments, so each combination compiles on first use and nothing else is
 compiled: the structure's layout (query.py), the shadow mode (NoShadows,
-HardShadows, SoftShadows) and the AOV buffers (NoAovs, Aovs).
+HardShadows, SoftShadows), the texture filter (PointTextures,
+BoxFilteredTextures) and the AOV buffers (NoAovs, Aovs).
 """
 from collections import namedtuple
 
@@ -26,7 +27,7 @@ from .jit import JIT, OVERLOAD, PARALLEL
 from .query import closest_hit, occluded
 from .ray import make_ray
 from .sampling import hash_key, rand01, square_sample
-from .shade import albedo, surface
+from .shade import albedo, albedo_filtered, smooth_point, surface
 
 # Shadow modes: none casts no shadow rays; hard one ray per light, to its
 # centre; soft samples each area light (``pattern``: sampling.PATTERN_*).
@@ -36,6 +37,11 @@ SoftShadows = namedtuple("SoftShadows", ["pattern"])
 # Per-pixel output buffers (raytrace/aov.py), or none.
 NoAovs = namedtuple("NoAovs", [])
 Aovs = namedtuple("Aovs", ["depth", "normal", "primid", "cost"])
+# Textures sampled at the hit point (aliasing shows), or box-filtered over
+# the camera sample's footprint: step_x, step_y are its extent in the
+# pinhole's screen coordinates (sxn, syn in [-1, 1]).
+PointTextures = namedtuple("PointTextures", [])
+BoxFilteredTextures = namedtuple("BoxFilteredTextures", ["step_x", "step_y"])
 
 # Shadow rays start this far off the surface, relative to the magnitude of
 # the hit point's coordinates.  The point is rebuilt from the primitive, so
@@ -106,6 +112,25 @@ def _light_visibility(shadows, geo, acc, lights, li, ox, oy, oz, seed, pixel, sa
     return impl
 
 
+def surface_albedo(textures, geo, cam, prim, mat, px, py, pz, sxn, syn):
+    """Material colour at a hit of the camera ray through (sxn, syn);
+    compiled code only."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(surface_albedo, jit_options=OVERLOAD)
+def _surface_albedo(textures, geo, cam, prim, mat, px, py, pz, sxn, syn):
+    if textures.instance_class is PointTextures:
+        def impl(textures, geo, cam, prim, mat, px, py, pz, sxn, syn):
+            return albedo(geo, prim, mat, px, py, pz)
+        return impl
+
+    def impl(textures, geo, cam, prim, mat, px, py, pz, sxn, syn):
+        return albedo_filtered(geo, cam, prim, mat, px, py, pz, sxn, syn,
+                               textures.step_x, textures.step_y)
+    return impl
+
+
 def record_sample(aovs, y, x, t, prim, nx, ny, nz):
     """Write a pixel's first camera sample to the AOVs; compiled code only."""
     raise NotImplementedError("compiled code only")
@@ -141,7 +166,8 @@ def _record_cost(aovs, y, x, cost):
 
 
 @njit(**JIT)
-def shade_sample(geo, acc, cam, lights, shadows, background, seed, pixel, sample, fx, fy, cnt):
+def shade_sample(geo, acc, cam, lights, shadows, textures, background, seed, pixel, sample, fx, fy,
+                 cnt):
     """Colour of one camera ray through film position (fx, fy) in [0,1]^2.
 
     Returns (r, g, b, t, prim, nx, ny, nz); the last five feed the AOVs.
@@ -167,28 +193,36 @@ def shade_sample(geo, acc, cam, lights, shadows, background, seed, pixel, sample
     # Face the normals towards the viewer (surfaces are two-sided).
     if gx * dx + gy * dy + gz * dz > 0.0:
         gx, gy, gz = -gx, -gy, -gz
+    side = 1.0
     if nx * gx + ny * gy + nz * gz < 0.0:
         nx, ny, nz = -nx, -ny, -nz
-    ar, ag, ab = albedo(geo, hit.prim, mat, px, py, pz)
+        side = -1.0
+    ar, ag, ab = surface_albedo(textures, geo, cam, hit.prim, mat, px, py, pz, sxn, syn)
     ka = geo.mat_param[mat, MAT_AMBIENT]
     kd = geo.mat_param[mat, MAT_DIFFUSE]
     ks = geo.mat_param[mat, MAT_SPECULAR]
     shin = geo.mat_param[mat, MAT_SHININESS]
     r, g, b = ka * ar, ka * ag, ka * ab
     eps = RAY_OFFSET * max(scale, abs(px), abs(py), abs(pz))
-    ox, oy, oz = px + eps * gx, py + eps * gy, pz + eps * gz
+    # Shadow rays start from the smooth surface the vertex normals imply,
+    # not the flat facet (Hanika 2021), then off it along the facet normal.
+    sx, sy, sz = smooth_point(geo, hit, px, py, pz, side)
+    lifted = (sx - px) * gx + (sy - py) * gy + (sz - pz) * gz > eps
+    ox, oy, oz = sx + eps * gx, sy + eps * gy, sz + eps * gz
     for li in range(lights.pos.shape[0]):
         lx = lights.pos[li, 0] - px
         ly = lights.pos[li, 1] - py
         lz = lights.pos[li, 2] - pz
         dist = np.sqrt(lx * lx + ly * ly + lz * lz)
         lx, ly, lz = lx / dist, ly / dist, lz / dist
-        # Lit only from the side the geometric normal faces: this skips
-        # shadow rays that could only hit the surface itself and avoids
-        # light leaking past the shadow terminator of smooth normals.
-        if gx * lx + gy * ly + gz * lz <= 0.0:
+        # Lit where the shading normal faces the light.  Where the facet
+        # itself faces away, a ray from a point on it could only hit the
+        # facet; from a point lifted off it (a convex patch near the
+        # terminator) the ray decides, as it would on the curved surface.
+        # With flat normals, spheres and planes this is the facet's test.
+        ndl = nx * lx + ny * ly + nz * lz
+        if ndl <= 0.0 or (gx * lx + gy * ly + gz * lz <= 0.0 and not lifted):
             continue
-        ndl = max(0.0, nx * lx + ny * ly + nz * lz)
         hx, hy, hz = lx - dx, ly - dy, lz - dz
         hl = np.sqrt(hx * hx + hy * hy + hz * hz)
         spec = 0.0
@@ -203,7 +237,7 @@ def shade_sample(geo, acc, cam, lights, shadows, background, seed, pixel, sample
 
 
 @njit(**JIT)
-def render_part(geo, acc, cam, lights, shadows, aovs, background, width, height,
+def render_part(geo, acc, cam, lights, shadows, textures, aovs, background, width, height,
                 y_first, y_end, y_step, spp, seed, image, stats_rows):
     """Rows y_first, y_first + y_step, ... below y_end into image (height,
     width, 3) float32, linear.  Each row counts into its own stats_rows[y]."""
@@ -220,7 +254,7 @@ def render_part(geo, acc, cam, lights, shadows, aovs, background, width, height,
                     key = hash_key(seed, pixel, s, 0x5EED)
                     jx, jy = rand01(key, 0, 0), rand01(key, 0, 1)
                 sr, sg, sb, t, prim, nx, ny, nz = shade_sample(
-                    geo, acc, cam, lights, shadows, background, seed, pixel, s,
+                    geo, acc, cam, lights, shadows, textures, background, seed, pixel, s,
                     (x + jx) / width, (y + jy) / height, cnt)
                 r += sr
                 g += sg
@@ -234,8 +268,8 @@ def render_part(geo, acc, cam, lights, shadows, aovs, background, width, height,
 
 
 @njit(**PARALLEL)
-def render_rows(geo, acc, cam, lights, shadows, aovs, background, width, height, y0, y1,
-                n_threads, spp, seed, image, stats_rows):
+def render_rows(geo, acc, cam, lights, shadows, textures, aovs, background, width, height,
+                y0, y1, n_threads, spp, seed, image, stats_rows):
     """Render rows y0 .. y1-1.
 
     Part k of n_threads renders rows y0 + k, y0 + k + n_threads, ...:
@@ -247,5 +281,5 @@ def render_rows(geo, acc, cam, lights, shadows, aovs, background, width, height,
     """
     n_parts = max(1, min(n_threads, y1 - y0))
     for k in prange(n_parts):
-        render_part(geo, acc, cam, lights, shadows, aovs, background, width, height,
+        render_part(geo, acc, cam, lights, shadows, textures, aovs, background, width, height,
                     y0 + k, y1, n_parts, spp, seed, image, stats_rows)
