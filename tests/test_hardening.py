@@ -212,7 +212,10 @@ def test_16_ctrl_c_at_any_moment_is_130_and_one_line(tmp_path, delay):
     p = subprocess.Popen([sys.executable, "-m", "raytrace", "teapot", "--width", "640",
                           "--height", "480", "--shadows", "soft", "--spp", "8", "-o", "t.png"],
                          cwd=tmp_path,
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         # A job started in the background by a shell (as CI may
+                         # be) inherits SIGINT ignored, and Python keeps it so.
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     time.sleep(delay)
     p.send_signal(signal.SIGINT)
     out, err = p.communicate(timeout=120)
