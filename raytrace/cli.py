@@ -157,6 +157,18 @@ def _write_outputs(result, output, aov, aov_out, heatmap, outputs):
     return notes
 
 
+def _show_structure(result, scene, accel, depth):
+    """The image with the structure's boxes down to ``depth`` drawn over it."""
+    from .driver import camera_buffer
+    from .overlay import draw_outline
+    from .structures import get
+    lo, hi, level = get(accel).outline(result.structure, depth)
+    h, w = result.image.shape[:2]
+    result.stats["structure_shown"] = {"depth": depth, "boxes": int(len(lo))}
+    return draw_outline(result.image, camera_buffer(scene.camera, w, h), lo, hi, level,
+                        max(depth, int(level.max()) if len(level) else 0))
+
+
 def _up_choices():
     from .scenes.views import UP_AXES
     return UP_AXES
@@ -186,9 +198,12 @@ def _click_type(opt):
     return FiniteFloatRange(min=opt.lo, max=hi)
 
 
-def _render_options(command):
-    """Add every render option of options.py to a click command."""
+def _render_options(command, skip=()):
+    """Add every render option of options.py (but those in ``skip``) to a
+    click command."""
     for opt in reversed(OPTIONS):
+        if opt.name in skip:
+            continue
         shown = opt.default_text or opt.default
         command = click.option(opt.flag, opt.name, type=_click_type(opt), default=None,
                                metavar=opt.metavar,
@@ -196,31 +211,72 @@ def _render_options(command):
     return command
 
 
+def _scene_options(command):
+    """How the scene is made: the teapot's detail, a mesh file's framing,
+    the field of view."""
+    options = [
+        click.option("--detail", type=click.IntRange(min=DETAIL.lo, max=DETAIL.hi), default=None,
+                     metavar=DETAIL.metavar, help=f"{DETAIL.help} [default: {DETAIL.default}]."),
+        click.option("--view", type=ViewType(), default=None,
+                     help="Mesh files: front, back, left, right, top, bottom, iso, or "
+                          "AZIMUTH,ELEVATION in degrees [default: iso]."),
+        click.option("--up", type=click.Choice(_up_choices()), default=None,
+                     help="Mesh files: the model's up axis [default: y]."),
+        click.option("--fov", type=FiniteFloatRange(min=FOV_RANGE[0], max=FOV_RANGE[1],
+                                                    min_open=True, max_open=True), default=None,
+                     help="Vertical field of view in degrees [default: the scene's, 60 for "
+                          "meshes]."),
+    ]
+    for option in reversed(options):
+        command = option(command)
+    return command
+
+
+def _scene_kind(scene, detail, view, up):
+    """The scene's kind (load.scene_kind); UsageError for a scene option
+    that does not apply to it."""
+    from .load import scene_kind, unknown_scene_message
+    kind = scene_kind(scene)
+    if kind is None:
+        raise click.UsageError(unknown_scene_message(scene))
+    if detail is not None and not (kind == "builtin" and scene == "teapot"):
+        raise click.UsageError("--detail applies to the teapot scene only")
+    for name, value in (("--view", view), ("--up", up)):
+        if value is not None and kind != "mesh":
+            raise click.UsageError(f"{name} applies to mesh files only")
+    return kind
+
+
+def _check_image_path(flag, path):
+    from pathlib import Path
+
+    from .output import IMAGE_FORMATS
+    if path == "":
+        raise click.UsageError(f"{flag}: empty file name")
+    if path is not None and Path(path).suffix.lower() not in IMAGE_FORMATS:
+        raise click.UsageError(f"{flag}: {path}: unknown image format (use one of "
+                               f"{', '.join(IMAGE_FORMATS)})")
+
+
 @main.command("render")
 @click.argument("scene")
 @click.option("--bvol/--no-bvol", default=None,
               help="Per-object bounding boxes on/off: shorthand for --accel bvol / --accel none.")
 @_render_options
-@click.option("--detail", type=click.IntRange(min=DETAIL.lo, max=DETAIL.hi), default=None,
-              metavar=DETAIL.metavar, help=f"{DETAIL.help} [default: {DETAIL.default}].")
-@click.option("--view", type=ViewType(), default=None,
-              help="Mesh files: front, back, left, right, top, bottom, iso, or AZIMUTH,ELEVATION "
-                   "in degrees [default: iso].")
-@click.option("--up", type=click.Choice(_up_choices()), default=None,
-              help="Mesh files: the model's up axis [default: y].")
-@click.option("--fov", type=FiniteFloatRange(min=FOV_RANGE[0], max=FOV_RANGE[1], min_open=True,
-                                            max_open=True),
-              default=None, help="Vertical field of view in degrees [default: the scene's, 60 for meshes].")
+@_scene_options
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
               help="PNG to write [default: SCENE.png].")
 @click.option("--aov", type=AovType(), default=None,
               help="Also save these buffers (depth,normal,primid,cost) to OUTPUT's name with .aov.npz.")
 @click.option("--heatmap", type=click.Path(dir_okay=False), default=None,
               help="Also write a false-colour PNG of per-pixel cost (box + primitive tests).")
+@click.option("--show-structure", "show_depth", type=click.IntRange(min=0, max=64), default=None,
+              metavar="DEPTH", help="Draw the structure's boxes (BVH nodes, kd-tree cells, grid "
+                                    "cells, object boxes) down to DEPTH over the image.")
 @click.option("--json", "as_json", is_flag=True, help="Print the statistics as JSON on stdout.")
 @click.option("-q", "--quiet", is_flag=True, help="No table, no progress bar.")
-def render_cmd(scene, bvol, detail, view, up, fov, output, aov, heatmap, as_json, quiet,
-               **options):
+def render_cmd(scene, bvol, detail, view, up, fov, output, aov, heatmap, show_depth, as_json,
+               quiet, **options):
     """Render SCENE to PNG and print the statistics table.
 
     SCENE is a built-in scene name (see `raytrace scenes`), a TOML scene
@@ -228,8 +284,6 @@ def render_cmd(scene, bvol, detail, view, up, fov, output, aov, heatmap, as_json
     from an automatic camera on a ground plane.
     """
     from pathlib import Path
-
-    from .load import scene_kind, unknown_scene_message
 
     if bvol is not None:
         implied = "bvol" if bvol else "none"
@@ -241,21 +295,9 @@ def render_cmd(scene, bvol, detail, view, up, fov, output, aov, heatmap, as_json
     # the scene, whose camera a mesh file's framing fits to it.
     width, height = options.pop("width"), options.pop("height")
     options = {k: v for k, v in options.items() if v is not None}
-    kind = scene_kind(scene)
-    if kind is None:
-        raise click.UsageError(unknown_scene_message(scene))
-    if detail is not None and not (kind == "builtin" and scene == "teapot"):
-        raise click.UsageError("--detail applies to the teapot scene only")
-    for name, value in (("--view", view), ("--up", up)):
-        if value is not None and kind != "mesh":
-            raise click.UsageError(f"{name} applies to mesh files only")
-    if output == "":
-        raise click.UsageError("-o/--output: empty file name")
-    from .output import IMAGE_FORMATS
+    kind = _scene_kind(scene, detail, view, up)
     for flag, path in (("-o/--output", output), ("--heatmap", heatmap)):
-        if path is not None and Path(path).suffix.lower() not in IMAGE_FORMATS:
-            raise click.UsageError(f"{flag}: {path}: unknown image format (use one of "
-                                   f"{', '.join(IMAGE_FORMATS)})")
+        _check_image_path(flag, path)
     named = output is not None
     output = output or f"{scene if kind == 'builtin' else Path(scene).stem}.png"
     aov_out = None
@@ -272,6 +314,9 @@ def render_cmd(scene, bvol, detail, view, up, fov, output, aov, heatmap, as_json
         from .output import check_writable
         from .stats import format_table, to_json
 
+        if show_depth is not None:
+            from .structures import DEFAULT, get
+            get(options.get("accel", DEFAULT)).check_outline()
         sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
                         **_view_options(view, up))
         if not named and kind == "toml":      # a scene file's name names its image
@@ -288,6 +333,8 @@ def render_cmd(scene, bvol, detail, view, up, fov, output, aov, heatmap, as_json
             result = render(sc, opts)
         finally:
             progress.close()
+        if show_depth is not None:
+            result.image = _show_structure(result, sc, opts.accel, show_depth)
         from .output import Outputs
         with Outputs() as outputs:
             notes = _write_outputs(result, output, aov, aov_out, heatmap, outputs)
@@ -308,6 +355,87 @@ def render_cmd(scene, bvol, detail, view, up, fov, output, aov, heatmap, as_json
         click.echo(f"wrote {output}")
         for note in notes:
             click.echo(note)
+
+
+QUICK_SIZE = (320, 240)
+
+
+@main.command("compare")
+@click.argument("scene")
+@click.option("--accel", "accel_list", default=None, metavar="LIST",
+              help="Structures to compare, comma-separated; bvh:median and bvh:lbvh are the BVH "
+                   "with another builder [default: every structure].")
+@lambda command: _render_options(command, skip=("accel",))
+@_scene_options
+@click.option("--repeat", type=click.IntRange(min=1, max=100), default=None, metavar="N",
+              help="Render each structure N times, in turn, and keep the fastest [default: 3].")
+@click.option("--quick", is_flag=True,
+              help=f"{QUICK_SIZE[0]}x{QUICK_SIZE[1]} and one render each (unless --width, "
+                   "--height or --repeat say otherwise).")
+@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
+              help="The comparison figure [default: SCENE.compare.png].")
+@click.option("--json", "as_json", is_flag=True, help="Print the comparison as JSON on stdout.")
+@click.option("-q", "--quiet", is_flag=True, help="No table.")
+@click.pass_context
+def compare_cmd(ctx, scene, accel_list, detail, view, up, fov, repeat, quick, output, as_json,
+                quiet, **options):
+    """Render SCENE with every structure and compare them.
+
+    Prints the workshop's table (build and render time, speedup, rays,
+    tests and nodes or cells per ray, memory), checks that every structure
+    made the same image (exit 1 if not), and writes a figure: the image,
+    each structure's cost heatmap on one colour scale, and render times.
+    """
+    from pathlib import Path
+
+    kind = _scene_kind(scene, detail, view, up)
+    _check_image_path("-o/--output", output)
+    width, height = options.pop("width"), options.pop("height")
+    if quick and width is None and height is None:
+        width, height = QUICK_SIZE
+    repeat = repeat or (1 if quick else 3)
+    options = {k: v for k, v in options.items() if v is not None}
+    try:
+        from .compare import compare, default_entries, format_table, parse_entries, to_dict
+        from .compare_figure import figure
+        from .driver import RenderOptions
+        from .load import load_scene
+        from .output import Outputs, check_writable, image_writer
+        from .stats import to_json
+
+        entries = parse_entries(accel_list) if accel_list is not None else default_entries()
+        sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
+                        **_view_options(view, up))
+        stem = sc.name if kind == "toml" else scene if kind == "builtin" else Path(scene).stem
+        output = output or f"{stem}.compare.png"
+        check_writable(output)
+        show = not (quiet or as_json) and _is_tty(sys.stderr)
+        result = compare(sc, entries, RenderOptions(**options), repeat=repeat,
+                         progress=(lambda label: click.echo(f"rendering: {label}", err=True))
+                         if show else None)
+        s = result.entries[0].stats
+        setting = (f"{s['width']}x{s['height']}, {s['spp']} spp, {s['shadows']} shadows, "
+                   f"{s['triangles']:,} triangles, {s['threads']} threads, best of {repeat}")
+        with Outputs() as outputs:
+            outputs.add(output, image_writer(figure(result, setting), output))
+    except OptionError as exc:
+        raise click.UsageError(str(exc)) from None
+    except RaytraceError as exc:
+        raise click.ClickException(str(exc)) from None
+    except MemoryError:
+        raise click.ClickException("out of memory: try a smaller image or fewer samples") from None
+    except KeyboardInterrupt:
+        click.echo("interrupted: no comparison written", err=True)
+        sys.exit(130)
+    if as_json:
+        click.echo(to_json({**to_dict(result), "output": str(output)}))
+    elif not quiet:
+        click.echo(f"{sc.name}: {setting}")
+        click.echo(format_table(result))
+        click.echo(f"wrote {output}")
+    if not result.identical:
+        click.echo(f"Error: {result.differences[0][0]} made a different image", err=True)
+        ctx.exit(1)
 
 
 def entry():

@@ -30,6 +30,14 @@ def colormap(x):
     return (rgb + 0.5).astype(np.uint8)
 
 
+def log_scale(cost, lo, hi):
+    """Positions in [0, 1] of costs on the log1p scale from lo to hi (all
+    0 when lo == hi)."""
+    llo, lhi = np.log1p(lo), np.log1p(hi)
+    span = lhi - llo if hi > lo else 1.0
+    return (np.log1p(np.asarray(cost, dtype=np.float64)) - llo) / span
+
+
 def legend_height(height):
     """Rows of the legend strip: a twelfth of the image, at least 4."""
     return max(4, height // 12)
@@ -41,20 +49,16 @@ def cost_heatmap(cost):
     cost = np.asarray(cost)
     h, w = cost.shape
     lo, hi = int(cost.min()), int(cost.max())
-    llo, lhi = np.log1p(lo), np.log1p(hi)
-    span = lhi - llo if hi > lo else 1.0
-    body = colormap((np.log1p(cost) - llo) / span)
+    body = colormap(log_scale(cost, lo, hi))
 
     rows = legend_height(h)
     ramp = np.linspace(0.0, 1.0, w) if w > 1 else np.zeros(1)
     strip = np.repeat(colormap(ramp)[None], rows, axis=0)
     strip[0] = 0  # a black rule between image and legend
-    # Ticks at powers of ten: the log1p scale puts cost c at
-    # (log1p(c) - llo) / span along the ramp.
-    decade = 1
+    decade = 1                               # a tick at each power of ten
     while decade <= hi and hi > lo:
         if decade >= lo:
-            x = int(round((np.log1p(decade) - llo) / span * (w - 1)))
+            x = int(round(log_scale(decade, lo, hi) * (w - 1)))
             strip[rows // 2:, x] = 255
         decade *= 10
     return np.concatenate([body, strip], axis=0), lo, hi

@@ -8,11 +8,12 @@ A structure ``x`` is two modules and the line below:
 registered for the layout (kernels/query.py).  Nothing is imported, built
 or compiled for a structure the run does not use.
 """
+import functools
 import importlib
 import time
 from dataclasses import dataclass
 
-from .errors import RaytraceError
+from .errors import OptionError, RaytraceError
 
 
 @dataclass(frozen=True)
@@ -23,6 +24,15 @@ class Structure:
     visit_counter: str = None     # its own counter, if any (stats.COUNTERS)
     visit_metric: str = None      # that counter per ray (stats.derive), a bench column
 
+    def load(self, **options):
+        """Seconds spent loading (or compiling) the builder: a build of a
+        few primitives, so the timed build() that follows measures building
+        alone.  Builders are compiled per argument type, never per size, so
+        the tiny scene loads everything the real one uses."""
+        t0 = time.perf_counter()
+        self.build(*_tiny_scene(), **options)
+        return time.perf_counter() - t0
+
     def build(self, geo, obj_ranges, **options):
         """(layout, build seconds); also loads the traversal for the layout.
         options: the build options (bvh_build, leaf_size, grid_density); a
@@ -32,6 +42,17 @@ class Structure:
         t0 = time.perf_counter()
         layout = builder.build(geo, obj_ranges, **options)
         return layout, time.perf_counter() - t0
+
+    def check_outline(self):
+        """RaytraceError unless the structure can be drawn (outline)."""
+        if not hasattr(importlib.import_module(f"raytrace.accel.{self.module}"), "outline"):
+            raise OptionError(f"{self.name} ({self.summary}) has no structure to show")
+
+    def outline(self, layout, depth):
+        """(lo, hi, level) arrays of the structure's boxes down to ``depth``,
+        for drawing over the image (raytrace/overlay.py)."""
+        self.check_outline()
+        return importlib.import_module(f"raytrace.accel.{self.module}").outline(layout, depth)
 
     def statistics(self, layout, n_prims):
         """The structure's own figures (nodes, leaves, depth, memory, ...)."""
@@ -57,6 +78,23 @@ def get(name):
         raise RaytraceError(f"unknown acceleration structure {name!r} "
                             f"(choose from {', '.join(STRUCTURES)})")
     return STRUCTURES[name]
+
+
+@functools.cache
+def _tiny_scene():
+    """(geometry, object ranges) of eight triangles, a sphere and a plane."""
+    import numpy as np
+
+    from .flatten import flatten
+    from .scene import Camera, Mesh, Plane, Scene, Sphere
+    grid = np.array([(x, y, 0.0) for y in range(3) for x in range(3)], dtype=float)
+    quads = [(y * 3 + x, y * 3 + x + 1, y * 3 + x + 4, y * 3 + x + 3)
+             for y in range(2) for x in range(2)]
+    faces = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))])
+    scene = Scene("tiny", Camera((1, 1, 5), (1, 1, 0)),
+                  [Mesh(grid, faces), Sphere((1, 1, 1), 0.5), Plane((0, -1, 0), (0, 1, 0))])
+    geo, ranges, _ = flatten(scene)
+    return geo, ranges
 
 
 def build_structure(name, geo, obj_ranges, **options):

@@ -416,3 +416,23 @@ def statistics(bvh, n_prims):
     out["sah_cost"] = float(TRAVERSAL_COST * visits + tests)
     leaf_depth = np.repeat(depth, is_leaf.sum(axis=1)) + 1
     return out | leaves(bvh.node_count[is_leaf], leaf_depth) | memory(bvh, n_prims)
+
+
+def outline(bvh, depth):
+    """(lo, hi, level) of every box down to ``depth`` (--show-structure):
+    the root's box is level 0, a node's child lanes one deeper than it."""
+    m = len(bvh.node_child)
+    if m == 0:
+        return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, np.int64)
+    used = bvh.node_box[:, 0, :] < np.inf
+    inner = used & (bvh.node_count == 0)
+    node_level = np.zeros(m, np.int64)           # level of the lanes a node holds
+    node_level[0] = 1
+    for node in range(m):                        # depth-first: parents come first
+        node_level[bvh.node_child[node][inner[node]]] = node_level[node] + 1
+    lanes = used & (node_level[:, None] <= depth)
+    lo = np.moveaxis(bvh.node_box[:, 0:3, :], 1, 2)[lanes]
+    hi = np.moveaxis(bvh.node_box[:, 3:6, :], 1, 2)[lanes]
+    level = np.broadcast_to(node_level[:, None], lanes.shape)[lanes]
+    root_lo, root_hi = lo[level == 1].min(axis=0), hi[level == 1].max(axis=0)
+    return (np.vstack([root_lo, lo]), np.vstack([root_hi, hi]), np.concatenate([[0], level]))

@@ -37,3 +37,8 @@ def build(geo, obj_ranges, **_):
 def statistics(bvol, n_prims):
     from .statistics import memory
     return {"boxes": int(len(bvol.obj_lo))} | memory(bvol, n_prims)
+
+
+def outline(bvol, depth):
+    """(lo, hi, level) for --show-structure: each object's box, level 0."""
+    return bvol.obj_lo, bvol.obj_hi, np.zeros(len(bvol.obj_lo), np.int64)

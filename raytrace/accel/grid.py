@@ -154,3 +154,20 @@ def statistics(grid, n_prims):
             "cells_per_primitive": cells / n_prims if n_prims else 0.0,
             "references": refs, "references_per_primitive": refs / n_prims if n_prims else 0.0,
             } | memory(grid, n_prims)
+
+
+def outline(grid, depth):
+    """(lo, hi, level) for --show-structure: the grid's bounds (level 0),
+    then, from depth 1, every cell that holds a primitive (level 1)."""
+    lo, hi = [np.asarray(grid.grid_lo, float)], [np.asarray(grid.grid_hi, float)]
+    levels = [0]
+    if depth >= 1:
+        nx, ny, nz = (int(n) for n in grid.grid_res)
+        full = np.flatnonzero(np.diff(grid.cell_start) > 0)
+        # Cell index x + nx * (y + ny * z), as the builder numbers them.
+        ijk = np.stack([full % nx, full // nx % ny, full // (nx * ny)], axis=1)
+        cell_lo = grid.grid_lo + ijk * grid.grid_cell
+        lo.extend(cell_lo)
+        hi.extend(cell_lo + grid.grid_cell)
+        levels.extend([1] * len(full))
+    return np.array(lo).reshape(-1, 3), np.array(hi).reshape(-1, 3), np.array(levels, np.int64)

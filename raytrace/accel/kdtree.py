@@ -240,3 +240,25 @@ def statistics(tree, n_prims):
     return (out | leaves(tree.node_count[leaf], depth[leaf])
             | {"references": refs, "duplication": refs / n_prims if n_prims else 0.0}
             | memory(tree, n_prims))
+
+
+def outline(tree, depth):
+    """(lo, hi, level) of every cell down to ``depth`` (--show-structure):
+    the bounds are level 0; each split's two halves one deeper, so the
+    splitting planes show as the faces the halves share."""
+    los, his, levels = [], [], []
+    stack = [(0, 0, np.array(tree.lo, float), np.array(tree.hi, float))] if len(tree.node_axis) else []
+    while stack:
+        node, level, lo, hi = stack.pop()
+        los.append(lo)
+        his.append(hi)
+        levels.append(level)
+        axis = int(tree.node_axis[node])
+        if axis == LEAF or level == depth:
+            continue
+        below_hi, above_lo = hi.copy(), lo.copy()
+        below_hi[axis] = above_lo[axis] = tree.node_split[node]
+        stack.append((node + 1, level + 1, lo, below_hi))
+        stack.append((int(tree.node_index[node]), level + 1, above_lo, hi))
+    return (np.array(los).reshape(-1, 3), np.array(his).reshape(-1, 3),
+            np.array(levels, np.int64))
