@@ -417,7 +417,7 @@ def compare_cmd(ctx, scene, accel_list, detail, view, up, fov, repeat, quick, ou
         setting = (f"{s['width']}x{s['height']}, {s['spp']} spp, {s['shadows']} shadows, "
                    f"{s['triangles']:,} triangles, {s['threads']} threads, best of {repeat}")
         with Outputs() as outputs:
-            outputs.add(output, image_writer(figure(result, setting), output))
+            outputs.add(output, image_writer(figure(result, setting)[0], output))
     except OptionError as exc:
         raise click.UsageError(str(exc)) from None
     except RaytraceError as exc:

@@ -32,8 +32,9 @@ def _text_w(draw, text, font):
 
 
 def figure(comparison, setting):
-    """The comparison figure as an (H, W, 3) uint8 array.  ``setting``: one
-    line saying how the scene was rendered (size, shadows, samples)."""
+    """(figure (H, W, 3) uint8, panels): the comparison as one picture and
+    where each panel lies, {"image" or label: (x, y, width, height)}.
+    ``setting``: one line saying how the scene was rendered."""
     from .compare import rows
     h, w = comparison.image.shape[:2]
     # Panels at least 320 wide so the captions fit; small renders are
@@ -78,6 +79,7 @@ def figure(comparison, setting):
     draw.text((width - pad - _text_w(draw, verdict, body_f), pad + line + 4), verdict,
               font=body_f, fill=GOOD if comparison.identical else BAD)
 
+    where = {}
     for k, (name, pixels, r) in enumerate(panels):
         x = pad + (k % cols) * (pw + pad)
         y = top + (k // cols) * cell_h
@@ -92,11 +94,12 @@ def figure(comparison, setting):
         if zoom > 1:
             tile = tile.resize((pw, ph), Image.NEAREST)
         img.paste(tile, (x, y + caption))
+        where[name] = (x, y + caption, pw, ph)
 
     _legend(draw, img, pad, legend_top, width - 2 * pad, lo, hi, body_f, line)
     _bars(draw, pad, chart_top, width - 2 * pad, table, comparison.baseline.label,
           body_f, line, bar_h)
-    return np.asarray(img)
+    return np.asarray(img), where
 
 
 def _legend(draw, img, x, y, span, lo, hi, font, line):
