@@ -10,6 +10,8 @@ workshop     rows Teapot / + hard shadows / + soft shadows (81 samples),
              build excluded), speedup over none, rays, tests per ray, Mrays/s,
              and each image's largest difference from brute force (must be 0).
 scaling      BVH and grid build and render time over teapot tessellations.
+structures   every structure and BVH builder on four scenes, as `raytrace
+             compare` measures them (structures.py).
 peer         our batch ray casting against Embree (embreex) or Open3D, if
              importable, on the same primary and shadow rays (peer.py).
 convergence  soft-shadow error against run time for each sampling pattern
@@ -31,7 +33,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import common  # noqa: E402
 from common import ACCELS, STRUCTURES, fmt_g, fmt_s, interleaved, log, markdown_table, median  # noqa: E402
 
-SECTIONS = ("coldstart", "workshop", "scaling", "peer", "convergence")
+SECTIONS = ("coldstart", "workshop", "scaling", "structures", "peer", "convergence")
 # The scaling table's structures: those whose cost grows slower than the
 # mesh, each with a visit counter of its own (nodes, cells).
 HIERARCHICAL = tuple(n for n, s in STRUCTURES.items() if s.visit_metric)
@@ -247,6 +249,10 @@ def main(quick, json_path, plot_path, sections):
     if "scaling" in chosen:
         report["scaling"] = run_scaling(cfg)
         print(scaling_markdown(report["scaling"]) + "\n", flush=True)
+    if "structures" in chosen:
+        import structures
+        report["structures"] = structures.run(quick)
+        print(structures.markdown(report["structures"]) + "\n", flush=True)
     if "peer" in chosen:
         import peer
         report["peer"] = peer.run(quick)

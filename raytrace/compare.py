@@ -129,7 +129,7 @@ COLUMNS = [  # (key, heading, format)
     ("structure", "Structure", "{}"),
     ("build_s", "Build (ms)", "{:,.2f}"),
     ("render_s", "Render (s)", "{:,.3f}"),
-    ("speedup", "Speedup", "{:,.1f}x"),
+    ("speedup", "Speedup", None),
     ("rays", "Rays", "{:,}"),
     ("prim_tests_per_ray", "Prim tests/ray", "{:,.2f}"),
     ("box_tests_per_ray", "Box tests/ray", "{:,.2f}"),
@@ -138,7 +138,14 @@ COLUMNS = [  # (key, heading, format)
 ]
 
 
+def speedup_text(x):
+    """Two significant figures below 10 (0.045x, 2.1x), whole numbers above."""
+    return f"{x:,.0f}x" if x >= 10 else f"{x:.1f}x" if x >= 1 else f"{x:.2g}x"
+
+
 def _cell(key, fmt, value):
+    if key == "speedup":
+        return speedup_text(value)
     if key == "build_s":
         value *= 1e3
     elif key == "memory_bytes":

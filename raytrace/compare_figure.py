@@ -6,6 +6,7 @@ render time.  Drawn with Pillow alone (a dependency already).
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
+from .compare import identity_line, rows, speedup_text
 from .heatmap import colormap, log_scale
 
 BACKGROUND = (255, 255, 255)
@@ -35,7 +36,6 @@ def figure(comparison, setting):
     """(figure (H, W, 3) uint8, panels): the comparison as one picture and
     where each panel lies, {"image" or label: (x, y, width, height)}.
     ``setting``: one line saying how the scene was rendered."""
-    from .compare import rows
     h, w = comparison.image.shape[:2]
     # Panels at least 320 wide so the captions fit; small renders are
     # enlarged by whole pixels, never smoothed.
@@ -73,7 +73,6 @@ def figure(comparison, setting):
 
     # Title, setting and the identity check.
     draw.text((pad, pad), f"{comparison.scene}: what each structure buys", font=title_f, fill=INK)
-    from .compare import identity_line
     draw.text((pad, pad + line + 4), setting, font=body_f, fill=MUTED)
     verdict = identity_line(comparison)
     draw.text((width - pad - _text_w(draw, verdict, body_f), pad + line + 4), verdict,
@@ -87,7 +86,7 @@ def figure(comparison, setting):
         if r is None:
             note = "the same from every structure" if comparison.identical else "from the first"
         else:
-            note = (f"{r['render_s']:.3f} s   {r['speedup']:.1f}x   "
+            note = (f"{r['render_s']:.3f} s   {speedup_text(r['speedup'])}   "
                     f"{r['prim_tests_per_ray'] + r['box_tests_per_ray']:,.1f} tests/ray")
         draw.text((x, y + line), note, font=body_f, fill=MUTED)
         tile = Image.fromarray(np.ascontiguousarray(pixels))
@@ -139,4 +138,4 @@ def _bars(draw, x, y, span, table, baseline, font, line, bar_h):
 
 
 def _bar_value(r):
-    return f"{r['render_s']:.3f} s   {r['speedup']:.1f}x"
+    return f"{r['render_s']:.3f} s   {speedup_text(r['speedup'])}"

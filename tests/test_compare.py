@@ -155,3 +155,34 @@ def test_outlines_nest_and_cover(name, teapot_scene):
         for k in np.flatnonzero(level >= 2):
             inside = (level == level[k] - 1) & (lo <= lo[k]).all(1) & (hi >= hi[k]).all(1)
             assert inside.any()
+
+
+def test_speedup_keeps_two_figures_below_ten():
+    assert [cmp.speedup_text(x) for x in (0.04512, 0.5, 2.14, 38.4)] == ["0.045x", "0.5x", "2.1x",
+                                                                          "38x"]
+
+
+def test_the_teaching_scenes_are_what_the_script_writes(tmp_path):
+    import sys
+    from pathlib import Path
+    bench = Path(__file__).resolve().parent.parent / "bench"
+    sys.path.insert(0, str(bench))
+    try:
+        import make_scenes
+    finally:
+        sys.path.remove(str(bench))
+    make_scenes.main(tmp_path)
+    for name in ("stadium.obj", "stadium.toml", "sizes.toml"):
+        assert (tmp_path / name).read_bytes() == (make_scenes.ASSETS / name).read_bytes(), name
+
+
+def test_in_the_stadium_the_grid_tests_far_more_than_the_bvh():
+    from raytrace.load import load_scene
+    from raytrace.scenes.examples import example_files
+    path = next(p for p, _ in example_files() if str(p).endswith("stadium.toml"))
+    scene = load_scene(path, width=32, height=24)
+    got = cmp.compare(scene, cmp.parse_entries("bvh,grid"), RenderOptions(shadows="none"))
+    bvh, grid = cmp.rows(got)
+    assert got.identical
+    # The teapot's triangles crowd a few of the grid's stadium-sized cells.
+    assert grid["prim_tests_per_ray"] > 20 * bvh["prim_tests_per_ray"]
