@@ -52,9 +52,9 @@ def occluded(geo, acc, o, d, t_max):
     return hit, cnt.sum(axis=0)
 
 
-def assert_same_as_brute(geo, ranges, o, d, t_max_occ):
+def assert_same_as_brute(geo, ranges, o, d, t_max_occ, name="bvh", **build_opts):
     brute, _ = build_accel("none", geo, ranges)
-    bvh, _ = build_accel("bvh", geo, ranges)
+    bvh, _ = build_accel(name, geo, ranges, **build_opts)
     (t0, p0, u0, v0), _ = closest(geo, brute, o, d)
     (t1, p1, u1, v1), _ = closest(geo, bvh, o, d)
     bad = ~((t0 == t1) & (p0 == p1) & (u0 == u1) & (v0 == v1))
@@ -286,11 +286,19 @@ def test_build_kernel_depth_reported():
 
 # ---------------------------------------------------------------- traversal
 
+# Every structure and builder whose traversal prunes (brute force is the
+# reference; per-object boxes of one soup are brute force with a box test).
+PRUNING = [("bvh", {}), ("bvh", {"bvh_build": "median"}), ("bvh", {"bvh_build": "lbvh"}),
+           ("bvh", {"leaf_size": 1}), ("grid", {}), ("grid", {"grid_density": 0.3}),
+           ("kdtree", {})]
+
+
+@pytest.mark.parametrize("name, build_opts", PRUNING)
 @given(seed=st.integers(0, 2**32 - 1), n_tris=st.integers(0, 200),
        n_spheres=st.integers(0, 3), size=st.sampled_from([1e-3, 0.05, 0.3]),
        inside=st.booleans())
 @PROPERTY
-def test_matches_brute_force(seed, n_tris, n_spheres, size, inside):
+def test_matches_brute_force(name, build_opts, seed, n_tris, n_spheres, size, inside):
     rng = np.random.default_rng(seed)
     tris = random_soup(rng, n_tris, size)
     spheres = [(rng.random(3) * 2 - 1, 0.05 + 0.3 * rng.random()) for _ in range(n_spheres)]
@@ -302,7 +310,7 @@ def test_matches_brute_force(seed, n_tris, n_spheres, size, inside):
     if not inside:
         d[n_rays // 3:] -= o[n_rays // 3:] * 0.3
     t_max = rng.random(n_rays) * 4
-    assert_same_as_brute(geo, ranges, o, d, t_max)
+    assert_same_as_brute(geo, ranges, o, d, t_max, name, **build_opts)
 
 
 def test_axis_parallel_grid_of_rays():

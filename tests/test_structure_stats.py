@@ -67,3 +67,27 @@ def test_cli_shows_structure_statistics(accel, tmp_path):
     table = CliRunner().invoke(main, ["teapot", "--accel", accel, "--width", "16", "--height", "12",
                                       "-o", str(tmp_path / "t.png")]).output
     assert "Structure: memory (bytes)" in table
+
+
+# Four triangles: two unit squares in the plane z = 0, ten units apart.
+FOUR = ([[0, 0, 0], [1, 0, 0], [1, 1, 0]], [[0, 0, 0], [1, 1, 0], [0, 1, 0]],
+        [[10, 0, 0], [11, 0, 0], [11, 1, 0]], [[10, 0, 0], [11, 1, 0], [10, 1, 0]])
+
+
+@pytest.mark.parametrize("leaf_size, leaves, per_leaf", [(4, 2, 2), (1, 4, 1)])
+def test_bvh_of_four_triangles_is_the_known_tree(leaf_size, leaves, per_leaf):
+    """By the SAH (half areas of flat boxes: a square 1, the root 11): a leaf
+    of four costs 4, splitting the squares apart 1 + (2 + 2) / 11; a square's
+    two triangles share its box, so splitting them costs 1 + 1 + 1 against 2
+    for a leaf.  With leaves of one they must split, and the 4-wide
+    collapse lifts all four leaves into the root."""
+    geo, ranges = scene_of(*FOUR)
+    s = get("bvh")
+    bvh, _ = s.build(geo, ranges, leaf_size=leaf_size)
+    st = s.statistics(bvh, 4)
+    got = (st["nodes"], st["leaves"], st["max_depth"], st["mean_leaf_depth"],
+           st["primitives_per_leaf_max"], st["leaf_size_histogram"][str(per_leaf)])
+    assert got == (1, leaves, 1, 1.0, per_leaf, leaves)
+    lanes = sorted(tuple(sorted(bvh.prim_ids[c:c + n].tolist()))
+                   for c, n in zip(bvh.node_child[0], bvh.node_count[0]) if n > 0)
+    assert lanes == ([(0, 1), (2, 3)] if leaf_size == 4 else [(0,), (1,), (2,), (3,)])
