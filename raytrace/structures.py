@@ -4,7 +4,8 @@ CreateAccelerator).
 
 A structure ``x`` is two modules and the line below:
 ``raytrace/accel/x.py`` defines its layout (a namedtuple class),
-``build(geo, obj_ranges)`` and ``statistics(layout, n_prims)``; ``raytrace/kernels/x.py`` its traversal,
+``build(geo, obj_ranges)``, ``statistics(layout, n_prims)`` and, to be drawn
+(--show-structure), ``outline(layout, depth)``; ``raytrace/kernels/x.py`` its traversal,
 registered for the layout (kernels/query.py).  Nothing is imported, built
 or compiled for a structure the run does not use.
 """

@@ -56,5 +56,6 @@ def test_readme_options_table_is_the_option_definitions():
 
 def test_readme_is_short():
     """The README is for users; design notes and full benchmark output live
-    in docs/."""
-    assert len(README.read_text().split()) < 2500
+    in docs/.  (2,800 since it gained `raytrace compare` and the teaching
+    scenes' table, which issue 14 asks for there; it was 7,000.)"""
+    assert len(README.read_text().split()) < 2800
