@@ -6,9 +6,10 @@ runs, with an empty Numba cache, in a fresh process.
 Every row is a subprocess of its own with a new, empty cache directory
 (XDG_CACHE_HOME and NUMBA_CACHE_DIR), so nothing compiled by an earlier row
 or an earlier run is reused.  Wall s: the whole subprocess, Python start-up
-and imports included.  Compile s: the kernel's compile (the CLI's
-``time.compile_s``, or the first call's time for the ray-casting API).
-Build s: the structure build, which includes compiling its builder.
+and imports included.  Compile s: the CLI's ``time.compile_s`` (the
+render kernel's and the structure builder's compile), or the first call's
+time for the ray-casting API.  Build s: the CLI's build alone; for the
+builder rows, the first build, its compile included.
 
 A second table adds options one at a time to ONE cache, as a user meets
 them: the first ``raytrace teapot``, then ``--accel grid``, ``--shadows
