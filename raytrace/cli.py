@@ -3,13 +3,14 @@
 Bad arguments exit 2 (click's UsageError), bad input or runtime failures
 exit 1 (ClickException); neither prints a traceback.
 """
+import contextlib
 import sys
 import time
 
 import click
 
-from .errors import OptionError, RaytraceError
-from .options import DETAIL, FOV_RANGE, OPTIONS
+from .errors import OptionError, RaytraceError, RaytraceWarning
+from .options import CREASE, DETAIL, FOV_RANGE, OPTIONS
 
 
 class DefaultRenderGroup(click.Group):
@@ -135,6 +136,23 @@ def _view_options(view, up):
     return opts
 
 
+@contextlib.contextmanager
+def _warnings_once():
+    """Show each RaytraceWarning raised inside as one line on stderr, once."""
+    import warnings
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", RaytraceWarning)
+        try:
+            yield
+        finally:
+            ours = [w for w in caught if issubclass(w.category, RaytraceWarning)]
+            for message in dict.fromkeys(str(w.message) for w in ours):
+                click.echo(f"warning: {message}", err=True)
+            for w in caught:
+                if w not in ours:
+                    warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+
+
 def _write_outputs(result, output, aov, aov_out, heatmap, outputs):
     """Write the image, any AOVs and the heatmap as one commit (the Outputs
     ``outputs``: all or none); record them in the stats and return the lines
@@ -208,6 +226,11 @@ def _render_options(command):
                    "in degrees [default: iso].")
 @click.option("--up", type=click.Choice(_up_choices()), default=None,
               help="Mesh files: the model's up axis [default: y].")
+@click.option("--crease", type=FiniteFloatRange(min=CREASE.lo, max=CREASE.hi), default=None,
+              metavar=CREASE.metavar, help=f"{CREASE.help[0].upper()}{CREASE.help[1:]} (when the "
+              f"file has no normals) [default: {CREASE.default:g}].")
+@click.option("--flat", is_flag=True, default=None,
+              help="Mesh files: flat shading, one normal per triangle.")
 @click.option("--fov", type=FiniteFloatRange(min=FOV_RANGE[0], max=FOV_RANGE[1], min_open=True,
                                             max_open=True),
               default=None, help="Vertical field of view in degrees [default: the scene's, 60 for meshes].")
@@ -219,8 +242,8 @@ def _render_options(command):
               help="Also write a false-colour PNG of per-pixel cost (box + primitive tests).")
 @click.option("--json", "as_json", is_flag=True, help="Print the statistics as JSON on stdout.")
 @click.option("-q", "--quiet", is_flag=True, help="No table, no progress bar.")
-def render_cmd(scene, bvol, detail, view, up, fov, output, aov, heatmap, as_json, quiet,
-               **options):
+def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, heatmap, as_json,
+               quiet, **options):
     """Render SCENE to PNG and print the statistics table.
 
     SCENE is a built-in scene name (see `raytrace scenes`), a TOML scene
@@ -246,9 +269,11 @@ def render_cmd(scene, bvol, detail, view, up, fov, output, aov, heatmap, as_json
         raise click.UsageError(unknown_scene_message(scene))
     if detail is not None and not (kind == "builtin" and scene == "teapot"):
         raise click.UsageError("--detail applies to the teapot scene only")
-    for name, value in (("--view", view), ("--up", up)):
+    for name, value in (("--view", view), ("--up", up), ("--crease", crease), ("--flat", flat)):
         if value is not None and kind != "mesh":
             raise click.UsageError(f"{name} applies to mesh files only")
+    if crease is not None and flat:
+        raise click.UsageError("--crease and --flat contradict each other")
     if output == "":
         raise click.UsageError("-o/--output: empty file name")
     from .output import IMAGE_FORMATS
@@ -272,8 +297,9 @@ def render_cmd(scene, bvol, detail, view, up, fov, output, aov, heatmap, as_json
         from .output import check_writable
         from .stats import format_table, to_json
 
-        sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
-                        **_view_options(view, up))
+        with _warnings_once():
+            sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
+                            crease=crease, flat=flat, **_view_options(view, up))
         if not named and kind == "toml":      # a scene file's name names its image
             output = f"{sc.name}.png"
             if aov:

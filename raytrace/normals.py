@@ -51,8 +51,8 @@ def crease_normals(vertices, faces, crease=DEFAULT_CREASE):
     Faces whose normals differ by more than ``crease`` degrees do not share
     a normal at their common edge's vertices; such a vertex is copied once
     per smooth group (appended after the original vertices, whose indices
-    stay as they were), so a cube gets 24 vertices and 6 normals and a
-    sphere keeps its vertices.  A group whose weighted normals cancel takes
+    stay as they were), so a cube's faces use 24 vertices and 6 normals and
+    a sphere keeps its vertices.  A group whose weighted normals cancel takes
     one of its faces' normals.
     """
     v = np.asarray(vertices, dtype=np.float64)
@@ -63,7 +63,10 @@ def crease_normals(vertices, faces, crease=DEFAULT_CREASE):
     cross, angles = _face_frame(v, f)
     fn = unit_rows(cross)
     corner_vertex = f.ravel()                     # corner c = 3 * face + k
-    groups = _smooth_groups(f, n, fn, math.cos(math.radians(crease)))
+    # Faces meet where their corners share a position, whether or not they
+    # share a vertex index: an STL file repeats each vertex for every face.
+    position, n_positions = _positions(v)
+    groups = _smooth_groups(position[f], n_positions, fn, math.cos(math.radians(crease)))
 
     # One output vertex per group: a vertex's first group (smallest root)
     # keeps its index, further groups are appended.
@@ -90,10 +93,24 @@ def crease_normals(vertices, faces, crease=DEFAULT_CREASE):
     return out_v, new_index[group_of_corner].reshape(m, 3), out_n
 
 
+def _positions(v):
+    """(id of each vertex's position, number of positions): vertices with
+    the same coordinates, bit for bit, share an id."""
+    bits = np.ascontiguousarray(v).view(np.int64)
+    order = np.lexsort(bits.T[::-1])
+    ordered = bits[order]
+    new = np.ones(len(v), dtype=bool)
+    new[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
+    ids = np.empty(len(v), dtype=np.int64)
+    ids[order] = np.cumsum(new) - 1
+    return ids, int(new.sum())
+
+
 def _smooth_groups(f, n, fn, cos_crease):
     """For each corner, the smallest corner index of its smooth group: the
-    corners at the same vertex linked through edges shared by two faces
-    whose normals are within the crease angle."""
+    corners at the same position (``f`` holds the n position ids) linked
+    through edges shared by two faces whose normals are within the crease
+    angle."""
     # Half-edge h = 3 * face + k runs from corner k to corner k + 1.
     a = f.ravel()
     b = f[:, [1, 2, 0]].ravel()

@@ -20,6 +20,16 @@ def test_cube_keeps_its_edges():
     assert len(np.unique(n, axis=0)) == 6
 
 
+def test_triangle_soup_is_smoothed_like_a_welded_mesh():
+    """An STL file repeats each vertex for every face: faces still meet
+    where their corners have the same coordinates."""
+    s = trimesh.creation.icosphere(subdivisions=2)
+    soup_v, soup_f = s.vertices[s.faces].reshape(-1, 3), np.arange(3 * len(s.faces)).reshape(-1, 3)
+    v, f, n = crease_normals(soup_v, soup_f)
+    assert same_triangles(soup_v, soup_f, v, f)
+    assert np.allclose(n[f], crease_normals(s.vertices, s.faces)[2][s.faces], rtol=0, atol=1e-15)
+
+
 def test_sphere_is_smooth():
     s = trimesh.creation.icosphere(subdivisions=4, radius=2.0)
     v, f, n = crease_normals(s.vertices, s.faces)
