@@ -227,8 +227,8 @@ def _render_options(command):
 @click.option("--up", type=click.Choice(_up_choices()), default=None,
               help="Mesh files: the model's up axis [default: y].")
 @click.option("--crease", type=FiniteFloatRange(min=CREASE.lo, max=CREASE.hi), default=None,
-              metavar=CREASE.metavar, help=f"{CREASE.help[0].upper()}{CREASE.help[1:]} (when the "
-              f"file has no normals) [default: {CREASE.default:g}].")
+              metavar=CREASE.metavar, help=f"{CREASE.help[0].upper()}{CREASE.help[1:]} (degrees; "
+              f"when the file has no normals) [default: {CREASE.default:g}].")
 @click.option("--flat", is_flag=True, default=None,
               help="Mesh files: flat shading, one normal per triangle.")
 @click.option("--fov", type=FiniteFloatRange(min=FOV_RANGE[0], max=FOV_RANGE[1], min_open=True,
