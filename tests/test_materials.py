@@ -144,3 +144,16 @@ def test_gltf_file_materials(tmp_path):
     scene = raytrace.load_scene(tmp_path / "box.glb")
     assert np.allclose(scene.objects[0].material.color, np.round(np.array([0.2, 0.4, 0.6]) * 255) / 255)
     assert scene.objects[0].material.shininess == 1.0
+
+
+def test_toys_example_keeps_its_mtl_colours():
+    from raytrace.scenes.assets import assets_dir
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")            # a shipped example warns of nothing
+        scene = raytrace.load_scene(assets_dir() / "toys.toml")
+    colors = {m.material.color for m in meshes_of(scene)}
+    assert colors == {(0.7, 0.1, 0.08), (0.08, 0.22, 0.65), (0.85, 0.6, 0.08), (0.12, 0.5, 0.18)}
+
+
+def meshes_of(scene):
+    return [o for o in scene.objects if isinstance(o, Mesh)]
