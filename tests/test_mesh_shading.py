@@ -94,6 +94,7 @@ def scene_file(tmp_path, extra=""):
     return path
 
 
+@pytest.mark.filterwarnings("ignore::raytrace.errors.RaytraceWarning")   # the glass: not tested here
 def test_scene_file_smooth_and_crease(tmp_path):
     scene = raytrace.load_scene(scene_file(tmp_path, "smooth = false\n"))
     assert [o.normals is None for o in scene.objects] == [False, False, True, True]
