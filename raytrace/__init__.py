@@ -10,10 +10,10 @@
 the renderer's kernels; ``cast_rays`` and ``occluded`` do one batch.  Importing this package is cheap: NumPy,
 Numba and trimesh are imported by the first call that needs them.
 """
-from .errors import RaytraceError
+from .errors import RaytraceError, RaytraceWarning
 
 __all__ = ["load_scene", "render", "RayScene", "cast_rays", "occluded", "create_rays_pinhole",
-           "create_rays_from_matrices", "RaytraceError"]
+           "create_rays_from_matrices", "RaytraceError", "RaytraceWarning"]
 # Imported on first use, so that `import raytrace` stays light.
 _LAZY = {"RayScene": "rayscene", "create_rays_pinhole": "rayscene",
          "create_rays_from_matrices": "rayscene"}
@@ -24,8 +24,8 @@ def load_scene(name_or_path, **opts):
     (.obj, .ply, .stl, .off, .glb: framed by an automatic camera, on a
     ground plane) or a TOML scene file.
 
-    Options: detail (teapot), view / azimuth / elevation / up (mesh files),
-    fov, width, height.  See raytrace.load.load_scene.
+    Options: detail (teapot), view / azimuth / elevation / up / crease /
+    flat (mesh files), fov, width, height.  See raytrace.load.load_scene.
     """
     from .load import load_scene as _load
     return _load(name_or_path, **opts)

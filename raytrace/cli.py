@@ -3,13 +3,14 @@
 Bad arguments exit 2 (click's UsageError), bad input or runtime failures
 exit 1 (ClickException); neither prints a traceback.
 """
+import contextlib
 import sys
 import time
 
 import click
 
-from .errors import OptionError, RaytraceError
-from .options import DETAIL, FOV_RANGE, OPTIONS
+from .errors import OptionError, RaytraceError, RaytraceWarning
+from .options import CREASE, DETAIL, FOV_RANGE, OPTIONS
 
 
 class DefaultRenderGroup(click.Group):
@@ -135,6 +136,23 @@ def _view_options(view, up):
     return opts
 
 
+@contextlib.contextmanager
+def _warnings_once():
+    """Show each RaytraceWarning raised inside as one line on stderr, once."""
+    import warnings
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", RaytraceWarning)
+        try:
+            yield
+        finally:
+            ours = [w for w in caught if issubclass(w.category, RaytraceWarning)]
+            for message in dict.fromkeys(str(w.message) for w in ours):
+                click.echo(f"warning: {message}", err=True)
+            for w in caught:
+                if w not in ours:
+                    warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+
+
 def _write_outputs(result, output, aov, aov_out, heatmap, outputs):
     """Write the image, any AOVs and the heatmap as one commit (the Outputs
     ``outputs``: all or none); record them in the stats and return the lines
@@ -222,6 +240,12 @@ def _scene_options(command):
                           "AZIMUTH,ELEVATION in degrees [default: iso]."),
         click.option("--up", type=click.Choice(_up_choices()), default=None,
                      help="Mesh files: the model's up axis [default: y]."),
+        click.option("--crease", type=FiniteFloatRange(min=CREASE.lo, max=CREASE.hi), default=None,
+                     metavar=CREASE.metavar,
+                     help=f"{CREASE.help[0].upper()}{CREASE.help[1:]} (degrees; when the file has "
+                          f"no normals) [default: {CREASE.default:g}]."),
+        click.option("--flat", is_flag=True, default=None,
+                     help="Mesh files: flat shading, one normal per triangle."),
         click.option("--fov", type=FiniteFloatRange(min=FOV_RANGE[0], max=FOV_RANGE[1],
                                                     min_open=True, max_open=True), default=None,
                      help="Vertical field of view in degrees [default: the scene's, 60 for "
@@ -232,7 +256,7 @@ def _scene_options(command):
     return command
 
 
-def _scene_kind(scene, detail, view, up):
+def _scene_kind(scene, detail, view, up, crease, flat):
     """The scene's kind (load.scene_kind); UsageError for a scene option
     that does not apply to it."""
     from .load import scene_kind, unknown_scene_message
@@ -241,9 +265,11 @@ def _scene_kind(scene, detail, view, up):
         raise click.UsageError(unknown_scene_message(scene))
     if detail is not None and not (kind == "builtin" and scene == "teapot"):
         raise click.UsageError("--detail applies to the teapot scene only")
-    for name, value in (("--view", view), ("--up", up)):
+    for name, value in (("--view", view), ("--up", up), ("--crease", crease), ("--flat", flat)):
         if value is not None and kind != "mesh":
             raise click.UsageError(f"{name} applies to mesh files only")
+    if crease is not None and flat:
+        raise click.UsageError("--crease and --flat contradict each other")
     return kind
 
 
@@ -275,8 +301,8 @@ def _check_image_path(flag, path):
                                     "cells, object boxes) down to DEPTH over the image.")
 @click.option("--json", "as_json", is_flag=True, help="Print the statistics as JSON on stdout.")
 @click.option("-q", "--quiet", is_flag=True, help="No table, no progress bar.")
-def render_cmd(scene, bvol, detail, view, up, fov, output, aov, heatmap, show_depth, as_json,
-               quiet, **options):
+def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, heatmap, show_depth,
+               as_json, quiet, **options):
     """Render SCENE to PNG and print the statistics table.
 
     SCENE is a built-in scene name (see `raytrace scenes`), a TOML scene
@@ -295,7 +321,7 @@ def render_cmd(scene, bvol, detail, view, up, fov, output, aov, heatmap, show_de
     # the scene, whose camera a mesh file's framing fits to it.
     width, height = options.pop("width"), options.pop("height")
     options = {k: v for k, v in options.items() if v is not None}
-    kind = _scene_kind(scene, detail, view, up)
+    kind = _scene_kind(scene, detail, view, up, crease, flat)
     for flag, path in (("-o/--output", output), ("--heatmap", heatmap)):
         _check_image_path(flag, path)
     named = output is not None
@@ -317,8 +343,9 @@ def render_cmd(scene, bvol, detail, view, up, fov, output, aov, heatmap, show_de
         if show_depth is not None:
             from .structures import DEFAULT, get
             get(options.get("accel", DEFAULT)).check_outline()
-        sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
-                        **_view_options(view, up))
+        with _warnings_once():
+            sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
+                            crease=crease, flat=flat, **_view_options(view, up))
         if not named and kind == "toml":      # a scene file's name names its image
             output = f"{sc.name}.png"
             if aov:
@@ -377,8 +404,8 @@ QUICK_SIZE = (320, 240)
 @click.option("--json", "as_json", is_flag=True, help="Print the comparison as JSON on stdout.")
 @click.option("-q", "--quiet", is_flag=True, help="No table.")
 @click.pass_context
-def compare_cmd(ctx, scene, accel_list, detail, view, up, fov, repeat, quick, output, as_json,
-                quiet, **options):
+def compare_cmd(ctx, scene, accel_list, detail, view, up, crease, flat, fov, repeat, quick, output,
+                as_json, quiet, **options):
     """Render SCENE with every structure and compare them.
 
     Prints the workshop's table (build and render time, speedup, rays,
@@ -388,7 +415,7 @@ def compare_cmd(ctx, scene, accel_list, detail, view, up, fov, repeat, quick, ou
     """
     from pathlib import Path
 
-    kind = _scene_kind(scene, detail, view, up)
+    kind = _scene_kind(scene, detail, view, up, crease, flat)
     _check_image_path("-o/--output", output)
     width, height = options.pop("width"), options.pop("height")
     if quick and width is None and height is None:
@@ -404,8 +431,9 @@ def compare_cmd(ctx, scene, accel_list, detail, view, up, fov, repeat, quick, ou
         from .stats import to_json
 
         entries = parse_entries(accel_list) if accel_list is not None else default_entries()
-        sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
-                        **_view_options(view, up))
+        with _warnings_once():
+            sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
+                            crease=crease, flat=flat, **_view_options(view, up))
         stem = sc.name if kind == "toml" else scene if kind == "builtin" else Path(scene).stem
         output = output or f"{stem}.compare.png"
         check_writable(output)

@@ -3,12 +3,14 @@ a TOML scene file."""
 import math
 from pathlib import Path
 
-from .errors import RaytraceError
+import numpy as np
+
+from .errors import RaytraceError, warn
 from .io.mesh import MESH_EXTENSIONS, is_mesh_path
 from .options import DETAIL
 
 SCENE_EXTENSIONS = (".toml",)
-MESH_ONLY = ("view", "azimuth", "elevation", "up")
+MESH_ONLY = ("view", "azimuth", "elevation", "up", "crease", "flat")
 
 
 def scene_kind(name):
@@ -31,7 +33,7 @@ def unknown_scene_message(name):
 
 
 def load_scene(name_or_path, *, detail=None, view=None, azimuth=None, elevation=None, up=None,
-               fov=None, width=None, height=None):
+               crease=None, flat=None, fov=None, width=None, height=None):
     """A Scene from a built-in name ("teapot"), a mesh file or a .toml file.
 
     detail: teapot tessellation (built-in teapot only).
@@ -39,6 +41,11 @@ def load_scene(name_or_path, *, detail=None, view=None, azimuth=None, elevation=
     only): a named view (front, back, left, right, top, bottom, iso), or an
     azimuth/elevation pair in degrees, about the up axis (x, y, z, -x, -y,
     -z; default y).
+    crease, flat: a mesh file's shading (mesh files only): its own vertex
+    normals if it has them, else normals smooth across edges up to
+    ``crease`` degrees (default 35) and split at sharper ones; flat=True
+    shades each triangle flat.  A file's materials and what cannot be
+    shown of them are told as RaytraceWarnings.
     fov, width, height: override the camera's field of view (degrees) and
     image size; a mesh file's camera is framed for them.
     """
@@ -48,7 +55,8 @@ def load_scene(name_or_path, *, detail=None, view=None, azimuth=None, elevation=
     if kind is None:
         raise RaytraceError(unknown_scene_message(name_or_path))
     _check_view_numbers(width=width, height=height, fov=fov, azimuth=azimuth, elevation=elevation)
-    mesh_opts = dict(view=view, azimuth=azimuth, elevation=elevation, up=up)
+    mesh_opts = dict(view=view, azimuth=azimuth, elevation=elevation, up=up, crease=crease,
+                     flat=flat)
     given = [k for k, v in mesh_opts.items() if v is not None]
     if given and kind != "mesh":
         raise RaytraceError(f"{given[0]} applies to mesh files only ({', '.join(MESH_EXTENSIONS)})")
@@ -59,17 +67,22 @@ def load_scene(name_or_path, *, detail=None, view=None, azimuth=None, elevation=
             raise RaytraceError(f"detail must be an integer from {DETAIL.lo} to {DETAIL.hi}, "
                                 f"got {detail!r}")
 
+    crease = check_shading(crease, flat)
+
     if kind == "mesh":
-        from .io.mesh import read_mesh
-        from .scenes.framing import mesh_scene
+        from .io.mesh import part_mesh, read_mesh_parts
+        from .scene import Material
+        from .scenes.framing import MESH_MATERIAL, mesh_scene
         path = Path(name_or_path)
-        vertices, faces = read_mesh(path)
+        parts = read_mesh_parts(path, warn=warn, base=Material(**MESH_MATERIAL))
         from .flatten import degenerate_mask
-        if degenerate_mask(vertices[faces[:, 0]], vertices[faces[:, 1]], vertices[faces[:, 2]]).all():
+        if all(degenerate_mask(*(p.vertices[p.faces[:, k]] for k in range(3))).all() for p in parts):
             raise RaytraceError(f"{path}: no non-degenerate triangles (every face has no area)")
+        meshes = [part_mesh(p, Material(**MESH_MATERIAL), crease, flat, str(path)) for p in parts]
         extra = {k: v for k, v in dict(fov=fov, width=width, height=height).items() if v is not None}
-        return mesh_scene(vertices, faces, name=path.stem, up=up or "y", view=view,
-                          azimuth=azimuth, elevation=elevation, source=path, **extra)
+        return mesh_scene(np.concatenate([p.vertices for p in parts]), None, name=path.stem,
+                          up=up or "y", view=view, azimuth=azimuth, elevation=elevation,
+                          source=path, meshes=meshes, **extra)
     if kind == "builtin":
         from .scenes.builtin import BUILTIN
         factory = BUILTIN[str(name_or_path)][0]
@@ -84,6 +97,20 @@ def load_scene(name_or_path, *, detail=None, view=None, azimuth=None, elevation=
     if height is not None:
         scene.camera.height = height
     return scene
+
+
+def check_shading(crease, flat):
+    """The crease angle to use (the default if None), or a RaytraceError."""
+    from .normals import DEFAULT_CREASE
+    from .options import CREASE
+    if flat is not None and not isinstance(flat, bool):
+        raise RaytraceError(f"flat must be True or False, got {flat!r}")
+    if crease is None:
+        return DEFAULT_CREASE
+    if flat:
+        raise RaytraceError("crease and flat contradict each other (flat shading has no creases)")
+    CREASE.check(crease)
+    return float(crease)
 
 
 def _check_view_numbers(**values):

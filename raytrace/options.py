@@ -122,3 +122,8 @@ def readme_row(opt):
 DETAIL = Option("detail", "int", 4, "teapot tessellation: N x N quads per Bezier patch (4: 992 "
                 "triangles; 43: 117,992)", lo=1, hi=256, metavar="N")
 FOV_RANGE = (0.0, 180.0)   # degrees, both ends excluded
+# Mesh files' smooth shading: normals are split where faces meet at more
+# than this (scene files' meshes take it as `crease`).
+CREASE = Option("crease", "float", 35.0, "mesh files: smooth normals across edges up to this "
+                "angle, split at sharper ones", lo=0.0, hi=180.0, noun="crease angle",
+                metavar="DEG")

@@ -84,6 +84,12 @@ class Fields:
             self.fail(key, _range(lo, hi, value))
         return value
 
+    def boolean(self, key, default=None):
+        value, given = self._get(key, default, False)
+        if given and not isinstance(value, bool):
+            self.fail(key, f"expected true or false, got {_shown(value)}")
+        return value
+
     def string(self, key, default=None, required=False, choices=None):
         value, given = self._get(key, default, required)
         if not given:

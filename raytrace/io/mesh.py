@@ -9,11 +9,13 @@ them becomes a RaytraceError naming the file.
 import os
 import re
 import stat
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import RaytraceError
+from ..scene import Material
 
 MESH_EXTENSIONS = (".obj", ".ply", ".stl", ".off", ".glb")
 
@@ -136,35 +138,154 @@ def check_mesh_arrays(name, vertices, faces):
     return v, f
 
 
+@dataclass
+class MeshPart:
+    """One material's faces of a mesh file, placed where the file puts them."""
+    vertices: np.ndarray             # (n, 3) float64
+    faces: np.ndarray                # (m, 3) int64
+    normals: np.ndarray = None       # (n, 3) the file's vertex normals, or None if it has none
+    material: object = None          # the file's Material for these faces, or None
+
+
 def read_mesh(path):
     """(vertices (n, 3) float64, faces (m, 3) int64) of a mesh file; a file
     holding several meshes (a glTF scene) gives them all, transformed."""
+    parts = read_mesh_parts(path)
+    offsets = np.cumsum([0] + [len(p.vertices) for p in parts[:-1]])
+    return (np.concatenate([p.vertices for p in parts]),
+            np.concatenate([p.faces + k for p, k in zip(parts, offsets)]))
+
+
+def read_mesh_parts(path, warn=None, base=None):
+    """The MeshParts of a mesh file: one per mesh and material (an OBJ's
+    ``usemtl`` groups, a glTF scene's meshes), with the file's own vertex
+    normals and materials (made from ``base``, io/materials.py).  What the
+    renderer cannot show (transparency, textures, vertex colours) and a
+    missing or damaged MTL file are told to ``warn`` as one line each; the
+    mesh still loads."""
     path = Path(path)
+    warn = warn or (lambda message: None)
     ext = path.suffix.lower()
     if ext not in MESH_EXTENSIONS:
         raise RaytraceError(f"{path}: not a mesh file (expected one of {', '.join(MESH_EXTENSIONS)})")
     check_readable(path)
     if path.stat().st_size == 0:
         raise RaytraceError(f"{path}: file is empty")
+    library = None
     if ext == ".obj":
-        check_obj_indices(path, path.read_bytes())
+        data = path.read_bytes()
+        check_obj_indices(path, data)
+        library = _obj_materials(path, data, warn)
     try:
         import trimesh
         # process=False: keep the file's vertices and faces as they are
         # (no merging, no dropping), so errors in them are reported.
-        mesh = trimesh.load_mesh(str(path), file_type=ext[1:], process=False)
+        scene = trimesh.load_scene(str(path), file_type=ext[1:], process=False)
+        for geometry in scene.geometry.values():
+            shape = np.shape(getattr(geometry, "vertices", np.zeros((0, 3))))
+            if len(shape) != 2 or shape[1] != 3:   # an OBJ line cut short: "v 0 1"
+                raise ValueError(f"vertices of {shape[-1]} coordinates, not 3")
+        parts = [_part(trimesh, scene, node, library, path.name, warn, base)
+                 for node in scene.graph.nodes_geometry]
     except RaytraceError:
         raise
     except MemoryError:
         raise RaytraceError(f"{path}: out of memory reading the mesh") from None
     except Exception as exc:  # noqa: BLE001 -- trimesh's errors have no common base
         raise RaytraceError(f"{path}: not a readable {ext[1:].upper()} mesh ({_brief(exc)})") from None
-    vertices = getattr(mesh, "vertices", None)
-    faces = getattr(mesh, "faces", None)
-    if vertices is None or faces is None or len(faces) == 0:
+    parts = [p for p in parts if p is not None and len(p.faces)]
+    if not parts:
         raise RaytraceError(f"{path}: no non-degenerate triangles (no faces found: damaged, or "
                             f"not really {ext[1:].upper()}?)")
-    return check_mesh_arrays(path, vertices, faces)
+    for p in parts:
+        p.vertices, p.faces = check_mesh_arrays(path, p.vertices, p.faces)
+        if p.normals is not None and np.shape(p.normals) != p.vertices.shape:
+            p.normals = None
+    return parts
+
+
+def part_mesh(part, base, crease, flat, name):
+    """A scene Mesh of a MeshPart: its file's material (else ``base``) and
+    shading normals."""
+    from ..normals import shading_normals
+    from ..scene import Mesh
+    vertices, faces, normals = shading_normals(part.vertices, part.faces, part.normals,
+                                               crease=crease, flat=bool(flat))
+    return Mesh(vertices, faces, part.material or base, normals=normals, name=name)
+
+
+def _part(trimesh, scene, node, library, source, warn, base):
+    """The MeshPart of one instance in a trimesh Scene (None if not a
+    triangle mesh), moved by its transform as trimesh's Scene.dump does."""
+    transform, name = scene.graph[node]
+    mesh = scene.geometry[name]
+    if not isinstance(mesh, trimesh.Trimesh):
+        return None
+    # trimesh computes vertex normals when asked for ones the file lacks;
+    # normals read from the file are already in its cache (a private
+    # attribute: tests/test_mesh_io.py checks both cases on every format).
+    had_normals = "vertex_normals" in mesh._cache
+    placed = mesh.copy()
+    if had_normals:
+        placed.vertex_normals = mesh.vertex_normals
+    placed.apply_transform(transform)   # turns the normals too, and flips mirrored faces
+    normals = np.array(placed.vertex_normals) if had_normals else None
+    return MeshPart(np.asarray(placed.vertices), np.asarray(placed.faces), normals,
+                    _visual_material(mesh.visual, library, source, warn, base))
+
+
+def _visual_material(visual, library, source, warn, base):
+    """The Material trimesh's visual names (an MTL entry, a glTF PBR
+    material), or None for the default; colours per vertex or face are
+    warned about."""
+    from .materials import gltf_material, mtl_material, vertex_colour_warning
+    base = base or Material()
+    kind = getattr(visual, "kind", None)
+    if kind in ("vertex", "face") and not hasattr(visual, "material"):
+        warn(vertex_colour_warning(source, kind))
+        return None
+    material = getattr(visual, "material", None)
+    if material is None:
+        return None
+    if type(material).__name__ == "PBRMaterial":
+        return gltf_material(material, base, source, warn)
+    entry = (library or {}).get(getattr(material, "name", None))
+    return None if entry is None else mtl_material(entry, base, source, warn)
+
+
+_MTLLIB = re.compile(rb"(?m)^[ \t]*mtllib[ \t]+([^\r\n]*?)[ \t]*$")
+_USEMTL = re.compile(rb"(?m)^[ \t]*usemtl[ \t]+([^\r\n]*?)[ \t]*$")
+
+
+def _obj_materials(path, data, warn):
+    """{name: MtlMaterial} of an OBJ's first ``mtllib`` (the one trimesh
+    reads), or None; a missing or unreadable library is a warning."""
+    from .mtl import parse_mtl
+    m = _MTLLIB.search(data)
+    if m is None:
+        return None
+    name = m.group(1).decode("utf-8", "replace")
+    mtl = path.parent / name
+    fallback = "rendered with the default material"
+    try:
+        check_readable(mtl)
+        raw = mtl.read_bytes()
+    except (RaytraceError, OSError) as exc:
+        warn(f"{path.name}: material library {exc}; {fallback}")
+        return None
+    if b"\0" in raw:
+        warn(f"{path.name}: material library {mtl}: not a text file; {fallback}")
+        return None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        text = raw.decode("latin-1")
+    library = parse_mtl(text, mtl.name, warn)
+    used = dict.fromkeys(u.decode("utf-8", "replace") for u in _USEMTL.findall(data))
+    for u in used:
+        if u not in library:
+            warn(f"{path.name}: material {u!r} is not in {mtl.name}; {fallback}")
+    return library
 
 
 def _brief(exc, limit=100):

@@ -5,12 +5,13 @@ backport is used on 3.10 if installed).  Every key is checked: an unknown
 key or a wrong type is an error naming the file and the key.
 """
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import RaytraceError
-from ..options import BY_NAME, DETAIL, FOV_RANGE
+from ..errors import RaytraceError, warn
+from ..options import BY_NAME, CREASE, DETAIL, FOV_RANGE
 from ..scene import Camera, Light, Material, Plane, Scene, Sphere
 from .fields import Fields
 from .mesh import MAX_COORD, check_readable
@@ -22,7 +23,7 @@ LIGHT_KEYS = ("type", "position", "color", "intensity", "size", "direction", "sa
 AREA_ONLY = ("size", "direction", "samples")
 PLACEMENT = ("translate", "rotate", "scale")
 OBJECT_KEYS = {
-    "mesh": ("type", "file", "material", *PLACEMENT),
+    "mesh": ("type", "file", "material", "smooth", "crease", *PLACEMENT),
     "teapot": ("type", "detail", "material", *PLACEMENT),
     "sphere": ("type", "center", "radius", "material"),
     "plane": ("type", "point", "normal", "material"),
@@ -81,7 +82,8 @@ def _read_scene_file(path):
             f.fail("material", f"no material named {name!r} (defined: {known})")
         return materials[name]
 
-    objects = [_object(path, i, t, material) for i, t in enumerate(top.tables("objects"))]
+    # A mesh file of several materials gives one object per material.
+    objects = [obj for i, t in enumerate(top.tables("objects")) for obj in _objects(path, i, t, material)]
     scene = Scene(
         name=top.string("name", default=path.stem),
         camera=_camera(path, top.table["camera"]),
@@ -162,7 +164,8 @@ def _light(path, i, table):
     return light
 
 
-def _object(path, i, table, material):
+def _objects(path, i, table, material):
+    """The scene objects of objects[i]: one, or a mesh file's parts."""
     where = f"objects[{i}]"
     # The type decides which keys are allowed, so it is checked first.
     kind = Fields(path, where, {"type": table.get("type")}, ("type",)).string(
@@ -176,32 +179,47 @@ def _object(path, i, table, material):
                         material=material(f))
         if max(map(abs, sphere.center)) + sphere.radius > MAX_COORD:
             f.fail("radius", f"the sphere reaches beyond {MAX_COORD:g}")
-        return sphere
+        return [sphere]
     if kind == "plane":
-        return Plane(point=f.vec3("point", default=(0.0, 0.0, 0.0)),
-                     normal=f.vec3("normal", default=(0.0, 1.0, 0.0), nonzero=True),
-                     material=material(f))
+        return [Plane(point=f.vec3("point", default=(0.0, 0.0, 0.0)),
+                      normal=f.vec3("normal", default=(0.0, 1.0, 0.0), nonzero=True),
+                      material=material(f))]
     if kind == "teapot":
         from ..scenes.builtin import teapot_mesh
-        mesh = teapot_mesh(f.integer("detail", default=DETAIL.default, lo=DETAIL.lo, hi=DETAIL.hi),
-                           material(f))
+        meshes = [teapot_mesh(f.integer("detail", default=DETAIL.default, lo=DETAIL.lo,
+                                        hi=DETAIL.hi), material(f))]
     else:
-        from ..scene import Mesh
-        from .mesh import read_mesh
-        file = f.string("file", required=True)
-        mesh_path = path.parent / file
-        try:
-            vertices, faces = read_mesh(mesh_path)
-        except RaytraceError as exc:
-            f.fail("file", str(exc))
-        mesh = Mesh(vertices, faces, material(f), name=str(mesh_path))
+        meshes = _mesh_file(path, f, material)
     place = dict(translate=f.vec3("translate", default=(0.0, 0.0, 0.0)),
                  rotate=f.vec3("rotate", default=(0.0, 0.0, 0.0)),
                  scale=f.scale3("scale"))
     if place != dict(translate=(0.0,) * 3, rotate=(0.0,) * 3, scale=(1.0,) * 3):
         from ..transform import transform_mesh
-        with np.errstate(over="ignore", invalid="ignore"):
-            mesh.vertices, mesh.normals = transform_mesh(mesh.vertices, mesh.normals, **place)
-        if not (np.abs(mesh.vertices) <= MAX_COORD).all():
-            f.fail("scale", f"translate, rotate and scale put a vertex beyond {MAX_COORD:g}")
-    return mesh
+        for mesh in meshes:
+            with np.errstate(over="ignore", invalid="ignore"):
+                mesh.vertices, mesh.normals = transform_mesh(mesh.vertices, mesh.normals, **place)
+            if not (np.abs(mesh.vertices) <= MAX_COORD).all():
+                f.fail("scale", f"translate, rotate and scale put a vertex beyond {MAX_COORD:g}")
+    return meshes
+
+
+def _mesh_file(path, f, material):
+    """The Meshes of a mesh object's file: its own materials unless the
+    object names one, its own normals or smooth ones split at ``crease``
+    degrees unless ``smooth = false``."""
+    from .mesh import part_mesh, read_mesh_parts
+    file = f.string("file", required=True)
+    mesh_path = path.parent / file
+    smooth = f.boolean("smooth", default=True)
+    crease = f.number("crease", default=CREASE.default, lo=CREASE.lo, hi=CREASE.hi)
+    if f.has("crease") and not smooth:
+        f.fail("crease", "only smooth meshes (smooth = true) have creases")
+    # An object's own material replaces the file's (whose warnings then do
+    # not matter).
+    own = f.has("material")
+    try:
+        parts = read_mesh_parts(mesh_path, warn=None if own else warn, base=material(f))
+    except RaytraceError as exc:
+        f.fail("file", str(exc))
+    return [part_mesh(replace(p, material=None) if own else p, material(f), crease, not smooth,
+                      str(mesh_path)) for p in parts]

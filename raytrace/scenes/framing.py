@@ -61,11 +61,14 @@ def _nice_checker(radius):
 
 
 def mesh_scene(vertices, faces, name="mesh", view=None, azimuth=None, elevation=None,
-               up="y", fov=60.0, width=640, height=480, source=None):
+               up="y", fov=60.0, width=640, height=480, source=None, meshes=None):
     """A Scene showing the mesh whole from ``view`` (a name in VIEWS) or
     from an (azimuth, elevation) pair in degrees (either overrides the
     view's), on a checkered ground at its lowest point along ``up``.
-    ``source`` (the file, default ``name``) is what error messages name."""
+    ``source`` (the file, default ``name``) is what error messages name.
+    ``meshes``: the Mesh objects to show (a file's parts, with their own
+    materials and normals) in place of one flat grey mesh; ``vertices``
+    still frame the view."""
     source = source or name
     if view is not None and view not in VIEWS:
         raise RaytraceError(f"unknown view {view!r} (choose from {', '.join(VIEWS)})")
@@ -102,7 +105,7 @@ def mesh_scene(vertices, faces, name="mesh", view=None, azimuth=None, elevation=
     camera = Camera(eye=_tup(eye), look_at=_tup(center), up=_tup(cam_up), fov=fov,
                     width=width, height=height)
 
-    objects = [Mesh(v, faces, Material(**MESH_MATERIAL), name=str(source))]
+    objects = list(meshes) if meshes else [Mesh(v, faces, Material(**MESH_MATERIAL), name=str(source))]
     ground_h = float((v @ u).min())
     # From below the ground the plane would hide the model: leave it out.
     if float(eye @ u) > ground_h:

@@ -1,0 +1,117 @@
+"""A mesh file's own materials (OBJ's MTL, glTF's PBR) as the renderer's
+Blinn-Phong Material, and a warning for what it cannot show yet.
+
+The renderer has one colour, a white highlight (a scalar ``specular``) and
+no reflection, transparency or textures: a material needing them is drawn
+with its colour alone, and ``warn`` is told once per material and problem.
+"""
+from dataclasses import replace
+
+import numpy as np
+
+# MTL illum modes (the Wavefront MTL specification): those that ask for
+# reflections traced from the surface, and those that ask for glass.
+MIRROR_ILLUM = {3: "a mirror", 5: "a mirror", 8: "a mirror"}
+GLASS_ILLUM = {4: "glass", 6: "glass", 7: "glass", 9: "glass"}
+
+# glTF's Fresnel reflectance at normal incidence for a dielectric (the
+# specification's 0.04).
+DIELECTRIC_F0 = 0.04
+
+
+def _clip01(values):
+    return tuple(float(x) for x in np.clip(values, 0.0, 1.0))
+
+
+def mtl_material(entry, base, source, warn):
+    """The Material of an MtlMaterial: Kd is the colour; the mean of Ks the
+    specular weight (the highlight is white, so a coloured Ks keeps its
+    energy, not its hue); Ns the shininess (at least 1); illum 0 or 1 (no
+    highlight) gives specular 0.  Everything else comes from ``base``."""
+    v = entry.values
+    mat = replace(base)
+    if "kd" in v:
+        mat.color = _clip01(v["kd"])
+    if "ks" in v:
+        mat.specular = float(np.clip(np.mean(v["ks"]), 0.0, 1.0))
+    if "ns" in v:
+        mat.shininess = float(np.clip(v["ns"][0], 1.0, 1000.0))
+    illum = int(v["illum"][0]) if "illum" in v else None
+    if illum in (0, 1):
+        mat.specular = 0.0
+    what = f"{source}: material {entry.name!r}"
+    opacity = v["d"][0] if "d" in v else (1.0 - v["tr"][0] if "tr" in v else 1.0)
+    if opacity < 1.0:
+        key = f"d={v['d'][0]:g}" if "d" in v else f"Tr={v['tr'][0]:g}"
+        warn(f"{what} is transparent ({key}); rendered opaque")
+    if illum in MIRROR_ILLUM:
+        warn(f"{what} is {MIRROR_ILLUM[illum]} (illum {illum}); reflections are not rendered")
+    if illum in GLASS_ILLUM:
+        warn(f"{what} is {GLASS_ILLUM[illum]} (illum {illum}); rendered opaque")
+    for key in ("map_kd", "map_d", "refl"):
+        if key in v:
+            shown = {"map_kd": "map_Kd", "map_d": "map_d", "refl": "refl"}[key]
+            warn(f"{what} has an image texture ({shown} {v[key]}); rendered with its Kd colour")
+    return mat
+
+
+def gltf_material(pbr, base, source, warn):
+    """The Material of a trimesh PBRMaterial (glTF metallic-roughness).
+
+    colour = baseColorFactor's RGB.  Roughness r becomes the Blinn-Phong
+    exponent 2 / r^4 - 2 (Walter et al. 2007's match of Beckmann and Phong
+    lobes, with glTF's alpha = r^2), kept within 1..1000.  The highlight's
+    reflectance F0 is 0.04 for a dielectric and the base colour's mean for a
+    metal (mixed by metallic), scaled by (n + 8) / 8, Blinn-Phong's
+    normalisation (Akenine-Moller et al., Real-Time Rendering), since the
+    renderer's highlight is not normalised; at most 1.  A metal keeps half
+    of ``base``'s diffuse weight: the renderer's highlight is white, so its
+    colour can show only as diffuse light.  Absent factors take glTF's
+    defaults (colour 1, 1, 1, 1; metallic 1; roughness 1).
+    """
+    mat = replace(base)
+    rgba = _base_color(getattr(pbr, "baseColorFactor", None))
+    metallic = _factor(getattr(pbr, "metallicFactor", None))
+    rough = _factor(getattr(pbr, "roughnessFactor", None))
+    mat.color = _clip01(rgba[:3])
+    mat.shininess = float(np.clip(2.0 / max(rough, 1e-3) ** 4 - 2.0, 1.0, 1000.0))
+    f0 = DIELECTRIC_F0 * (1.0 - metallic) + float(np.mean(rgba[:3])) * metallic
+    mat.specular = float(min(1.0, f0 * (mat.shininess + 8.0) / 8.0))
+    mat.diffuse = base.diffuse * (1.0 - 0.5 * metallic)
+    name = getattr(pbr, "name", None)
+    what = f"{source}: material {name!r}" if name else f"{source}: a material"
+    alpha_mode = str(getattr(pbr, "alphaMode", None) or "OPAQUE").upper()
+    if alpha_mode == "BLEND" and rgba[3] < 1.0:
+        warn(f"{what} is transparent (alpha={rgba[3]:.3g}); rendered opaque")
+    if metallic >= 0.5 and rough < 0.5:
+        warn(f"{what} is a polished metal (metallic={metallic:g}, roughness={rough:g}); "
+             "reflections are not rendered")
+    if getattr(pbr, "baseColorTexture", None) is not None:
+        warn(f"{what} has an image texture (baseColorTexture); rendered with its base colour")
+    return mat
+
+
+def _base_color(factor):
+    """glTF's baseColorFactor as RGBA in 0..1 (trimesh keeps it as 8-bit
+    integers); white if absent or unreadable."""
+    try:
+        arr = np.asarray(factor if factor is not None else [1.0] * 4).ravel()
+        rgba = arr.astype(np.float64) / (255.0 if np.issubdtype(arr.dtype, np.integer) else 1.0)
+    except (TypeError, ValueError):
+        return np.ones(4)
+    if rgba.size < 3 or not np.isfinite(rgba).all():
+        return np.ones(4)
+    return np.clip(np.append(rgba[:3], rgba[3] if rgba.size > 3 else 1.0), 0.0, 1.0)
+
+
+def _factor(value, default=1.0):
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        return default
+    return float(np.clip(x, 0.0, 1.0)) if np.isfinite(x) else default
+
+
+def vertex_colour_warning(source, kind):
+    return (f"{source}: the mesh has per-{kind} colours, which are not rendered yet; "
+            "drawn with the default material")

@@ -1,0 +1,159 @@
+"""A mesh file's own materials: MTL parsing, the mapping to Blinn-Phong,
+and one-line warnings for what cannot be shown (the command line's side is
+in test_mesh_shading.py)."""
+import warnings
+
+import numpy as np
+import pytest
+
+import raytrace
+from raytrace.errors import RaytraceWarning
+from raytrace.io.materials import gltf_material, mtl_material
+from raytrace.io.mtl import parse_mtl
+from raytrace.scene import Material, Mesh
+
+MTL = """# two materials
+newmtl red
+Kd 0.8 0.125 0.1
+Ks 0.6 0.3 0.0
+Ns 50
+newmtl glass
+Kd 0.2 0.3 0.9
+d 0.3
+illum 4
+"""
+OBJ = """mtllib two.mtl
+v 0 0 0
+v 1 0 0
+v 1 1 0
+v 0 1 0
+v 0 0 1
+usemtl red
+f 1 3 2
+f 1 4 3
+usemtl glass
+f 1 2 5
+f 2 3 5
+usemtl red
+f 3 4 5
+"""
+
+
+def collect():
+    messages = []
+    return messages, messages.append
+
+
+def test_mtl_values_and_line_numbers():
+    messages, warn = collect()
+    lib = parse_mtl("Kd 1 1 1\nnewmtl a\nKd 1 x 0\nKs 0.5\nNs 1e999\nillum 2\n", "a.mtl", warn)
+    assert lib["a"].values == {"ks": (0.5, 0.5, 0.5), "illum": (2.0,)}
+    assert messages == ["a.mtl: line 1: Kd before any newmtl; ignored",
+                        "a.mtl: line 3: Kd: expected 3 numbers (r g b), got '1 x 0'; ignored",
+                        "a.mtl: line 5: Ns: expected a number, got '1e999'; ignored"]
+
+
+def test_mtl_mapping():
+    messages, warn = collect()
+    lib = parse_mtl(MTL, "two.mtl", warn)
+    red = mtl_material(lib["red"], Material(), "two.obj", warn)
+    assert red.color == (0.8, 0.125, 0.1) and red.specular == pytest.approx(0.3)
+    assert red.shininess == 50 and red.diffuse == Material().diffuse and not messages
+    glass = mtl_material(lib["glass"], Material(), "two.obj", warn)
+    assert glass.color == (0.2, 0.3, 0.9)
+    assert messages == ["two.obj: material 'glass' is transparent (d=0.3); rendered opaque",
+                        "two.obj: material 'glass' is glass (illum 4); rendered opaque"]
+
+
+def test_gltf_mapping():
+    from trimesh.visual.material import PBRMaterial
+    messages, warn = collect()
+    plastic = gltf_material(PBRMaterial(name="p", baseColorFactor=[1.0, 0.5, 0.0, 1.0],
+                                        metallicFactor=0.0, roughnessFactor=0.5),
+                            Material(), "m.glb", warn)
+    # 8-bit colour as trimesh keeps it; exponent 2/0.5^4 - 2 = 30; F0 0.04 * 38/8.
+    assert plastic.color == pytest.approx((1.0, 128 / 255, 0.0))
+    assert plastic.shininess == pytest.approx(30.0) and plastic.specular == pytest.approx(0.19)
+    assert plastic.diffuse == Material().diffuse and not messages
+    gold = gltf_material(PBRMaterial(name="gold", baseColorFactor=[1.0, 0.8, 0.3, 0.5],
+                                     metallicFactor=1.0, roughnessFactor=0.2, alphaMode="BLEND"),
+                         Material(), "m.glb", warn)
+    assert gold.specular == 1.0 and gold.shininess == 1000.0
+    assert gold.diffuse == pytest.approx(Material().diffuse / 2)
+    assert [m.split(";")[0] for m in messages] == [
+        "m.glb: material 'gold' is transparent (alpha=0.502)",
+        "m.glb: material 'gold' is a polished metal (metallic=1, roughness=0.2)"]
+
+
+@pytest.fixture
+def two_obj(tmp_path):
+    (tmp_path / "two.mtl").write_text(MTL)
+    (tmp_path / "two.obj").write_text(OBJ)
+    return tmp_path / "two.obj"
+
+
+def test_obj_groups_become_meshes_with_their_materials(two_obj):
+    with pytest.warns(RaytraceWarning) as caught:
+        scene = raytrace.load_scene(two_obj)
+    meshes = [o for o in scene.objects if isinstance(o, Mesh)]
+    colors = sorted((m.material.color, len(m.faces)) for m in meshes)
+    assert colors == [((0.2, 0.3, 0.9), 2), ((0.8, 0.125, 0.1), 3)]
+    assert sorted(str(w.message) for w in caught) == [
+        "two.obj: material 'glass' is glass (illum 4); rendered opaque",
+        "two.obj: material 'glass' is transparent (d=0.3); rendered opaque"]
+
+
+def test_missing_or_broken_mtl_warns_and_loads(two_obj):
+    (two_obj.parent / "two.mtl").unlink()
+    with pytest.warns(RaytraceWarning, match=r"^two.obj: material library .*two.mtl: no such file; "
+                                             r"rendered with the default material$"):
+        scene = raytrace.load_scene(two_obj)
+    assert sum(len(o.faces) for o in scene.objects if isinstance(o, Mesh)) == 5
+    (two_obj.parent / "two.mtl").write_bytes(b"\x00\x01binary")
+    with pytest.warns(RaytraceWarning, match="two.mtl: not a text file"):
+        raytrace.load_scene(two_obj)
+    (two_obj.parent / "two.mtl").write_text("newmtl red\nKd 1 x 0\n")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        raytrace.load_scene(two_obj)
+    assert [str(w.message) for w in caught] == [
+        "two.mtl: line 2: Kd: expected 3 numbers (r g b), got '1 x 0'; ignored",
+        "two.obj: material 'glass' is not in two.mtl; rendered with the default material"]
+
+
+def test_scene_file_material_replaces_the_files(two_obj):
+    (two_obj.parent / "s.toml").write_text(
+        '[camera]\nposition = [3, 3, 3]\nlook_at = [0, 0, 0]\n'
+        '[materials.wall]\ncolor = [0.5, 0.5, 0.5]\n'
+        '[[objects]]\ntype = "mesh"\nfile = "two.obj"\n'
+        '[[objects]]\ntype = "mesh"\nfile = "two.obj"\nmaterial = "wall"\n')
+    with pytest.warns(RaytraceWarning) as caught:
+        scene = raytrace.load_scene(two_obj.parent / "s.toml")
+    assert [o.material.color for o in scene.objects[2:]] == [(0.5, 0.5, 0.5)] * 2
+    assert {o.material.color for o in scene.objects[:2]} == {(0.2, 0.3, 0.9), (0.8, 0.125, 0.1)}
+    assert len(caught) == 2   # the first object's; the second's material is the scene's
+
+
+def test_gltf_file_materials(tmp_path):
+    import trimesh
+    from trimesh.visual.material import PBRMaterial
+    box = trimesh.creation.box()
+    box.visual = trimesh.visual.TextureVisuals(material=PBRMaterial(
+        name="paint", baseColorFactor=[0.2, 0.4, 0.6, 1.0], metallicFactor=0.0, roughnessFactor=1.0))
+    box.export(tmp_path / "box.glb")
+    scene = raytrace.load_scene(tmp_path / "box.glb")
+    assert np.allclose(scene.objects[0].material.color, np.round(np.array([0.2, 0.4, 0.6]) * 255) / 255)
+    assert scene.objects[0].material.shininess == 1.0
+
+
+def test_toys_example_keeps_its_mtl_colours():
+    from raytrace.scenes.assets import assets_dir
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")            # a shipped example warns of nothing
+        scene = raytrace.load_scene(assets_dir() / "toys.toml")
+    colors = {m.material.color for m in meshes_of(scene)}
+    assert colors == {(0.7, 0.1, 0.08), (0.08, 0.22, 0.65), (0.85, 0.6, 0.08), (0.12, 0.5, 0.18)}
+
+
+def meshes_of(scene):
+    return [o for o in scene.objects if isinstance(o, Mesh)]

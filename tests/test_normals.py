@@ -1,0 +1,103 @@
+"""Vertex normals: split at creases, angle-weighted, never NaN."""
+import numpy as np
+import pytest
+import trimesh
+
+from raytrace.normals import crease_normals, face_normals, file_normals, shading_normals
+
+
+def same_triangles(v, f, v2, f2):
+    """The triangles of (v2, f2) are those of (v, f), bit for bit."""
+    return f.shape == f2.shape and np.array_equal(v[f], v2[f2])
+
+
+def test_cube_keeps_its_edges():
+    box = trimesh.creation.box()
+    v, f, n = crease_normals(box.vertices, box.faces)
+    assert len(v) == 24 and same_triangles(box.vertices, box.faces, v, f)
+    # Every corner's normal is its face's normal, and there are six of them.
+    assert np.array_equal(n[f], np.repeat(face_normals(v, f)[:, None], 3, axis=1))
+    assert len(np.unique(n, axis=0)) == 6
+
+
+def test_triangle_soup_is_smoothed_like_a_welded_mesh():
+    """An STL file repeats each vertex for every face: faces still meet
+    where their corners have the same coordinates."""
+    s = trimesh.creation.icosphere(subdivisions=2)
+    soup_v, soup_f = s.vertices[s.faces].reshape(-1, 3), np.arange(3 * len(s.faces)).reshape(-1, 3)
+    v, f, n = crease_normals(soup_v, soup_f)
+    assert same_triangles(soup_v, soup_f, v, f)
+    assert np.allclose(n[f], crease_normals(s.vertices, s.faces)[2][s.faces], rtol=0, atol=1e-15)
+
+
+def test_sphere_is_smooth():
+    s = trimesh.creation.icosphere(subdivisions=4, radius=2.0)
+    v, f, n = crease_normals(s.vertices, s.faces)
+    assert np.array_equal(v, s.vertices) and np.array_equal(f, s.faces)   # nothing split
+    radial = v / np.linalg.norm(v, axis=1, keepdims=True)
+    # Each face normal is within ~half an edge's angle (about 2 degrees here)
+    # of the radial direction; their weighted mean at a vertex is far closer.
+    assert np.degrees(np.arccos(np.clip((n * radial).sum(axis=1), -1, 1))).max() < 0.5
+
+
+@pytest.mark.parametrize("angle, crease, split", [(20, 35, False), (40, 35, True), (40, 45, False),
+                                                  (90, 180, False), (10, 0, True)])
+def test_hinge_splits_beyond_the_crease(angle, crease, split):
+    """Two triangles on a shared edge, folded by ``angle`` degrees."""
+    a = np.radians(angle)
+    v = np.array([[0, 0, 0], [0, 1, 0], [1, 0, 0], [-np.cos(a), 0, np.sin(a)]], dtype=float)
+    f = np.array([[0, 2, 1], [0, 1, 3]])   # both wound to face +z when flat
+    v2, f2, n = crease_normals(v, f, crease)
+    assert len(v2) == (6 if split else 4) and same_triangles(v, f, v2, f2)
+    if not split:   # the hinge's normal bisects the fold
+        assert np.allclose(n[0], [np.sin(a / 2), 0, np.cos(a / 2)])
+
+
+def test_angle_weighting_ignores_how_a_face_is_cut():
+    """A cube corner's normal is the diagonal whether a side is one
+    triangle or a fan of three (Thürmer & Wüthrich 1998); by area it would
+    lean towards the cut side."""
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0.5, 0.5, 0], [0.2, 0.8, 0]], float)
+    whole = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2]])
+    cut = np.array([[0, 4, 1], [0, 5, 4], [0, 2, 5], [0, 1, 3], [0, 3, 2]])
+    for faces in (whole, cut):
+        _, f, n = crease_normals(v, faces, crease=180)
+        assert np.allclose(n[0], -np.ones(3) / np.sqrt(3), atol=1e-12)
+
+
+def test_degenerate_faces_give_no_nan():
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 0, 0], [2, 0, 0]], float)
+    f = np.array([[0, 1, 2], [0, 1, 3], [3, 4, 3], [1, 3, 4]])   # three without area
+    for crease in (0, 35, 180):
+        v2, f2, n = crease_normals(v, f, crease)
+        assert np.isfinite(n).all() and same_triangles(v, f, v2, f2)
+        assert np.allclose(n[f2[0]], [0, 0, 1])
+
+
+def test_opposed_faces_fall_back_to_a_face_normal():
+    """Two faces back to back on the same vertices: with crease 180 they
+    join, their normals cancel, and the face normal is used, not zero."""
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
+    _, f, n = crease_normals(v, np.array([[0, 1, 2], [0, 2, 1]]), crease=180)
+    assert np.allclose(np.abs(n[f]), [0, 0, 1])
+
+
+def test_file_normals_are_normalised_and_zero_ones_replaced():
+    box = trimesh.creation.box()
+    given = np.array(box.vertices) * 3.0           # outward, not unit
+    given[0] = 0.0
+    given[1] = np.nan
+    n = file_normals(box.vertices, box.faces, given)
+    unit = box.vertices / np.linalg.norm(box.vertices, axis=1, keepdims=True)
+    assert np.allclose(n[2:], unit[2:], rtol=0, atol=1e-15)
+    # The zero and NaN ones: the angle-weighted normal there, the diagonal.
+    assert np.allclose(n[:2], unit[:2], atol=1e-12)
+
+
+def test_shading_normals_choices():
+    box = trimesh.creation.box()
+    assert shading_normals(box.vertices, box.faces, flat=True)[2] is None
+    given = np.array(box.vertices)
+    v, f, n = shading_normals(box.vertices, box.faces, normals=given)
+    assert len(v) == 8 and np.allclose(np.linalg.norm(n, axis=1), 1)
+    assert len(shading_normals(box.vertices, box.faces)[0]) == 24
