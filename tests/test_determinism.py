@@ -16,8 +16,11 @@ from raytrace.cli import main
 from .structures import STRUCTURES
 
 ROOT = Path(__file__).resolve().parents[1]
+# --aov: the kernels with AOV buffers are the ones the other tests compile
+# for soft shadows and every structure (tests/test_extreme.py); without it
+# this file alone compiled three more, ~13 s of a cold suite.
 ARGS = ["teapot", "--shadows", "soft", "--light-samples", "16", "--spp", "4",
-        "--width", "48", "--height", "36", "--seed", "2024", "--json"]
+        "--width", "48", "--height", "36", "--seed", "2024", "--aov", "depth", "--json"]
 
 
 def run(tmp_path, *args):
