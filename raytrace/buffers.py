@@ -29,8 +29,9 @@ Geometry = namedtuple(
 )
 
 # Columns of mat_param.
-MAT_AMBIENT, MAT_DIFFUSE, MAT_SPECULAR, MAT_SHININESS, MAT_CHECKER = range(5)
-N_MAT_PARAMS = 5
+(MAT_AMBIENT, MAT_DIFFUSE, MAT_SPECULAR, MAT_SHININESS, MAT_CHECKER, MAT_REFLECT, MAT_TRANSMIT,
+ MAT_IOR) = range(8)
+N_MAT_PARAMS = 8
 
 def f64(a, cols=None):
     a = np.ascontiguousarray(a, dtype=FLOAT)

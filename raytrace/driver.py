@@ -173,6 +173,16 @@ def texture_record(texture_filter, width, height, spp):
     return BoxFilteredTextures(step_x=2.0 / width * share, step_y=2.0 / height * share)
 
 
+def bounce_record(scene, max_depth):
+    """The kernel's mirror-and-glass record: Bounces only when a material
+    reflects or transmits, so other scenes compile and cast no such rays."""
+    from .kernels.render import Bounces, NoBounces
+    from .scene import Mesh, Plane, Sphere
+    if any(o.material.bounces() for o in scene.objects if isinstance(o, (Mesh, Sphere, Plane))):
+        return Bounces(max_depth=int(max_depth))
+    return NoBounces()
+
+
 def aov_buffers(width, height, enabled):
     """Per-pixel AOV buffers (raytrace/aov.py), or the empty record that
     compiles the kernel without them."""
@@ -232,6 +242,7 @@ def render(scene, opts=None, **kw):
     background = f64(scene.background)
     shadows = shadow_record(opts.shadows, opts.pattern)
     textures = texture_record(opts.texture_filter, width, height, int(opts.spp))
+    bounces = bounce_record(scene, opts.max_depth)
     t_import = time.perf_counter() - t_start
 
     build_opts = dict(bvh_build=opts.bvh_build, leaf_size=opts.leaf_size,
@@ -245,7 +256,8 @@ def render(scene, opts=None, **kw):
     aovs = aov_buffers(width, height, opts.aov)
     # Plain Python scalars only: a NumPy integer or a bool where an int is
     # expected would compile the kernel again for that type.
-    args = (geo, acc, cam, lights, shadows, textures, aovs, background, int(width), int(height))
+    args = (geo, acc, cam, lights, shadows, textures, bounces, aovs, background, int(width),
+            int(height))
     tail = (threads, int(opts.spp), int(opts.seed), image, stats_rows)
 
     # An empty band compiles the kernel (or loads it from Numba's cache)
@@ -268,7 +280,8 @@ def render(scene, opts=None, **kw):
         "scene": scene.name, "accel": opts.accel, "shadows": opts.shadows,
         "light_samples": int(lights.samples.max()) if len(lights.samples) else 0,
         "bvh_build": opts.bvh_build, "leaf_size": opts.leaf_size, "grid_density": opts.grid_density,
-        "pattern": opts.pattern, "texture_filter": opts.texture_filter, "width": width,
+        "pattern": opts.pattern, "texture_filter": opts.texture_filter,
+        "max_depth": opts.max_depth if bounces._fields else None, "width": width,
         "height": height, "spp": opts.spp, "seed": opts.seed, "threads": threads,
         **info,
         "time": {"render_s": t_render, "build_s": t_build, "compile_s": t_compile,

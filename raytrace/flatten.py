@@ -160,8 +160,8 @@ def flatten(scene, with_sources=False):
         pl_normal=f64(pl_n, 3),
         pl_mat=i64([mat_id(p.material) for p in planes]),
         mat_color=f64([m.color for m in materials], 3),
-        mat_param=f64([[m.ambient, m.diffuse, m.specular, m.shininess, m.checker]
-                       for m in materials], N_MAT_PARAMS),
+        mat_param=f64([[m.ambient, m.diffuse, m.specular, m.shininess, m.checker, m.reflect,
+                        m.transmit, m.ior] for m in materials], N_MAT_PARAMS),
     )
     info = {"triangles": n_tris, "degenerate_dropped": dropped,
             "spheres": len(spheres), "planes": len(planes), "objects": len(obj_ranges)}

@@ -96,6 +96,8 @@ OPTIONS = (
     Option("pattern", "choice", "stratified", "light sample placement (grid and stratified need a "
            "square number)", choices=("grid", "random", "stratified", "halton"),
            noun="sampling pattern"),
+    Option("max_depth", "int", 5, "mirror and glass bounces a ray is followed for", lo=0, hi=16,
+           metavar="N"),
     Option("texture_filter", "choice", "box", "checker: averaged over each pixel's footprint, or "
            "`none`: point-sampled, aliased", choices=("box", "none"), noun="texture filter"),
     Option("width", "int", None, "image width in pixels", lo=1, hi=1 << 20,

@@ -16,6 +16,13 @@ class Material:
     specular: float = 0.3
     shininess: float = 32.0
     checker: float = 0.0             # >0: checkerboard of this square size (planes)
+    reflect: float = 0.0             # mirror weight, 0..1
+    transmit: float = 0.0            # glass weight, 0..1 (reflect + transmit <= 1)
+    ior: float = 1.5                 # index of refraction, for transmit > 0
+
+    def bounces(self):
+        """Whether rays leave this material as reflected or refracted rays."""
+        return self.reflect > 0.0 or self.transmit > 0.0
 
 
 @dataclass

@@ -18,7 +18,9 @@ from .mesh import MAX_COORD, check_readable
 
 TOP_KEYS = ("name", "description", "background", "camera", "materials", "lights", "objects")
 CAMERA_KEYS = ("position", "look_at", "up", "fov", "width", "height")
-MATERIAL_KEYS = ("color", "ambient", "diffuse", "specular", "shininess", "checker")
+MATERIAL_KEYS = ("color", "ambient", "diffuse", "specular", "shininess", "checker", "reflect",
+                 "transmit", "ior")
+IOR_RANGE = (1.0, 10.0)   # air to beyond diamond (2.42); below 1 is no material in air
 LIGHT_KEYS = ("type", "position", "color", "intensity", "size", "direction", "samples")
 AREA_ONLY = ("size", "direction", "samples")
 PLACEMENT = ("translate", "rotate", "scale")
@@ -133,7 +135,13 @@ def _materials(path, top):
                              diffuse=f.number("diffuse", default=d.diffuse, lo=0.0),
                              specular=f.number("specular", default=d.specular, lo=0.0),
                              shininess=f.number("shininess", default=d.shininess, lo=0.0),
-                             checker=f.number("checker", default=d.checker, lo=0.0))
+                             checker=f.number("checker", default=d.checker, lo=0.0),
+                             reflect=f.number("reflect", default=d.reflect, lo=0.0, hi=1.0),
+                             transmit=f.number("transmit", default=d.transmit, lo=0.0, hi=1.0),
+                             ior=f.number("ior", default=d.ior, lo=IOR_RANGE[0], hi=IOR_RANGE[1]))
+        if out[name].reflect + out[name].transmit > 1.0:
+            f.fail("transmit", f"reflect + transmit must be at most 1 (the light a surface "
+                               f"returns), got {out[name].reflect:g} + {out[name].transmit:g}")
     return out
 
 

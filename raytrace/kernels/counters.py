@@ -19,6 +19,8 @@ CELLS_VISITED = 6
 SHADING_POINTS = 7
 SHADOW_POINTS = 8
 OCCLUDED_RAYS = 9
+REFLECTION_RAYS = 10
+REFRACTION_RAYS = 11
 
 # index -> (JSON key, label, meaning), in the table's order.
 DECLARED = {
@@ -38,6 +40,10 @@ DECLARED = {
                     "(shading point, light) pairs that cast shadow rays: a point facing away "
                     "from a light casts none"),
     OCCLUDED_RAYS: ("occluded_rays", "Occluded shadow rays", "shadow rays that found an occluder"),
+    REFLECTION_RAYS: ("reflection_rays", "Reflection rays",
+                      "rays reflected by mirror and glass surfaces (only in scenes that have them)"),
+    REFRACTION_RAYS: ("refraction_rays", "Refraction rays",
+                      "rays refracted into or out of glass"),
 }
 N_COUNTERS = len(DECLARED)
 assert sorted(DECLARED) == list(range(N_COUNTERS)), "counter indices must be 0 .. N_COUNTERS - 1"

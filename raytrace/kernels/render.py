@@ -5,7 +5,8 @@ does a part's rows.  What a render needs is chosen by the types of its
 arguments, so each combination compiles on first use and nothing else is
 compiled: the structure's layout (query.py), the shadow mode (NoShadows,
 HardShadows, SoftShadows), the texture filter (PointTextures,
-BoxFilteredTextures) and the AOV buffers (NoAovs, Aovs).
+BoxFilteredTextures), mirror and glass rays (NoBounces, Bounces) and the
+AOV buffers (NoAovs, Aovs).
 """
 from collections import namedtuple
 
@@ -13,17 +14,30 @@ import numpy as np
 from numba import njit, prange
 from numba.extending import overload
 
-from ..buffers import MAT_AMBIENT, MAT_DIFFUSE, MAT_SHININESS, MAT_SPECULAR
+from ..buffers import (
+    MAT_AMBIENT,
+    MAT_DIFFUSE,
+    MAT_IOR,
+    MAT_REFLECT,
+    MAT_SHININESS,
+    MAT_SPECULAR,
+    MAT_TRANSMIT,
+)
+from ..options import BY_NAME
 from .counters import (
     BOX_TESTS,
     OCCLUDED_RAYS,
     PRIM_TESTS,
     PRIMARY_RAYS,
+    REFLECTION_RAYS,
+    REFRACTION_RAYS,
     SHADING_POINTS,
     SHADOW_POINTS,
     SHADOW_RAYS,
 )
 from .jit import JIT, OVERLOAD, PARALLEL
+from .lowlevel import frame_array
+from .optics import bounce_weights, reflect, refract
 from .query import closest_hit, occluded
 from .ray import make_ray
 from .sampling import hash_key, rand01, square_sample
@@ -42,6 +56,10 @@ Aovs = namedtuple("Aovs", ["depth", "normal", "primid", "cost"])
 # pinhole's screen coordinates (sxn, syn in [-1, 1]).
 PointTextures = namedtuple("PointTextures", [])
 BoxFilteredTextures = namedtuple("BoxFilteredTextures", ["step_x", "step_y"])
+# Mirror and glass rays followed to max_depth bounces, or none: a scene
+# whose materials neither reflect nor transmit never compiles them.
+NoBounces = namedtuple("NoBounces", [])
+Bounces = namedtuple("Bounces", ["max_depth"])
 
 # Shadow rays start this far off the surface, relative to the magnitude of
 # the hit point's coordinates.  The point is rebuilt from the primitive, so
@@ -166,44 +184,42 @@ def _record_cost(aovs, y, x, cost):
 
 
 @njit(**JIT)
-def shade_sample(geo, acc, cam, lights, shadows, textures, background, seed, pixel, sample, fx, fy,
-                 cnt):
-    """Colour of one camera ray through film position (fx, fy) in [0,1]^2.
+def _sky(background, dy):
+    """Background seen along a unit direction: a slight gradient with its
+    elevation."""
+    k = 0.8 + 0.2 * max(-1.0, min(1.0, dy))
+    return background[0] * k, background[1] * k, background[2] * k
 
-    Returns (r, g, b, t, prim, nx, ny, nz); the last five feed the AOVs.
-    """
-    # Pinhole camera: eye + forward + x * right + y * up (cam holds them
-    # pre-scaled by the field of view and the aspect ratio).
-    sxn = 2.0 * fx - 1.0
-    syn = 1.0 - 2.0 * fy
-    dx = cam[3] + sxn * cam[6] + syn * cam[9]
-    dy = cam[4] + sxn * cam[7] + syn * cam[10]
-    dz = cam[5] + sxn * cam[8] + syn * cam[11]
-    ln = np.sqrt(dx * dx + dy * dy + dz * dz)
-    dx, dy, dz = dx / ln, dy / ln, dz / ln
-    ray = make_ray(cam[0], cam[1], cam[2], dx, dy, dz)
-    cnt[PRIMARY_RAYS] += 1
-    hit = closest_hit(geo, acc, ray, np.inf, cnt)
-    if hit.prim < 0:
-        # Sky: a slight gradient with the ray's elevation.
-        k = 0.8 + 0.2 * max(-1.0, min(1.0, dy))
-        return background[0] * k, background[1] * k, background[2] * k, np.inf, -1, 0.0, 0.0, 0.0
-    cnt[SHADING_POINTS] += 1
+
+@njit(**JIT)
+def _frame(geo, ray, hit):
+    """The hit's point, normals faced towards the ray's origin (surfaces are
+    two-sided), which side of the smooth surface that is (-1: its back),
+    material, the offset secondary rays start at, and whether the ray meets
+    the surface's front (a triangle's winding, a sphere's outside): a ray
+    entering glass."""
     px, py, pz, gx, gy, gz, nx, ny, nz, mat, scale = surface(geo, ray, hit)
-    # Face the normals towards the viewer (surfaces are two-sided).
-    if gx * dx + gy * dy + gz * dz > 0.0:
+    front = not gx * ray.dx + gy * ray.dy + gz * ray.dz > 0.0
+    if not front:
         gx, gy, gz = -gx, -gy, -gz
     side = 1.0
     if nx * gx + ny * gy + nz * gz < 0.0:
         nx, ny, nz = -nx, -ny, -nz
         side = -1.0
-    ar, ag, ab = surface_albedo(textures, geo, cam, hit.prim, mat, px, py, pz, sxn, syn)
+    eps = RAY_OFFSET * max(scale, abs(px), abs(py), abs(pz))
+    return px, py, pz, gx, gy, gz, nx, ny, nz, side, mat, eps, front
+
+
+@njit(**JIT)
+def _direct(geo, acc, lights, shadows, hit, mat, ar, ag, ab, px, py, pz, gx, gy, gz, nx, ny, nz,
+            side, eps, dx, dy, dz, seed, pixel, sample, cnt):
+    """Blinn-Phong with the material's colour (ar, ag, ab): ambient, then
+    each light it faces, times the light's visibility (shadow rays)."""
     ka = geo.mat_param[mat, MAT_AMBIENT]
     kd = geo.mat_param[mat, MAT_DIFFUSE]
     ks = geo.mat_param[mat, MAT_SPECULAR]
     shin = geo.mat_param[mat, MAT_SHININESS]
     r, g, b = ka * ar, ka * ag, ka * ab
-    eps = RAY_OFFSET * max(scale, abs(px), abs(py), abs(pz))
     # Shadow rays start from the smooth surface the vertex normals imply,
     # not the flat facet (Hanika 2021), then off it along the facet normal.
     sx, sy, sz = smooth_point(geo, hit, px, py, pz, side)
@@ -233,11 +249,170 @@ def shade_sample(geo, acc, cam, lights, shadows, textures, background, seed, pix
         r += vis * lr * (kd * ar * ndl + spec)
         g += vis * lg * (kd * ag * ndl + spec)
         b += vis * lb * (kd * ab * ndl + spec)
-    return r, g, b, hit.t, hit.prim, nx, ny, nz
+    return r, g, b
 
 
 @njit(**JIT)
-def render_part(geo, acc, cam, lights, shadows, textures, aovs, background, width, height,
+def _camera_ray(cam, fx, fy):
+    """The camera ray through film position (fx, fy) in [0,1]^2, and that
+    position in the pinhole's screen coordinates (sxn, syn in [-1, 1])."""
+    # Pinhole camera: eye + forward + x * right + y * up (cam holds them
+    # pre-scaled by the field of view and the aspect ratio).
+    sxn = 2.0 * fx - 1.0
+    syn = 1.0 - 2.0 * fy
+    dx = cam[3] + sxn * cam[6] + syn * cam[9]
+    dy = cam[4] + sxn * cam[7] + syn * cam[10]
+    dz = cam[5] + sxn * cam[8] + syn * cam[11]
+    ln = np.sqrt(dx * dx + dy * dy + dz * dz)
+    dx, dy, dz = dx / ln, dy / ln, dz / ln
+    return make_ray(cam[0], cam[1], cam[2], dx, dy, dz), sxn, syn
+
+
+def shade_sample(bounces, geo, acc, cam, lights, shadows, textures, background, seed, pixel,
+                 sample, fx, fy, cnt):
+    """Colour of one camera ray through film position (fx, fy) in [0,1]^2:
+    (r, g, b, t, prim, nx, ny, nz), the last five for the AOVs.  With
+    NoBounces the surface's own shading; with Bounces mirror and glass
+    rays too.  Compiled code only."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(shade_sample, jit_options=OVERLOAD)
+def _shade_sample(bounces, geo, acc, cam, lights, shadows, textures, background, seed, pixel,
+                  sample, fx, fy, cnt):
+    if bounces.instance_class is NoBounces:
+        def impl(bounces, geo, acc, cam, lights, shadows, textures, background, seed, pixel,
+                 sample, fx, fy, cnt):
+            return _local_sample(geo, acc, cam, lights, shadows, textures, background, seed,
+                                 pixel, sample, fx, fy, cnt)
+        return impl
+
+    def impl(bounces, geo, acc, cam, lights, shadows, textures, background, seed, pixel, sample,
+             fx, fy, cnt):
+        return _whitted_sample(bounces.max_depth, geo, acc, cam, lights, shadows, textures,
+                               background, seed, pixel, sample, fx, fy, cnt)
+    return impl
+
+
+@njit(**JIT)
+def _local_sample(geo, acc, cam, lights, shadows, textures, background, seed, pixel, sample, fx,
+                  fy, cnt):
+    """A camera ray's hit shaded by its own material alone (shade_sample)."""
+    ray, sxn, syn = _camera_ray(cam, fx, fy)
+    cnt[PRIMARY_RAYS] += 1
+    hit = closest_hit(geo, acc, ray, np.inf, cnt)
+    if hit.prim < 0:
+        r, g, b = _sky(background, ray.dy)
+        return r, g, b, np.inf, -1, 0.0, 0.0, 0.0
+    cnt[SHADING_POINTS] += 1
+    px, py, pz, gx, gy, gz, nx, ny, nz, side, mat, eps, _ = _frame(geo, ray, hit)
+    ar, ag, ab = surface_albedo(textures, geo, cam, hit.prim, mat, px, py, pz, sxn, syn)
+    r, g, b = _direct(geo, acc, lights, shadows, hit, mat, ar, ag, ab, px, py, pz, gx, gy, gz,
+                      nx, ny, nz, side, eps, ray.dx, ray.dy, ray.dz, seed, pixel, sample, cnt)
+    return r, g, b, hit.t, hit.prim, nx, ny, nz
+
+
+# Pending rays of a Whitted tree, depth first: at most one waiting sibling
+# per level above the one being traced, and the two children of that one.
+BOUNCE_STACK = BY_NAME["max_depth"].hi + 2
+_O, _D, _W, _DEPTH, _KIND, _ENTRY = 0, 3, 6, 9, 10, 11   # a pending ray's fields in the stack
+_STACK_FLOATS = BOUNCE_STACK * _ENTRY           # a module constant: frame_array's size is literal
+_CAMERA, _REFLECTED, _REFRACTED = 0.0, 1.0, 2.0   # a pending ray's kind
+
+
+@njit(**JIT)
+def _whitted_sample(max_depth, geo, acc, cam, lights, shadows, textures, background, seed, pixel,
+                    sample, fx, fy, cnt):
+    """Whitted (1980), for shade_sample: at each hit the material's own
+    shading weighted by 1 - reflect - transmit, plus mirror and glass rays
+    weighted by the material and Fresnel (Schlick) and tinted by its colour
+    (white glass is clear), to max_depth bounces.  An explicit stack of
+    pending rays (origin, direction, RGB weight, depth, kind) replaces
+    recursion, which the kernels cannot have; the camera ray is its first
+    entry, so the tracing and shading code is compiled once."""
+    ray0, sxn, syn = _camera_ray(cam, fx, fy)
+    stack = frame_array(_STACK_FLOATS, np.float64)
+    sp = _push(stack, 0, ray0.ox, ray0.oy, ray0.oz, ray0.dx, ray0.dy, ray0.dz, 1.0, 1.0, 1.0,
+               0, _CAMERA)
+    r = g = b = 0.0
+    t0, prim0, n0x, n0y, n0z = np.inf, -1, 0.0, 0.0, 0.0
+    while sp > 0:
+        sp -= 1
+        e = sp * _ENTRY
+        ray = make_ray(stack[e + _O], stack[e + _O + 1], stack[e + _O + 2],
+                       stack[e + _D], stack[e + _D + 1], stack[e + _D + 2])
+        wr, wg, wb = stack[e + _W], stack[e + _W + 1], stack[e + _W + 2]
+        depth = int(stack[e + _DEPTH])
+        kind = stack[e + _KIND]
+        cnt[PRIMARY_RAYS if kind == _CAMERA else
+            REFLECTION_RAYS if kind == _REFLECTED else REFRACTION_RAYS] += 1
+        hit = closest_hit(geo, acc, ray, np.inf, cnt)
+        if hit.prim < 0:
+            sr, sg, sb = _sky(background, ray.dy)
+            r += wr * sr
+            g += wg * sg
+            b += wb * sb
+            continue
+        px, py, pz, gx, gy, gz, nx, ny, nz, side, mat, eps, front = _frame(geo, ray, hit)
+        if kind == _CAMERA:
+            cnt[SHADING_POINTS] += 1
+            t0, prim0, n0x, n0y, n0z = hit.t, hit.prim, nx, ny, nz
+            ar, ag, ab = surface_albedo(textures, geo, cam, hit.prim, mat, px, py, pz, sxn, syn)
+        else:
+            ar, ag, ab = albedo(geo, hit.prim, mat, px, py, pz)
+        kr = geo.mat_param[mat, MAT_REFLECT]
+        kt = geo.mat_param[mat, MAT_TRANSMIT]
+        dx, dy, dz = ray.dx, ray.dy, ray.dz
+        eta = 1.0
+        if kt > 0.0:
+            ior = geo.mat_param[mat, MAT_IOR]
+            eta = 1.0 / ior if front else ior
+        own, w_refl, w_refr = bounce_weights(kr, kt, -(dx * nx + dy * ny + dz * nz), eta)
+        if own > 0.0:
+            lr, lg, lb = _direct(geo, acc, lights, shadows, hit, mat, ar, ag, ab, px, py, pz,
+                                 gx, gy, gz, nx, ny, nz, side, eps, dx, dy, dz, seed, pixel,
+                                 sample, cnt)
+            r += wr * own * lr
+            g += wg * own * lg
+            b += wb * own * lb
+        if depth >= max_depth:
+            continue
+        if w_refr > 0.0:
+            ok, tx, ty, tz = refract(dx, dy, dz, nx, ny, nz, eta)
+            if ok and tx * gx + ty * gy + tz * gz >= 0.0:
+                # The shading normal bent the ray back out: bend it by the facet's.
+                ok, tx, ty, tz = refract(dx, dy, dz, gx, gy, gz, eta)
+            if ok:
+                # Refracted rays start just inside the surface.
+                sp = _push(stack, sp, px - eps * gx, py - eps * gy, pz - eps * gz, tx, ty, tz,
+                           wr * w_refr * ar, wg * w_refr * ag, wb * w_refr * ab, depth + 1,
+                           _REFRACTED)
+            else:
+                w_refl += w_refr     # total internal reflection by the facet's normal
+        if w_refl > 0.0:
+            qx, qy, qz = reflect(dx, dy, dz, nx, ny, nz)
+            if qx * gx + qy * gy + qz * gz <= 0.0:
+                qx, qy, qz = reflect(dx, dy, dz, gx, gy, gz)
+            sp = _push(stack, sp, px + eps * gx, py + eps * gy, pz + eps * gz, qx, qy, qz,
+                       wr * w_refl * ar, wg * w_refl * ag, wb * w_refl * ab, depth + 1,
+                       _REFLECTED)
+    return r, g, b, t0, prim0, n0x, n0y, n0z
+
+
+@njit(**JIT)
+def _push(stack, sp, ox, oy, oz, dx, dy, dz, wr, wg, wb, depth, kind):
+    """Put a pending ray on the bounce stack; returns the new height."""
+    e = sp * _ENTRY
+    stack[e + _O], stack[e + _O + 1], stack[e + _O + 2] = ox, oy, oz
+    stack[e + _D], stack[e + _D + 1], stack[e + _D + 2] = dx, dy, dz
+    stack[e + _W], stack[e + _W + 1], stack[e + _W + 2] = wr, wg, wb
+    stack[e + _DEPTH] = depth
+    stack[e + _KIND] = kind
+    return sp + 1
+
+
+@njit(**JIT)
+def render_part(geo, acc, cam, lights, shadows, textures, bounces, aovs, background, width, height,
                 y_first, y_end, y_step, spp, seed, image, stats_rows):
     """Rows y_first, y_first + y_step, ... below y_end into image (height,
     width, 3) float32, linear.  Each row counts into its own stats_rows[y]."""
@@ -254,7 +429,7 @@ def render_part(geo, acc, cam, lights, shadows, textures, aovs, background, widt
                     key = hash_key(seed, pixel, s, 0x5EED)
                     jx, jy = rand01(key, 0, 0), rand01(key, 0, 1)
                 sr, sg, sb, t, prim, nx, ny, nz = shade_sample(
-                    geo, acc, cam, lights, shadows, textures, background, seed, pixel, s,
+                    bounces, geo, acc, cam, lights, shadows, textures, background, seed, pixel, s,
                     (x + jx) / width, (y + jy) / height, cnt)
                 r += sr
                 g += sg
@@ -268,7 +443,7 @@ def render_part(geo, acc, cam, lights, shadows, textures, aovs, background, widt
 
 
 @njit(**PARALLEL)
-def render_rows(geo, acc, cam, lights, shadows, textures, aovs, background, width, height,
+def render_rows(geo, acc, cam, lights, shadows, textures, bounces, aovs, background, width, height,
                 y0, y1, n_threads, spp, seed, image, stats_rows):
     """Render rows y0 .. y1-1.
 
@@ -281,5 +456,5 @@ def render_rows(geo, acc, cam, lights, shadows, textures, aovs, background, widt
     """
     n_parts = max(1, min(n_threads, y1 - y0))
     for k in prange(n_parts):
-        render_part(geo, acc, cam, lights, shadows, textures, aovs, background, width, height,
-                    y0 + k, y1, n_parts, spp, seed, image, stats_rows)
+        render_part(geo, acc, cam, lights, shadows, textures, bounces, aovs, background, width,
+                    height, y0 + k, y1, n_parts, spp, seed, image, stats_rows)
