@@ -186,9 +186,12 @@ def bounce_record(scene, max_depth):
 def aov_buffers(width, height, enabled):
     """Per-pixel AOV buffers (raytrace/aov.py), or the empty record that
     compiles the kernel without them."""
-    from .kernels.render import Aovs, NoAovs
+    from .kernels.render import Aovs
     if not enabled:
-        return NoAovs()
+        # Empty buffers of the same types: one kernel serves both, and the
+        # writes it skips cost nothing next to a pixel's rays.
+        return Aovs(depth=np.zeros((0, 0), np.float32), normal=np.zeros((0, 0, 3), np.float32),
+                    primid=np.zeros((0, 0), np.int64), cost=np.zeros((0, 0), np.int64))
     return Aovs(depth=np.full((height, width), np.inf, np.float32),
                 normal=np.zeros((height, width, 3), np.float32),
                 primid=np.full((height, width), -1, np.int64),

@@ -5,8 +5,9 @@ does a part's rows.  What a render needs is chosen by the types of its
 arguments, so each combination compiles on first use and nothing else is
 compiled: the structure's layout (query.py), the shadow mode (NoShadows,
 HardShadows, SoftShadows), the texture filter (PointTextures,
-BoxFilteredTextures), mirror and glass rays (NoBounces, Bounces) and the
-AOV buffers (NoAovs, Aovs).
+BoxFilteredTextures) and mirror and glass rays (NoBounces, Bounces).
+AOV buffers are written when they have rows: a render with them and one
+without share a kernel.
 """
 from collections import namedtuple
 
@@ -48,8 +49,8 @@ from .shade import albedo, albedo_filtered, smooth_point, surface
 NoShadows = namedtuple("NoShadows", [])
 HardShadows = namedtuple("HardShadows", [])
 SoftShadows = namedtuple("SoftShadows", ["pattern"])
-# Per-pixel output buffers (raytrace/aov.py), or none.
-NoAovs = namedtuple("NoAovs", [])
+# Per-pixel output buffers (raytrace/aov.py); empty (0 rows) when not
+# asked for, so the same kernel serves renders with and without them.
 Aovs = namedtuple("Aovs", ["depth", "normal", "primid", "cost"])
 # Textures sampled at the hit point (aliasing shows), or box-filtered over
 # the camera sample's footprint: step_x, step_y are its extent in the
@@ -149,38 +150,23 @@ def _surface_albedo(textures, geo, cam, prim, mat, px, py, pz, sxn, syn):
     return impl
 
 
+@njit(**JIT)
 def record_sample(aovs, y, x, t, prim, nx, ny, nz):
-    """Write a pixel's first camera sample to the AOVs; compiled code only."""
-    raise NotImplementedError("compiled code only")
+    """Write a pixel's first camera sample to the AOVs, if there are any."""
+    if aovs.depth.shape[0] == 0:
+        return
+    aovs.depth[y, x] = t
+    aovs.primid[y, x] = prim
+    aovs.normal[y, x, 0] = nx
+    aovs.normal[y, x, 1] = ny
+    aovs.normal[y, x, 2] = nz
 
 
+@njit(**JIT)
 def record_cost(aovs, y, x, cost):
-    """Write a pixel's box + primitive tests to the cost AOV; compiled code only."""
-    raise NotImplementedError("compiled code only")
-
-
-@overload(record_sample, jit_options=OVERLOAD)
-def _record_sample(aovs, y, x, t, prim, nx, ny, nz):
-    if aovs.instance_class is NoAovs:
-        return lambda aovs, y, x, t, prim, nx, ny, nz: None
-
-    def impl(aovs, y, x, t, prim, nx, ny, nz):
-        aovs.depth[y, x] = t
-        aovs.primid[y, x] = prim
-        aovs.normal[y, x, 0] = nx
-        aovs.normal[y, x, 1] = ny
-        aovs.normal[y, x, 2] = nz
-    return impl
-
-
-@overload(record_cost, jit_options=OVERLOAD)
-def _record_cost(aovs, y, x, cost):
-    if aovs.instance_class is NoAovs:
-        return lambda aovs, y, x, cost: None
-
-    def impl(aovs, y, x, cost):
+    """Write a pixel's box + primitive tests to the cost AOV, if there is one."""
+    if aovs.cost.shape[0] != 0:
         aovs.cost[y, x] = cost
-    return impl
 
 
 @njit(**JIT)
