@@ -20,7 +20,6 @@ Ns 50
 newmtl glass
 Kd 0.2 0.3 0.9
 d 0.3
-illum 4
 """
 OBJ = """mtllib two.mtl
 v 0 0 0
@@ -61,8 +60,18 @@ def test_mtl_mapping():
     assert red.shininess == 50 and red.diffuse == Material().diffuse and not messages
     glass = mtl_material(lib["glass"], Material(), "two.obj", warn)
     assert glass.color == (0.2, 0.3, 0.9)
-    assert messages == ["two.obj: material 'glass' is transparent (d=0.3); rendered opaque",
-                        "two.obj: material 'glass' is glass (illum 4); rendered opaque"]
+    # A dissolve without a glass mode: see-through, unbent, said once.
+    assert (glass.transmit, glass.ior, glass.reflect) == (pytest.approx(0.7), 1.0, 0.0)
+    assert messages == ["two.obj: material 'glass' is transparent (d=0.3); rendered as unbending glass letting 0.7 through"]
+    messages.clear()
+    more = parse_mtl("newmtl m\nKs 0.5 0.7 0.9\nillum 3\nnewmtl bottle\nd 0.4\nillum 4\n"
+                     "Ni 1.52\nnewmtl lens\nillum 6\nNi 1.7\n", "more.mtl", warn)
+    mirror, bottle, lens = (mtl_material(more[k], Material(), "more.obj", warn)
+                            for k in ("m", "bottle", "lens"))
+    assert mirror.reflect == pytest.approx(0.7) and mirror.transmit == 0.0
+    assert (bottle.transmit, bottle.ior) == (pytest.approx(0.6), 1.52)
+    assert (lens.transmit, lens.ior) == (0.9, 1.7)
+    assert not messages                 # mirrors and glass are rendered as such
 
 
 def test_gltf_mapping():
@@ -80,6 +89,7 @@ def test_gltf_mapping():
                          Material(), "m.glb", warn)
     assert gold.specular == 1.0 and gold.shininess == 1000.0
     assert gold.diffuse == pytest.approx(Material().diffuse / 2)
+    assert gold.transmit == pytest.approx(1 - 128 / 255) and gold.ior == 1.0
     assert [m.split(";")[0] for m in messages] == [
         "m.glb: material 'gold' is transparent (alpha=0.502)",
         "m.glb: material 'gold' is a polished metal (metallic=1, roughness=0.2)"]
@@ -98,9 +108,7 @@ def test_obj_groups_become_meshes_with_their_materials(two_obj):
     meshes = [o for o in scene.objects if isinstance(o, Mesh)]
     colors = sorted((m.material.color, len(m.faces)) for m in meshes)
     assert colors == [((0.2, 0.3, 0.9), 2), ((0.8, 0.125, 0.1), 3)]
-    assert sorted(str(w.message) for w in caught) == [
-        "two.obj: material 'glass' is glass (illum 4); rendered opaque",
-        "two.obj: material 'glass' is transparent (d=0.3); rendered opaque"]
+    assert [str(w.message) for w in caught] == ["two.obj: material 'glass' is transparent (d=0.3); rendered as unbending glass letting 0.7 through"]
 
 
 def test_missing_or_broken_mtl_warns_and_loads(two_obj):
@@ -131,7 +139,7 @@ def test_scene_file_material_replaces_the_files(two_obj):
         scene = raytrace.load_scene(two_obj.parent / "s.toml")
     assert [o.material.color for o in scene.objects[2:]] == [(0.5, 0.5, 0.5)] * 2
     assert {o.material.color for o in scene.objects[:2]} == {(0.2, 0.3, 0.9), (0.8, 0.125, 0.1)}
-    assert len(caught) == 2   # the first object's; the second's material is the scene's
+    assert len(caught) == 1   # the first object's; the second's material is the scene's
 
 
 def test_gltf_file_materials(tmp_path):

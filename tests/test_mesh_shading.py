@@ -113,8 +113,7 @@ def test_cli_warns_once_per_problem(tmp_path, monkeypatch):
     r = CliRunner().invoke(main, [str(scene_file(tmp_path)), "-q"])
     assert r.exit_code == 0, r.output
     assert r.stderr.splitlines() == [
-        "warning: two.obj: material 'glass' is transparent (d=0.3); rendered opaque",
-        "warning: two.obj: material 'glass' is glass (illum 4); rendered opaque"]
+        "warning: two.obj: material 'glass' is transparent (d=0.3); rendered as unbending glass letting 0.7 through"]
     assert (tmp_path / "s.png").exists()
 
 

@@ -1,9 +1,10 @@
 """A mesh file's own materials (OBJ's MTL, glTF's PBR) as the renderer's
-Blinn-Phong Material, and a warning for what it cannot show yet.
+Material, and a warning for what it can only approximate.
 
-The renderer has one colour, a white highlight (a scalar ``specular``) and
-no reflection, transparency or textures: a material needing them is drawn
-with its colour alone, and ``warn`` is told once per material and problem.
+The renderer has one colour, a white highlight (a scalar ``specular``),
+mirror and glass weights (``reflect``, ``transmit``, ``ior``) and no image
+textures: a material needing what it lacks is approximated, and ``warn``
+is told once per material and problem.
 """
 from dataclasses import replace
 
@@ -11,8 +12,13 @@ import numpy as np
 
 # MTL illum modes (the Wavefront MTL specification): those that ask for
 # reflections traced from the surface, and those that ask for glass.
-MIRROR_ILLUM = {3: "a mirror", 5: "a mirror", 8: "a mirror"}
-GLASS_ILLUM = {4: "glass", 6: "glass", 7: "glass", 9: "glass"}
+MIRROR_ILLUM = (3, 5, 8)
+GLASS_ILLUM = (4, 6, 7, 9)
+# Glass by its illum mode alone (no d or Tr): the share of light it lets
+# through, and its index without Ni (window glass).
+GLASS_TRANSMIT = 0.9
+GLASS_IOR = 1.5
+IOR_RANGE = (1.0, 10.0)
 
 # glTF's Fresnel reflectance at normal incidence for a dielectric (the
 # specification's 0.04).
@@ -40,14 +46,23 @@ def mtl_material(entry, base, source, warn):
     if illum in (0, 1):
         mat.specular = 0.0
     what = f"{source}: material {entry.name!r}"
-    opacity = v["d"][0] if "d" in v else (1.0 - v["tr"][0] if "tr" in v else 1.0)
-    if opacity < 1.0:
-        key = f"d={v['d'][0]:g}" if "d" in v else f"Tr={v['tr'][0]:g}"
-        warn(f"{what} is transparent ({key}); rendered opaque")
+    opacity = float(np.clip(v["d"][0] if "d" in v else (1.0 - v["tr"][0] if "tr" in v else 1.0),
+                            0.0, 1.0))
+    # Mirrors (illum 3, 5, 8) reflect by Ks (the specification's reflection
+    # colour, its mean here), 1 without it; glass (illum 4, 6, 7, 9)
+    # refracts with index Ni.  A dissolve (d or Tr) without a glass mode is
+    # see-through without bending: glass of index 1, said once.
     if illum in MIRROR_ILLUM:
-        warn(f"{what} is {MIRROR_ILLUM[illum]} (illum {illum}); reflections are not rendered")
-    if illum in GLASS_ILLUM:
-        warn(f"{what} is {GLASS_ILLUM[illum]} (illum {illum}); rendered opaque")
+        mat.reflect = float(np.clip(np.mean(v["ks"]), 0.0, 1.0)) if "ks" in v else 1.0
+    if illum in GLASS_ILLUM or opacity < 1.0:
+        mat.transmit = 1.0 - opacity if opacity < 1.0 else GLASS_TRANSMIT
+        mat.reflect = min(mat.reflect, 1.0 - mat.transmit)
+        mat.ior = float(np.clip(v["ni"][0], *IOR_RANGE)) if "ni" in v else GLASS_IOR
+        if illum not in GLASS_ILLUM:
+            mat.ior = 1.0
+            key = f"d={v['d'][0]:g}" if "d" in v else f"Tr={v['tr'][0]:g}"
+            warn(f"{what} is transparent ({key}); rendered as unbending glass letting "
+                 f"{mat.transmit:.2g} through")
     for key in ("map_kd", "map_d", "refl"):
         if key in v:
             shown = {"map_kd": "map_Kd", "map_d": "map_d", "refl": "refl"}[key]
@@ -82,7 +97,9 @@ def gltf_material(pbr, base, source, warn):
     what = f"{source}: material {name!r}" if name else f"{source}: a material"
     alpha_mode = str(getattr(pbr, "alphaMode", None) or "OPAQUE").upper()
     if alpha_mode == "BLEND" and rgba[3] < 1.0:
-        warn(f"{what} is transparent (alpha={rgba[3]:.3g}); rendered opaque")
+        mat.transmit, mat.ior = 1.0 - rgba[3], 1.0
+        warn(f"{what} is transparent (alpha={rgba[3]:.3g}); rendered as unbending glass letting "
+             f"{mat.transmit:.2g} through")
     if metallic >= 0.5 and rough < 0.5:
         warn(f"{what} is a polished metal (metallic={metallic:g}, roughness={rough:g}); "
              "reflections are not rendered")
