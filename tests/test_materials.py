@@ -38,6 +38,10 @@ f 3 4 5
 """
 
 
+GLASS_WARNING = ("two.obj: material 'glass' is transparent (d=0.3); rendered as unbending glass "
+                 "letting 0.7 through")
+
+
 def collect():
     messages = []
     return messages, messages.append
@@ -62,7 +66,7 @@ def test_mtl_mapping():
     assert glass.color == (0.2, 0.3, 0.9)
     # A dissolve without a glass mode: see-through, unbent, said once.
     assert (glass.transmit, glass.ior, glass.reflect) == (pytest.approx(0.7), 1.0, 0.0)
-    assert messages == ["two.obj: material 'glass' is transparent (d=0.3); rendered as unbending glass letting 0.7 through"]
+    assert messages == [GLASS_WARNING]
     messages.clear()
     more = parse_mtl("newmtl m\nKs 0.5 0.7 0.9\nillum 3\nnewmtl bottle\nd 0.4\nillum 4\n"
                      "Ni 1.52\nnewmtl lens\nillum 6\nNi 1.7\n", "more.mtl", warn)
@@ -108,7 +112,7 @@ def test_obj_groups_become_meshes_with_their_materials(two_obj):
     meshes = [o for o in scene.objects if isinstance(o, Mesh)]
     colors = sorted((m.material.color, len(m.faces)) for m in meshes)
     assert colors == [((0.2, 0.3, 0.9), 2), ((0.8, 0.125, 0.1), 3)]
-    assert [str(w.message) for w in caught] == ["two.obj: material 'glass' is transparent (d=0.3); rendered as unbending glass letting 0.7 through"]
+    assert [str(w.message) for w in caught] == [GLASS_WARNING]
 
 
 def test_missing_or_broken_mtl_warns_and_loads(two_obj):
