@@ -152,12 +152,10 @@ def light_buffers(scene, shadows, light_samples):
 
 def shadow_record(shadows, pattern):
     """The kernel's shadow-mode record: its type picks the code compiled."""
-    from .kernels.render import HardShadows, NoShadows, SoftShadows
+    from .kernels.render import PointShadows, SoftShadows
     from .kernels.sampling import PATTERN_NAMES
-    if shadows == "none":
-        return NoShadows()
-    if shadows == "hard":
-        return HardShadows()
+    if shadows in ("none", "hard"):
+        return PointShadows(cast=shadows == "hard")
     return SoftShadows(pattern=int(PATTERN_NAMES[pattern]))
 
 

@@ -3,8 +3,8 @@
 ``render_rows`` is a thin parallel loop over thread parts; ``render_part``
 does a part's rows.  What a render needs is chosen by the types of its
 arguments, so each combination compiles on first use and nothing else is
-compiled: the structure's layout (query.py), the shadow mode (NoShadows,
-HardShadows, SoftShadows), the texture filter (PointTextures,
+compiled: the structure's layout (query.py), the shadow mode (PointShadows,
+SoftShadows), the texture filter (PointTextures,
 BoxFilteredTextures) and mirror and glass rays (NoBounces, Bounces).
 AOV buffers are written when they have rows: a render with them and one
 without share a kernel.
@@ -44,10 +44,10 @@ from .ray import make_ray
 from .sampling import hash_key, rand01, square_sample
 from .shade import albedo, albedo_filtered, smooth_point, surface
 
-# Shadow modes: none casts no shadow rays; hard one ray per light, to its
-# centre; soft samples each area light (``pattern``: sampling.PATTERN_*).
-NoShadows = namedtuple("NoShadows", [])
-HardShadows = namedtuple("HardShadows", [])
+# Shadow modes: rays to each light's centre (``cast`` False: none, every light seen;
+# one kernel for both, as they differ by a branch), or from samples of
+# each area light (``pattern``: sampling.PATTERN_*).
+PointShadows = namedtuple("PointShadows", ["cast"])
 SoftShadows = namedtuple("SoftShadows", ["pattern"])
 # Per-pixel output buffers (raytrace/aov.py); empty (0 rows) when not
 # asked for, so the same kernel serves renders with and without them.
@@ -119,15 +119,17 @@ def light_visibility(shadows, geo, acc, lights, li, ox, oy, oz, seed, pixel, sam
 
 @overload(light_visibility, jit_options=OVERLOAD)
 def _light_visibility(shadows, geo, acc, lights, li, ox, oy, oz, seed, pixel, sample, cnt):
-    cls = shadows.instance_class
-    if cls is NoShadows:
+    if shadows.instance_class is PointShadows:
         def impl(shadows, geo, acc, lights, li, ox, oy, oz, seed, pixel, sample, cnt):
-            return 1.0
+            if not shadows.cast:
+                return 1.0
+            return _hard_visibility(shadows, geo, acc, lights, li, ox, oy, oz, seed, pixel,
+                                    sample, cnt)
         return impl
-    visibility = _hard_visibility if cls is HardShadows else _soft_visibility
 
     def impl(shadows, geo, acc, lights, li, ox, oy, oz, seed, pixel, sample, cnt):
-        return visibility(shadows, geo, acc, lights, li, ox, oy, oz, seed, pixel, sample, cnt)
+        return _soft_visibility(shadows, geo, acc, lights, li, ox, oy, oz, seed, pixel, sample,
+                                cnt)
     return impl
 
 
