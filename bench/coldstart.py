@@ -63,6 +63,11 @@ print(" ".join(str(x) for x in out))
 """
 
 
+def _example(name):
+    from raytrace.scenes.examples import example_files
+    return next(str(p) for p, _ in example_files() if str(p).endswith(name))
+
+
 def _env(cache):
     env = dict(os.environ, XDG_CACHE_HOME=str(cache), NUMBA_CACHE_DIR=str(Path(cache) / "numba"))
     return env
@@ -131,7 +136,8 @@ def measure(quick):
             steps += [("then --shadows soft", ["teapot", "--shadows", "soft", "--light-samples", "4"]),
                       ("then --shadows none", ["teapot", "--shadows", "none"]),
                       ("then --aov depth", ["teapot", "--aov", "depth"]),
-                      ("then --spp 4", ["teapot", "--spp", "4"])]
+                      ("then --spp 4", ["teapot", "--spp", "4"]),
+                      ("then assets/whitted.toml (mirrors, glass)", [_example("whitted.toml")])]
             for label, args in steps:
                 log(f"coldstart: {label} (one cache)")
                 wall, comp, build = cli_render(args, cache, tmp)
