@@ -94,6 +94,8 @@ def test_gltf_mapping():
     assert gold.specular == 1.0 and gold.shininess == 1000.0
     assert gold.diffuse == pytest.approx(Material().diffuse / 2)
     assert gold.transmit == pytest.approx(1 - 128 / 255) and gold.ior == 1.0
+    # Metallic 1, roughness 0.2: a mirror of weight 0.6, within 1 - transmit.
+    assert gold.reflect == pytest.approx(min(0.6, 128 / 255))
     assert [m.split(";")[0] for m in messages] == [
         "m.glb: material 'gold' is transparent (alpha=0.502)",
         "m.glb: material 'gold' is a polished metal (metallic=1, roughness=0.2)"]

@@ -101,8 +101,11 @@ def gltf_material(pbr, base, source, warn):
         warn(f"{what} is transparent (alpha={rgba[3]:.3g}); rendered as unbending glass letting "
              f"{mat.transmit:.2g} through")
     if metallic >= 0.5 and rough < 0.5:
+        # A polished metal mirrors its surroundings, blurred by roughness;
+        # the renderer's mirror is sharp, so weight it down as it roughens.
+        mat.reflect = min(metallic * (1.0 - 2.0 * rough), 1.0 - mat.transmit)
         warn(f"{what} is a polished metal (metallic={metallic:g}, roughness={rough:g}); "
-             "reflections are not rendered")
+             f"rendered as a sharp mirror of weight {mat.reflect:.2g}")
     if getattr(pbr, "baseColorTexture", None) is not None:
         warn(f"{what} has an image texture (baseColorTexture); rendered with its base colour")
     return mat
