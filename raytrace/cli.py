@@ -137,6 +137,20 @@ def _view_options(view, up):
 
 
 @contextlib.contextmanager
+def _one_line_errors():
+    """A bad option exits 2, any other raytrace error 1, each as one line
+    (click prints it); Ctrl-C passes through to the caller."""
+    try:
+        yield
+    except OptionError as exc:
+        raise click.UsageError(str(exc)) from None
+    except RaytraceError as exc:
+        raise click.ClickException(str(exc)) from None
+    except MemoryError:
+        raise click.ClickException("out of memory: try a smaller image or fewer samples") from None
+
+
+@contextlib.contextmanager
 def _warnings_once():
     """Show each RaytraceWarning raised inside as one line on stderr, once."""
     import warnings
@@ -335,42 +349,37 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
         raise click.UsageError("--heatmap must differ from the output image and its .aov.npz")
     outputs = None
     try:
-        from .driver import RenderOptions, render
-        from .load import load_scene
-        from .output import check_writable
-        from .stats import format_table, to_json
+        with _one_line_errors():
+            from .driver import RenderOptions, render
+            from .load import load_scene
+            from .output import check_writable
+            from .stats import format_table, to_json
 
-        if show_depth is not None:
-            from .structures import DEFAULT, get
-            get(options.get("accel", DEFAULT)).check_outline()
-        with _warnings_once():
-            sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
-                            crease=crease, flat=flat, **_view_options(view, up))
-        if not named and kind == "toml":      # a scene file's name names its image
-            output = f"{sc.name}.png"
-            if aov:
-                from .aov import aov_path
-                aov_out = aov_path(output)
-        for path in (output, aov_out, heatmap):
-            if path is not None:
-                check_writable(path)
-        progress = _Progress(enabled=not quiet)
-        opts = RenderOptions(aov=bool(aov or heatmap), progress=progress, **options)
-        try:
-            result = render(sc, opts)
-        finally:
-            progress.close()
-        if show_depth is not None:
-            result.image = _show_structure(result, sc, opts.accel, show_depth)
-        from .output import Outputs
-        with Outputs() as outputs:
-            notes = _write_outputs(result, output, aov, aov_out, heatmap, outputs)
-    except OptionError as exc:
-        raise click.UsageError(str(exc)) from None
-    except RaytraceError as exc:
-        raise click.ClickException(str(exc)) from None
-    except MemoryError:
-        raise click.ClickException("out of memory: try a smaller image or fewer samples") from None
+            if show_depth is not None:
+                from .structures import DEFAULT, get
+                get(options.get("accel", DEFAULT)).check_outline()
+            with _warnings_once():
+                sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
+                                crease=crease, flat=flat, **_view_options(view, up))
+            if not named and kind == "toml":      # a scene file's name names its image
+                output = f"{sc.name}.png"
+                if aov:
+                    from .aov import aov_path
+                    aov_out = aov_path(output)
+            for path in (output, aov_out, heatmap):
+                if path is not None:
+                    check_writable(path)
+            progress = _Progress(enabled=not quiet)
+            opts = RenderOptions(aov=bool(aov or heatmap), progress=progress, **options)
+            try:
+                result = render(sc, opts)
+            finally:
+                progress.close()
+            if show_depth is not None:
+                result.image = _show_structure(result, sc, opts.accel, show_depth)
+            from .output import Outputs
+            with Outputs() as outputs:
+                notes = _write_outputs(result, output, aov, aov_out, heatmap, outputs)
     except KeyboardInterrupt:
         done = "outputs written" if outputs is not None and outputs.committed else "no image written"
         click.echo(f"interrupted: {done}", err=True)
@@ -423,35 +432,30 @@ def compare_cmd(ctx, scene, accel_list, detail, view, up, crease, flat, fov, rep
     repeat = repeat or (1 if quick else 3)
     options = {k: v for k, v in options.items() if v is not None}
     try:
-        from .compare import compare, default_entries, format_table, parse_entries, to_dict
-        from .compare_figure import figure
-        from .driver import RenderOptions
-        from .load import load_scene
-        from .output import Outputs, check_writable, image_writer
-        from .stats import to_json
+        with _one_line_errors():
+            from .compare import compare, default_entries, format_table, parse_entries, to_dict
+            from .compare_figure import figure
+            from .driver import RenderOptions
+            from .load import load_scene
+            from .output import Outputs, check_writable, image_writer
+            from .stats import to_json
 
-        entries = parse_entries(accel_list) if accel_list is not None else default_entries()
-        with _warnings_once():
-            sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
-                            crease=crease, flat=flat, **_view_options(view, up))
-        stem = sc.name if kind == "toml" else scene if kind == "builtin" else Path(scene).stem
-        output = output or f"{stem}.compare.png"
-        check_writable(output)
-        show = not (quiet or as_json) and _is_tty(sys.stderr)
-        result = compare(sc, entries, RenderOptions(**options), repeat=repeat,
-                         progress=(lambda label: click.echo(f"rendering: {label}", err=True))
-                         if show else None)
-        s = result.entries[0].stats
-        setting = (f"{s['width']}x{s['height']}, {s['spp']} spp, {s['shadows']} shadows, "
-                   f"{s['triangles']:,} triangles, {s['threads']} threads, best of {repeat}")
-        with Outputs() as outputs:
-            outputs.add(output, image_writer(figure(result, setting)[0], output))
-    except OptionError as exc:
-        raise click.UsageError(str(exc)) from None
-    except RaytraceError as exc:
-        raise click.ClickException(str(exc)) from None
-    except MemoryError:
-        raise click.ClickException("out of memory: try a smaller image or fewer samples") from None
+            entries = parse_entries(accel_list) if accel_list is not None else default_entries()
+            with _warnings_once():
+                sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
+                                crease=crease, flat=flat, **_view_options(view, up))
+            stem = sc.name if kind == "toml" else scene if kind == "builtin" else Path(scene).stem
+            output = output or f"{stem}.compare.png"
+            check_writable(output)
+            show = not (quiet or as_json) and _is_tty(sys.stderr)
+            result = compare(sc, entries, RenderOptions(**options), repeat=repeat,
+                             progress=(lambda label: click.echo(f"rendering: {label}", err=True))
+                             if show else None)
+            s = result.entries[0].stats
+            setting = (f"{s['width']}x{s['height']}, {s['spp']} spp, {s['shadows']} shadows, "
+                       f"{s['triangles']:,} triangles, {s['threads']} threads, best of {repeat}")
+            with Outputs() as outputs:
+                outputs.add(output, image_writer(figure(result, setting)[0], output))
     except KeyboardInterrupt:
         click.echo("interrupted: no comparison written", err=True)
         sys.exit(130)
