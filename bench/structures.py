@@ -1,6 +1,6 @@
 """bench.sh's ``structures`` section: every structure and BVH builder on
-the teapot, the 118k-triangle teapot, the teapot in a stadium and the
-scene of many sizes, through ``raytrace compare`` (raytrace/compare.py):
+the teapot, the 118k-triangle teapot, the teapot in a stadium, the
+scene of many sizes and Whitted's mirrors and glass, through ``raytrace compare`` (raytrace/compare.py):
 build time, render time (best of interleaved renders), speedup, tests and
 nodes or cells per ray, memory, and the identical-images check.
 
@@ -32,6 +32,8 @@ def cases():
          lambda w, h: load_scene(_example("stadium.toml"), width=w, height=h), HIERARCHIES),
         ("Many sizes (assets/sizes.toml)",
          lambda w, h: load_scene(_example("sizes.toml"), width=w, height=h), EVERY),
+        ("Mirrors and glass (assets/whitted.toml)",
+         lambda w, h: load_scene(_example("whitted.toml"), width=w, height=h), EVERY),
     ]
 
 
