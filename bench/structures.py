@@ -1,8 +1,9 @@
 """bench.sh's ``structures`` section: every structure and BVH builder on
-the teapot, the 118k-triangle teapot, the teapot in a stadium, the
-scene of many sizes and Whitted's mirrors and glass, through ``raytrace compare`` (raytrace/compare.py):
-build time, render time (best of interleaved renders), speedup, tests and
-nodes or cells per ray, memory, and the identical-images check.
+the teapot, the 118k-triangle teapot, the teapot in a stadium, the scene
+of many sizes and Whitted's mirrors and glass, through ``raytrace
+compare`` (raytrace/compare.py): build time, render time (best of
+interleaved renders), speedup, tests and nodes or cells per ray, memory,
+and the identical-images check.
 
 Brute force and per-object boxes are left out where one render would take
 minutes (the 118k teapot, the stadium): they add nothing there but waiting.
