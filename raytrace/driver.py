@@ -160,15 +160,14 @@ def shadow_record(shadows, pattern):
 
 
 def texture_record(texture_filter, width, height, spp):
-    """The kernel's texture record: its type picks the code compiled.  A
-    box-filtered texture is averaged over one camera sample's share of
-    the pixel, 1/sqrt(spp) of its width and height (the screen spans 2
-    units in each direction), as pbrt scales its ray differentials."""
-    from .kernels.render import BoxFilteredTextures, PointTextures
-    if texture_filter == "none":
-        return PointTextures()
+    """The kernel's texture record.  A box-filtered texture is averaged
+    over one camera sample's share of the pixel, 1/sqrt(spp) of its width
+    and height (the screen spans 2 units in each direction), as pbrt
+    scales its ray differentials."""
+    from .kernels.render import Textures
     share = 1.0 / math.sqrt(spp)
-    return BoxFilteredTextures(step_x=2.0 / width * share, step_y=2.0 / height * share)
+    return Textures(filtered=texture_filter != "none", step_x=2.0 / width * share,
+                    step_y=2.0 / height * share)
 
 
 def bounce_record(scene, max_depth):

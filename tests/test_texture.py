@@ -89,11 +89,7 @@ def test_filtered_near_ground_keeps_its_squares():
     assert same.mean() > 0.8
 
 
-# The BVH against brute force: texture filtering is shading code, the same
-# for every structure, and each further structure here compiled two more
-# kernels (~9 s of a cold suite) for what tests/test_compare.py and the
-# structure tests already show of every structure.
-@pytest.mark.parametrize("accel", ["bvh"])
+@pytest.mark.parametrize("accel", ["bvol", "bvh", "grid"])
 def test_texture_filter_changes_no_counter_and_no_structure_agrees(render_small, teapot_scene, accel):
     kw = dict(shadows="hard", aov=True)
     box = render_small(teapot_scene, accel=accel, **kw)

@@ -4,8 +4,7 @@
 does a part's rows.  What a render needs is chosen by the types of its
 arguments, so each combination compiles on first use and nothing else is
 compiled: the structure's layout (query.py), the shadow mode (PointShadows,
-SoftShadows), the texture filter (PointTextures,
-BoxFilteredTextures) and mirror and glass rays (NoBounces, Bounces).
+SoftShadows) and mirror and glass rays (NoBounces, Bounces).
 AOV buffers are written when they have rows: a render with them and one
 without share a kernel.
 """
@@ -52,11 +51,11 @@ SoftShadows = namedtuple("SoftShadows", ["pattern"])
 # Per-pixel output buffers (raytrace/aov.py); empty (0 rows) when not
 # asked for, so the same kernel serves renders with and without them.
 Aovs = namedtuple("Aovs", ["depth", "normal", "primid", "cost"])
-# Textures sampled at the hit point (aliasing shows), or box-filtered over
-# the camera sample's footprint: step_x, step_y are its extent in the
-# pinhole's screen coordinates (sxn, syn in [-1, 1]).
-PointTextures = namedtuple("PointTextures", [])
-BoxFilteredTextures = namedtuple("BoxFilteredTextures", ["step_x", "step_y"])
+# Textures box-filtered over the camera sample's footprint (step_x, step_y:
+# its extent in the pinhole's screen coordinates, sxn and syn in [-1, 1]),
+# or with ``filtered`` False sampled at the hit point (aliasing shows); one
+# kernel serves both, as they differ by a branch.
+Textures = namedtuple("Textures", ["filtered", "step_x", "step_y"])
 # Mirror and glass rays followed to max_depth bounces, or none: a scene
 # whose materials neither reflect nor transmit never compiles them.
 NoBounces = namedtuple("NoBounces", [])
@@ -133,23 +132,13 @@ def _light_visibility(shadows, geo, acc, lights, li, ox, oy, oz, seed, pixel, sa
     return impl
 
 
+@njit(**JIT)
 def surface_albedo(textures, geo, cam, prim, mat, px, py, pz, sxn, syn):
-    """Material colour at a hit of the camera ray through (sxn, syn);
-    compiled code only."""
-    raise NotImplementedError("compiled code only")
-
-
-@overload(surface_albedo, jit_options=OVERLOAD)
-def _surface_albedo(textures, geo, cam, prim, mat, px, py, pz, sxn, syn):
-    if textures.instance_class is PointTextures:
-        def impl(textures, geo, cam, prim, mat, px, py, pz, sxn, syn):
-            return albedo(geo, prim, mat, px, py, pz)
-        return impl
-
-    def impl(textures, geo, cam, prim, mat, px, py, pz, sxn, syn):
-        return albedo_filtered(geo, cam, prim, mat, px, py, pz, sxn, syn,
-                               textures.step_x, textures.step_y)
-    return impl
+    """Material colour at a hit of the camera ray through (sxn, syn)."""
+    if not textures.filtered:
+        return albedo(geo, prim, mat, px, py, pz)
+    return albedo_filtered(geo, cam, prim, mat, px, py, pz, sxn, syn, textures.step_x,
+                           textures.step_y)
 
 
 @njit(**JIT)
