@@ -64,8 +64,8 @@ print(" ".join(str(x) for x in out))
 
 
 def _example(name):
-    from raytrace.scenes.examples import example_files
-    return next(str(p) for p, _ in example_files() if str(p).endswith(name))
+    from raytrace.scenes.assets import assets_dir
+    return str(assets_dir() / name)
 
 
 def _env(cache):

@@ -13,14 +13,14 @@ from common import fmt_g, log, markdown_table
 from raytrace.compare import compare, parse_entries, rows, speedup_text
 from raytrace.driver import RenderOptions
 from raytrace.load import load_scene
-from raytrace.scenes.examples import example_files
+from raytrace.scenes.assets import assets_dir
 
 EVERY = "none,bvol,bvh,bvh:median,bvh:lbvh,grid,kdtree"
 HIERARCHIES = "bvh,bvh:median,bvh:lbvh,grid,kdtree"
 
 
 def _example(name):
-    return next(str(p) for p, _ in example_files() if str(p).endswith(name))
+    return assets_dir() / name
 
 
 def cases():

@@ -63,11 +63,7 @@ def parse_entries(text):
 
 def default_entries():
     """Every structure, brute force first."""
-    return [Entry(name, name) for name in accel_names()]
-
-
-def accel_names():
-    return BY_NAME["accel"].choice_list()
+    return [Entry(name, name) for name in BY_NAME["accel"].choice_list()]
 
 
 def compare(scene, entries, opts, repeat=1, progress=None):

@@ -151,7 +151,8 @@ def light_buffers(scene, shadows, light_samples):
 
 
 def shadow_record(shadows, pattern):
-    """The kernel's shadow-mode record: its type picks the code compiled."""
+    """The kernel's shadow-mode record: soft shadows are a type of their
+    own (their sampling compiles only when used); none and hard share one."""
     from .kernels.render import PointShadows, SoftShadows
     from .kernels.sampling import PATTERN_NAMES
     if shadows in ("none", "hard"):
@@ -181,8 +182,8 @@ def bounce_record(scene, max_depth):
 
 
 def aov_buffers(width, height, enabled):
-    """Per-pixel AOV buffers (raytrace/aov.py), or the empty record that
-    compiles the kernel without them."""
+    """Per-pixel AOV buffers (raytrace/aov.py), or empty ones (no rows)
+    when they are not wanted: the same kernel skips their stores."""
     from .kernels.render import Aovs
     if not enabled:
         # Empty buffers of the same types: one kernel serves both, and the
@@ -281,7 +282,7 @@ def render(scene, opts=None, **kw):
         "light_samples": int(lights.samples.max()) if len(lights.samples) else 0,
         "bvh_build": opts.bvh_build, "leaf_size": opts.leaf_size, "grid_density": opts.grid_density,
         "pattern": opts.pattern, "texture_filter": opts.texture_filter,
-        "max_depth": opts.max_depth if bounces._fields else None, "width": width,
+        "max_depth": getattr(bounces, "max_depth", None), "width": width,
         "height": height, "spp": opts.spp, "seed": opts.seed, "threads": threads,
         **info,
         "time": {"render_s": t_render, "build_s": t_build, "compile_s": t_compile,

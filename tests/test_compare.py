@@ -178,9 +178,8 @@ def test_the_teaching_scenes_are_what_the_script_writes(tmp_path):
 
 def test_in_the_stadium_the_grid_tests_far_more_than_the_bvh():
     from raytrace.load import load_scene
-    from raytrace.scenes.examples import example_files
-    path = next(p for p, _ in example_files() if str(p).endswith("stadium.toml"))
-    scene = load_scene(path, width=32, height=24)
+    from raytrace.scenes.assets import assets_dir
+    scene = load_scene(assets_dir() / "stadium.toml", width=32, height=24)
     got = cmp.compare(scene, cmp.parse_entries("bvh,grid"), RenderOptions(shadows="none"))
     bvh, grid = cmp.rows(got)
     assert got.identical

@@ -12,7 +12,7 @@ from raytrace.driver import render
 from raytrace.kernels.optics import bounce_weights, reflect, refract, schlick
 from raytrace.load import load_scene
 from raytrace.scene import Camera, Light, Material, Plane, Scene, Sphere
-from raytrace.scenes.examples import example_files
+from raytrace.scenes.assets import assets_dir
 
 from .scene_transform import transform_scene
 from .structures import STRUCTURES
@@ -22,7 +22,7 @@ SMALL = dict(width=32, height=24)
 
 
 def whitted_file():
-    return next(str(p) for p, _ in example_files() if str(p).endswith("whitted.toml"))
+    return assets_dir() / "whitted.toml"
 
 
 def unit(*v):
