@@ -15,6 +15,7 @@ import pytest
 from raytrace import cast_rays, occluded
 from raytrace.driver import render
 from raytrace.kernels.intersect import BOX_FAR_SCALE, ray_aabb
+from raytrace.kernels.jit import python_callable
 from raytrace.kernels.ray import make_ray
 from raytrace.scene import Camera, Light, Material, Mesh, Plane, Scene, Sphere
 from raytrace.transform import rotation
@@ -22,6 +23,9 @@ from raytrace.transform import rotation
 from .scene_transform import transform_scene
 from .structures import STRUCTURES
 from .test_watertight import subdivided_box
+
+# Per-ray kernel functions are compiled without Python wrappers (kernels/jit.py).
+ray_aabb, make_ray = python_callable(ray_aabb), python_callable(make_ray)
 
 EPS64 = np.finfo(np.float64).eps
 

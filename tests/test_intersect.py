@@ -5,7 +5,12 @@ import numpy as np
 import pytest
 
 from raytrace.kernels.intersect import ray_aabb, ray_plane, ray_sphere, ray_triangle
+from raytrace.kernels.jit import python_callable
 from raytrace.kernels.ray import make_ray
+
+# Per-ray kernel functions are compiled without Python wrappers (kernels/jit.py).
+ray_aabb, ray_plane, ray_sphere, ray_triangle, make_ray = map(
+    python_callable, (ray_aabb, ray_plane, ray_sphere, ray_triangle, make_ray))
 
 INF = math.inf
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from raytrace.flatten import flatten
+from raytrace.kernels.jit import python_callable
 from raytrace.kernels.ray import Hit
 from raytrace.kernels.shade import smooth_point
 from raytrace.scene import Camera, Mesh, Scene
@@ -15,6 +16,9 @@ from raytrace.scene import Camera, Mesh, Scene
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "bench"))
 
 import terminator_checker  # noqa: E402
+
+# Per-ray kernel functions are compiled without Python wrappers (kernels/jit.py).
+smooth_point = python_callable(smooth_point)
 
 # A small triangle on the unit sphere, 0.3 rad across.
 CORNERS = np.array([[np.sin(a) * np.cos(b), np.sin(a) * np.sin(b), np.cos(a)]

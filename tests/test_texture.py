@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from raytrace.driver import render
+from raytrace.kernels.jit import python_callable
 from raytrace.kernels.shade import DARK_SQUARE, checker_box
 from raytrace.scene import Camera, Material, Plane, Scene
 
@@ -15,6 +16,9 @@ from .conftest import H, W
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "bench"))
 
 import terminator_checker  # noqa: E402
+
+# Per-ray kernel functions are compiled without Python wrappers (kernels/jit.py).
+checker_box = python_callable(checker_box)
 
 
 def brute_checker_box(u, v, hu, hv, n=2000):

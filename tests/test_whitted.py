@@ -9,6 +9,7 @@ from click.testing import CliRunner
 
 from raytrace.cli import main
 from raytrace.driver import render
+from raytrace.kernels.jit import python_callable
 from raytrace.kernels.optics import bounce_weights, reflect, refract, schlick
 from raytrace.load import load_scene
 from raytrace.scene import Camera, Light, Material, Plane, Scene, Sphere
@@ -16,6 +17,9 @@ from raytrace.scenes.assets import assets_dir
 
 from .scene_transform import transform_scene
 from .structures import STRUCTURES
+
+# Per-ray kernel functions are compiled without Python wrappers (kernels/jit.py).
+bounce_weights, reflect, refract, schlick = map(python_callable, (bounce_weights, reflect, refract, schlick))
 
 CASES = [(scale, shift) for shift in (0.0, 1e5) for scale in (1e-4, 1.0, 1e4)]
 SMALL = dict(width=32, height=24)

@@ -4,10 +4,10 @@ query at 118k triangles).  It only says whether
 something is wrong; the Python layer then finds and names the problem."""
 from numba import njit
 
-from .jit import JIT
+from .jit import ENTRY
 
 
-@njit(**JIT)
+@njit(**ENTRY)
 def rays_ok(origins, dirs, t_min, t_max, max_coord):
     """True if every origin and direction component is finite and within
     max_coord, no direction is zero, and 0 <= t_min < t_max (t_max may be
