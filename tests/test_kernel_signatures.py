@@ -35,11 +35,11 @@ for oo, dd, tm in ((o, d, None), (ro_o, ro_d, None), (o.astype(np.float32), d.as
     assert h.hit.all()
     assert raytrace.occluded((v, f), oo, dd, 2 if tm is None else tm).all()
 
-from raytrace.accel.bvh import build_bvh_kernel, collapse_bvh4
+from raytrace.accel.bvh import build_bvh_kernel, collapse_bvh4_kernel
 from raytrace.kernels.cast import cast_closest, cast_occluded
 from raytrace.kernels.render import render_rows
 print(json.dumps({k.__name__: [str(s) for s in k.signatures] for k in
-                  (render_rows, cast_closest, cast_occluded, build_bvh_kernel, collapse_bvh4)}))
+                  (render_rows, cast_closest, cast_occluded, build_bvh_kernel, collapse_bvh4_kernel)}))
 """
 
 
@@ -49,5 +49,5 @@ def test_one_signature_per_structure_and_mode():
     sigs = json.loads(p.stdout.strip().splitlines()[-1])
     # render_rows: BVH + hard shadows, one kernel with and without AOVs.
     assert len(sigs["render_rows"]) == 1, sigs["render_rows"]
-    for name in ("cast_closest", "cast_occluded", "build_bvh_kernel", "collapse_bvh4"):
+    for name in ("cast_closest", "cast_occluded", "build_bvh_kernel", "collapse_bvh4_kernel"):
         assert len(sigs[name]) == 1, (name, sigs[name])

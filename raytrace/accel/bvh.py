@@ -25,6 +25,7 @@ import numpy as np
 from numba import njit
 
 from ..buffers import prim_bounds
+from ..kernels.jit import BUILD, BUILD_STEP
 
 # The layout traversal reads (raytrace/kernels/bvh.py), 4 children per
 # node: node_box (m, 6, 4) float64 child boxes, rows lo x, y, z, hi x, y, z,
@@ -63,7 +64,7 @@ MAX_DEPTH = 60
 BOX_PAD = 1e-9
 
 
-@njit(cache=True)
+@njit(**BUILD_STEP)
 def _half_area(x0, y0, z0, x1, y1, z1):
     dx = x1 - x0
     dy = y1 - y0
@@ -71,35 +72,30 @@ def _half_area(x0, y0, z0, x1, y1, z1):
     return dx * dy + dy * dz + dz * dx
 
 
-@njit(cache=True)
-def build_bvh_kernel(lo, hi, max_leaf):
-    """Returns (node_lo, node_hi, node_start, node_count, prim_ids, depth)."""
+@njit(**BUILD)
+def build_bvh_kernel(lo, hi, max_leaf, node_lo, node_hi, node_start, node_count, prim_ids,
+                     cen, bin_count, bin_lo, bin_hi, right_cost, bin_scale, stack):
+    """Fills the first n_nodes rows of the node arrays and prim_ids; returns
+    (n_nodes, depth).  The caller allocates every array (``binned_sah``):
+    a kernel that allocates compiles Numba's allocation code for each shape
+    and dtype, about half a second of a cold build."""
     n = lo.shape[0]
-    max_nodes = max(2 * n - 1, 0)
-    node_lo = np.empty((max_nodes, 3), np.float64)
-    node_hi = np.empty((max_nodes, 3), np.float64)
-    node_start = np.empty(max_nodes, np.int64)
-    node_count = np.empty(max_nodes, np.int64)
-    prim_ids = np.arange(n).astype(np.int64)
     if n == 0:
-        return node_lo, node_hi, node_start, node_count, prim_ids, 0
+        return 0, 0
+    for i in range(n):
+        prim_ids[i] = i
 
     # Centroids, transposed so each axis is one contiguous row.
-    cen = np.empty((3, n), np.float64)
     for i in range(n):
         for a in range(3):
             cen[a, i] = 0.5 * (lo[i, a] + hi[i, a])
 
-    bin_count = np.empty((3, N_BINS), np.int64)
-    bin_lo = np.empty((3, N_BINS, 3), np.float64)
-    bin_hi = np.empty((3, N_BINS, 3), np.float64)
+    # bin_count, bin_lo, bin_hi: (3, N_BINS[, 3]) per-axis bins.
     # right_cost[b] = N_R * A_R (half area) of bins b.. on the current axis.
-    right_cost = np.empty(N_BINS, np.float64)
-    bin_scale = np.empty(3, np.float64)  # bins per unit length on each axis
+    # bin_scale: bins per unit length on each axis.
 
-    # Work stack of pending right subtrees: (start, end, depth, parent).
-    # At most one entry per level, and levels are capped at MAX_DEPTH.
-    stack = np.empty((MAX_DEPTH + 2, 4), np.int64)
+    # stack: pending right subtrees (start, end, depth, parent), at most
+    # one entry per level, and levels are capped at MAX_DEPTH.
     sp = 0
     n_nodes = 0
     max_depth = 0
@@ -270,12 +266,9 @@ def build_bvh_kernel(lo, hi, max_leaf):
             depth = stack[sp, 2]
             parent = stack[sp, 3]
 
-    return (node_lo[:n_nodes].copy(), node_hi[:n_nodes].copy(),
-            node_start[:n_nodes].copy(), node_count[:n_nodes].copy(),
-            prim_ids, max_depth)
+    return n_nodes, max_depth
 
 
-@njit(cache=True)
 def collapse_bvh4(node_lo, node_hi, node_start, node_count):
     """The binary tree as a 4-wide one: (node_box, node_child, node_count4).
 
@@ -291,17 +284,27 @@ def collapse_bvh4(node_lo, node_hi, node_start, node_count):
     which no ray enters, and count 0.  Wide nodes are numbered depth-first.
     A single-leaf tree becomes one wide node with one leaf lane.
     """
-    m = node_start.shape[0]
+    m = len(node_start)
     cap = max(m, 1)  # every wide node but the root consumes a binary interior node
     node_box = np.full((cap, 6, WIDTH), np.inf)
     node_child = np.full((cap, WIDTH), -1, np.int64)
     count4 = np.zeros((cap, WIDTH), np.int64)
     if m == 0:
-        return node_box[:0].copy(), node_child[:0].copy(), count4[:0].copy()
+        return node_box[:0], node_child[:0], count4[:0]
     kids = np.empty(WIDTH, np.int64)
     # Pending interior children: (binary node, slot of the wide lane that
     # will point at it).  A wide node pushes at most WIDTH.
     stack = np.empty(((MAX_DEPTH + 2) * WIDTH, 2), np.int64)
+    n_wide = collapse_bvh4_kernel(node_lo, node_hi, node_start, node_count,
+                                  node_box, node_child, count4, kids, stack)
+    return node_box[:n_wide].copy(), node_child[:n_wide].copy(), count4[:n_wide].copy()
+
+
+@njit(**BUILD)
+def collapse_bvh4_kernel(node_lo, node_hi, node_start, node_count,
+                         node_box, node_child, count4, kids, stack):
+    """collapse_bvh4's loop, into arrays it allocates; returns the number
+    of wide nodes."""
     sp = 0
     n_wide = 1
     src = 0   # binary node the current wide node is made of
@@ -351,7 +354,7 @@ def collapse_bvh4(node_lo, node_hi, node_start, node_count):
         wide = n_wide
         n_wide += 1
         node_child[slot // WIDTH, slot % WIDTH] = wide
-    return node_box[:n_wide].copy(), node_child[:n_wide].copy(), count4[:n_wide].copy()
+    return n_wide
 
 
 def build_bvh(lo, hi, max_leaf=MAX_LEAF):
@@ -366,7 +369,22 @@ def build_bvh(lo, hi, max_leaf=MAX_LEAF):
     hi = np.ascontiguousarray(hi, dtype=np.float64).reshape(-1, 3)
     if lo.shape != hi.shape:
         raise ValueError(f"box arrays differ in shape: {lo.shape} vs {hi.shape}")
-    return build_bvh_kernel(lo, hi, int(max_leaf))[:5]
+    return binned_sah(lo, hi, max_leaf)[:5]
+
+
+def binned_sah(lo, hi, max_leaf):
+    """build_bvh's tree and its depth: the kernel's arrays, allocated here."""
+    n = len(lo)
+    max_nodes = max(2 * n - 1, 0)
+    node_lo, node_hi = np.empty((max_nodes, 3)), np.empty((max_nodes, 3))
+    node_start, node_count = np.empty(max_nodes, np.int64), np.empty(max_nodes, np.int64)
+    prim_ids = np.empty(n, np.int64)
+    n_nodes, depth = build_bvh_kernel(
+        lo, hi, int(max_leaf), node_lo, node_hi, node_start, node_count, prim_ids,
+        np.empty((3, n)), np.empty((3, N_BINS), np.int64), np.empty((3, N_BINS, 3)),
+        np.empty((3, N_BINS, 3)), np.empty(N_BINS), np.empty(3), np.empty((MAX_DEPTH + 2, 4), np.int64))
+    return (node_lo[:n_nodes].copy(), node_hi[:n_nodes].copy(), node_start[:n_nodes].copy(),
+            node_count[:n_nodes].copy(), prim_ids, depth)
 
 
 # The binary tree's builders: name -> module with build_binary(lo, hi,

@@ -6,12 +6,13 @@ top-down, which gives Karras' radix tree."""
 import numpy as np
 from numba import njit
 
+from ..kernels.jit import BUILD, BUILD_STEP
 from .bvh_topdown import RULE_MORTON, build_topdown
 
 BITS = 21   # per axis: a 63-bit code
 
 
-@njit(cache=True)
+@njit(**BUILD_STEP)
 def _spread(x):
     """The 21 low bits of x, two zero bits after each (bit b to bit 3b)."""
     x &= 0x1FFFFF
@@ -23,7 +24,7 @@ def _spread(x):
     return x
 
 
-@njit(cache=True)
+@njit(**BUILD)
 def morton_codes(lo, hi):
     """63-bit Morton codes of the box centroids, quantised to 2^21 steps of
     the centroids' bounds (x in the highest bit of each triple)."""

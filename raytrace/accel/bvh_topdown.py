@@ -6,12 +6,13 @@ the same for every builder, and so are the images."""
 import numpy as np
 from numba import njit
 
+from ..kernels.jit import BUILD, BUILD_STEP
 from .bvh import BOX_PAD, MAX_DEPTH
 
 RULE_MEDIAN, RULE_MORTON = 0, 1
 
 
-@njit(cache=True)
+@njit(**BUILD_STEP)
 def _median_split(cen, prim_ids, start, end):
     """Partition prim_ids[start:end] about the median centroid on the axis of
     the centroids' widest spread (quickselect); returns the middle index."""
@@ -49,7 +50,7 @@ def _median_split(cen, prim_ids, start, end):
     return mid
 
 
-@njit(cache=True)
+@njit(**BUILD_STEP)
 def _morton_split(codes, start, end):
     """The first index whose sorted Morton code differs from codes[start] in
     the highest bit where codes[start] and codes[end - 1] differ (Karras
@@ -72,7 +73,7 @@ def _morton_split(codes, start, end):
     return hi
 
 
-@njit(cache=True)
+@njit(**BUILD)
 def build_topdown(lo, hi, prim_ids, codes, rule, leaf_size):
     """(node_lo, node_hi, node_start, node_count, prim_ids) of the binary
     tree over prim_ids (already in Morton order for RULE_MORTON, whose

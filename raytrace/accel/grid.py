@@ -13,6 +13,7 @@ import numpy as np
 from numba import njit
 
 from ..buffers import FLOAT, INDEX, prim_bounds
+from ..kernels.jit import BUILD, BUILD_STEP
 
 # The layout traversal reads (raytrace/kernels/grid.py): bounds, cell size
 # and resolution (3,), and CSR cell lists.  ``grid_eps`` below is part of
@@ -38,7 +39,7 @@ GRID_EPS_EXTENT = 1e-7
 GRID_EPS_MAGNITUDE = 1e-11
 
 
-@njit(cache=True)
+@njit(**BUILD)
 def grid_eps(glo, ghi):
     """Insertion tolerance of a grid with bounds glo, ghi (shape (3,)).
 
@@ -56,7 +57,7 @@ def grid_eps(glo, ghi):
     return eps
 
 
-@njit(cache=True)
+@njit(**BUILD_STEP)
 def _cell_range(lo, hi, glo, cell, res, eps):
     """First and last cell index along one axis touched by [lo - eps, hi + eps]."""
     f0 = (lo - eps - glo) / cell
@@ -67,7 +68,7 @@ def _cell_range(lo, hi, glo, cell, res, eps):
     return i0, i1
 
 
-@njit(cache=True)
+@njit(**BUILD_STEP)
 def _cell_box(lo, hi, p, glo, cell, res, eps):
     """Cell index ranges (x0, x1, y0, y1, z0, z1) of primitive p's widened box."""
     x0, x1 = _cell_range(lo[p, 0], hi[p, 0], glo[0], cell[0], res[0], eps)
@@ -76,7 +77,7 @@ def _cell_box(lo, hi, p, glo, cell, res, eps):
     return x0, x1, y0, y1, z0, z1
 
 
-@njit(cache=True)
+@njit(**BUILD)
 def _fill_cells(lo, hi, glo, cell, res, eps):
     """Two passes over the boxes: count entries per cell, then fill the CSR
     lists (ids ascending within each cell, since p runs in order)."""

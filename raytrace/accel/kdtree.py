@@ -14,6 +14,7 @@ import numpy as np
 from numba import njit
 
 from ..buffers import FLOAT, INDEX, prim_bounds
+from ..kernels.jit import BUILD, BUILD_STEP
 from .grid import grid_eps
 
 # The layout traversal reads: nodes in depth-first order, a node's first
@@ -34,12 +35,12 @@ MAX_LEAF = 2           # a node this small becomes a leaf
 MAX_DEPTH = 48
 
 
-@njit(cache=True)
+@njit(**BUILD_STEP)
 def _half_area(ex, ey, ez):
     return ex * ey + ey * ez + ez * ex
 
 
-@njit(cache=True)
+@njit(**BUILD)
 def build_kdtree_kernel(lo, hi, glo, ghi, eps, max_depth):
     """Returns (node_axis, node_split, node_index, node_count, prim_list)."""
     n = lo.shape[0]
@@ -186,17 +187,19 @@ def build_kdtree_kernel(lo, hi, glo, ghi, eps, max_depth):
             count_of[:n_nodes].copy(), plist[:n_plist].copy())
 
 
-@njit(cache=True)
+@njit(**BUILD_STEP)
 def _grow_i(a, size):
     out = np.empty(size, np.int64)
-    out[:a.shape[0]] = a
+    for i in range(a.shape[0]):   # a loop: a slice copy compiles a shape-error message (~1 s cold)
+        out[i] = a[i]
     return out
 
 
-@njit(cache=True)
+@njit(**BUILD_STEP)
 def _grow_f(a, size):
     out = np.empty(size, np.float64)
-    out[:a.shape[0]] = a
+    for i in range(a.shape[0]):   # a loop: a slice copy compiles a shape-error message (~1 s cold)
+        out[i] = a[i]
     return out
 
 

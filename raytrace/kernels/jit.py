@@ -35,6 +35,13 @@ PARALLEL = dict(ENTRY, parallel=True, forceinline=False)
 OVERLOAD = dict(error_model="numpy", _nrt=False, forceinline=True,
                 no_cpython_wrapper=True, no_cfunc_wrapper=True)
 
+# Structure builders, called from Python on whole arrays: they allocate, so
+# they keep the runtime; numpy's error model for the smaller code (every
+# division in them is guarded).  A builder's helper needs no wrapper.
+BUILD = dict(cache=True, error_model="numpy", no_cfunc_wrapper=True)
+BUILD_STEP = dict(BUILD, no_cpython_wrapper=True)
+
+
 def python_callable(kernel):
     """``kernel`` (an ``@njit(**JIT)`` function) compiled again with its
     Python wrapper, for a test or bench that calls it directly.  Not cached:
