@@ -21,10 +21,18 @@ Geometry = namedtuple(
         "tri_v0", "tri_v1", "tri_v2",   # (n, 3) vertices
         "tri_n0", "tri_n1", "tri_n2",   # (n, 3) shading normals at the vertices
         "tri_mat",                      # (n,) material index
+        # At each triangle's three corners: linear RGB multiplying the
+        # material's colour (n, 3, 3), and texture coordinates (n, 3, 2);
+        # empty (0, 3, 3) and (0, 3, 2) when no mesh has them
+        # (kernels/texture.py).  Few, larger arrays: every array in this
+        # record is an argument of every kernel function that takes it.
+        "tri_color", "tri_uv",
         "sph_center", "sph_radius", "sph_mat",
         "pl_point", "pl_normal", "pl_mat",
         "mat_color",                    # (q, 3) linear RGB albedo
         "mat_param",                    # (q, N_MAT_PARAMS), see MAT_* below
+        "mat_tex",                      # (q, 3) its texture's offset, width, height (0: none)
+        "tex_rgb",                      # (texels, 3) float32 linear RGB of every texture
     ],
 )
 

@@ -108,6 +108,7 @@ def flatten(scene, with_sources=False):
 
     tris = [[] for _ in range(6)]
     tri_mat, obj_ranges = [], []
+    colors, uvs = [], []   # per mesh: (3 arrays or None, 3 arrays or None)
     spheres, planes = [], []
     tri_src, sph_src, pl_src = [], [], []   # (object index, face index) per primitive
     dropped = n_tris = 0
@@ -120,6 +121,11 @@ def flatten(scene, with_sources=False):
                 for dst, src in zip(tris, parts):
                     dst.append(src)
                 tri_mat.append(np.full(k, mat_id(obj.material)))
+                faces = np.asarray(obj.faces).reshape(-1, 3).astype(np.int64)[kept]
+                colors.append(_corner_values(obj, "colors", 3, faces))
+                # Texture coordinates only where a texture uses them.
+                textured = getattr(obj.material, "texture", None) is not None
+                uvs.append(_corner_values(obj, "uv", 2, faces) if textured else None)
                 tri_src.append(np.stack([np.full(k, j), kept], axis=1))
                 obj_ranges.append((n_tris, k))
                 n_tris += k
@@ -149,10 +155,14 @@ def flatten(scene, with_sources=False):
     pl_n = unit_rows(np.array([p.normal for p in planes], dtype=float).reshape(-1, 3))
     tri_n = [cat(tris[k]) for k in (3, 4, 5)]
     tri_n = [unit_rows(n) for n in tri_n]  # renormalised; zero ones fall back later
+    counts = [len(m) for m in tri_mat]
+    mat_tex, tex_rgb = _textures(materials)
     geo = Geometry(
         tri_v0=cat(tris[0]), tri_v1=cat(tris[1]), tri_v2=cat(tris[2]),
         tri_n0=tri_n[0], tri_n1=tri_n[1], tri_n2=tri_n[2],
         tri_mat=i64(np.concatenate(tri_mat) if tri_mat else []),
+        tri_color=_corner_buffer(colors, counts, 3, 1.0),
+        tri_uv=_corner_buffer(uvs, counts, 2, 0.0),
         sph_center=f64([s.center for s in spheres], 3),
         sph_radius=f64([s.radius for s in spheres]).reshape(-1),
         sph_mat=i64([mat_id(s.material) for s in spheres]),
@@ -162,6 +172,7 @@ def flatten(scene, with_sources=False):
         mat_color=f64([m.color for m in materials], 3),
         mat_param=f64([[m.ambient, m.diffuse, m.specular, m.shininess, m.checker, m.reflect,
                         m.transmit, m.ior] for m in materials], N_MAT_PARAMS),
+        mat_tex=mat_tex, tex_rgb=tex_rgb,
     )
     info = {"triangles": n_tris, "degenerate_dropped": dropped,
             "spheres": len(spheres), "planes": len(planes), "objects": len(obj_ranges)}
@@ -176,3 +187,58 @@ def flatten(scene, with_sources=False):
 def _default_material():
     from .scene import Material
     return Material()
+
+
+def _corner_values(mesh, attr, cols, faces):
+    """A mesh's per-vertex ``colors`` or ``uv`` at each kept triangle's three
+    corners, (k, 3, cols), or None if it has none."""
+    values = getattr(mesh, attr, None)
+    if values is None:
+        return None
+    a = np.asarray(values, dtype=np.float64)
+    n = len(np.asarray(mesh.vertices).reshape(-1, 3))
+    if a.shape != (n, cols):
+        raise RaytraceError(f"{mesh.name}: {attr} must have shape ({n}, {cols}), one row per "
+                            f"vertex, got {a.shape}")
+    if not np.isfinite(a).all():
+        raise RaytraceError(f"{mesh.name}: {attr} contain NaN or inf")
+    if attr == "colors" and (a < 0).any():
+        raise RaytraceError(f"{mesh.name}: colors must not be negative")
+    return a[faces]
+
+
+def _corner_buffer(per_mesh, counts, cols, fill):
+    """The (n, 3, cols) corner buffer over all triangles, ``fill`` for meshes
+    without values; (0, 3, cols) if no mesh has any (kernels/texture.py then
+    skips it)."""
+    if all(v is None for v in per_mesh):
+        return np.zeros((0, 3, cols))
+    return np.ascontiguousarray(np.concatenate(
+        [np.full((k, 3, cols), fill) if v is None else v for v, k in zip(per_mesh, counts)]),
+        dtype=np.float64)
+
+
+def _textures(materials):
+    """(mat_tex, tex_rgb): each material's texture as (offset, width,
+    height) into tex_rgb, which holds each image once (kernels/texture.py)."""
+    mat_tex = np.zeros((len(materials), 3), np.int64)
+    rows, placed = [], {}
+    offset = 0
+    for m, mat in enumerate(materials):
+        image = getattr(mat, "texture", None)
+        if image is None:
+            continue
+        if id(image) not in placed:
+            a = np.asarray(image, dtype=np.float32)
+            if a.ndim != 3 or a.shape[2] not in (3, 4) or a.shape[0] < 1 or a.shape[1] < 1:
+                raise RaytraceError(f"a material's texture must be an (h, w, 3) image, got shape "
+                                    f"{a.shape}")
+            if not np.isfinite(a).all() or (a < 0).any():
+                raise RaytraceError("a material's texture has a negative, NaN or infinite value")
+            h, w = a.shape[:2]
+            placed[id(image)] = (offset, w, h)
+            rows.append(a[:, :, :3].reshape(-1, 3))
+            offset += h * w
+        mat_tex[m] = placed[id(image)]
+    tex_rgb = np.ascontiguousarray(np.concatenate(rows) if rows else np.zeros((0, 3)), np.float32)
+    return mat_tex, tex_rgb

@@ -98,8 +98,9 @@ OPTIONS = (
            noun="sampling pattern"),
     Option("max_depth", "int", 5, "mirror and glass bounces a ray is followed for", lo=0, hi=16,
            metavar="N"),
-    Option("texture_filter", "choice", "box", "checker: averaged over each pixel's footprint, or "
-           "`none`: point-sampled, aliased", choices=("box", "none"), noun="texture filter"),
+    Option("texture_filter", "choice", "box", "checker averaged over each pixel's footprint and "
+           "image textures bilinear, or `none`: point-sampled, nearest texel",
+           choices=("box", "none"), noun="texture filter"),
     Option("width", "int", None, "image width in pixels", lo=1, hi=1 << 20,
            default_text="640, or the scene's", metavar="W"),
     Option("height", "int", None, "image height in pixels", lo=1, hi=1 << 20,

@@ -19,6 +19,9 @@ class Material:
     reflect: float = 0.0             # mirror weight, 0..1
     transmit: float = 0.0            # glass weight, 0..1 (reflect + transmit <= 1)
     ior: float = 1.5                 # index of refraction, for transmit > 0
+    # (h, w, 3) linear RGB image multiplying ``color`` on meshes with
+    # texture coordinates (an OBJ's map_Kd, a glTF baseColorTexture).
+    texture: np.ndarray = field(default=None, compare=False, repr=False)
 
     def bounces(self):
         """Whether rays leave this material as reflected or refracted rays."""
@@ -32,6 +35,8 @@ class Mesh:
     material: Material = field(default_factory=Material)
     normals: np.ndarray = None       # (n, 3) per-vertex shading normals, or None (flat)
     name: str = "mesh"
+    colors: np.ndarray = None        # (n, 3) linear RGB per vertex, multiplying the material's
+    uv: np.ndarray = None            # (n, 2) texture coordinates, (0, 0) the image's lower left
 
 
 @dataclass

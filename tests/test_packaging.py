@@ -19,7 +19,12 @@ def test_every_subpackage_is_listed(setuptools_config):
 
 
 def test_every_asset_type_is_package_data(setuptools_config):
+    """Every asset but the README's pictures; a texture an MTL names is one."""
     patterns = setuptools_config["package-data"]["raytrace.assets"]
+    textures = {line.split(None, 1)[1].strip() for mtl in (ROOT / "assets").glob("*.mtl")
+                for line in mtl.read_text().splitlines() if line.startswith("map_Kd")}
+    assert textures
     for path in (ROOT / "assets").iterdir():
-        if path.name != "__init__.py" and path.suffix != ".png" and path.is_file():
+        if path.name != "__init__.py" and path.is_file() and (path.suffix != ".png"
+                                                              or path.name in textures):
             assert any(path.match(p) for p in patterns), path.name

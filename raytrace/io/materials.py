@@ -1,10 +1,10 @@
 """A mesh file's own materials (OBJ's MTL, glTF's PBR) as the renderer's
 Material, and a warning for what it can only approximate.
 
-The renderer has one colour, a white highlight (a scalar ``specular``),
-mirror and glass weights (``reflect``, ``transmit``, ``ior``) and no image
-textures: a material needing what it lacks is approximated, and ``warn``
-is told once per material and problem.
+The renderer has one colour (times a base-colour texture and vertex
+colours), a white highlight (a scalar ``specular``), mirror and glass
+weights (``reflect``, ``transmit``, ``ior``): a material needing what it
+lacks is approximated, and ``warn`` is told once per material and problem.
 """
 from dataclasses import replace
 
@@ -29,11 +29,13 @@ def _clip01(values):
     return tuple(float(x) for x in np.clip(values, 0.0, 1.0))
 
 
-def mtl_material(entry, base, source, warn):
-    """The Material of an MtlMaterial: Kd is the colour; the mean of Ks the
-    specular weight (the highlight is white, so a coloured Ks keeps its
-    energy, not its hue); Ns the shininess (at least 1); illum 0 or 1 (no
-    highlight) gives specular 0.  Everything else comes from ``base``."""
+def mtl_material(entry, base, source, warn, image=None, has_uv=False):
+    """The Material of an MtlMaterial: Kd is the colour, times map_Kd's
+    ``image`` (as trimesh read it) where the mesh has texture coordinates;
+    the mean of Ks the specular weight (the highlight is white, so a
+    coloured Ks keeps its energy, not its hue); Ns the shininess (at least
+    1); illum 0 or 1 (no highlight) gives specular 0.  Everything else
+    comes from ``base``."""
     v = entry.values
     mat = replace(base)
     if "kd" in v:
@@ -63,17 +65,58 @@ def mtl_material(entry, base, source, warn):
             key = f"d={v['d'][0]:g}" if "d" in v else f"Tr={v['tr'][0]:g}"
             warn(f"{what} is transparent ({key}); rendered as unbending glass letting "
                  f"{mat.transmit:.2g} through")
-    for key in ("map_kd", "map_d", "refl"):
+    if "map_kd" in v:
+        mat.texture = _texture(image, has_uv, what, f"map_Kd {v['map_kd']}", "Kd", warn)
+    for key in ("map_d", "refl"):
         if key in v:
-            shown = {"map_kd": "map_Kd", "map_d": "map_d", "refl": "refl"}[key]
-            warn(f"{what} has an image texture ({shown} {v[key]}); rendered with its Kd colour")
+            shown = {"map_d": "map_d", "refl": "refl"}[key]
+            warn(f"{what} has an image texture ({shown} {v[key]}), which is not rendered")
     return mat
 
 
-def gltf_material(pbr, base, source, warn):
+def _texture(image, has_uv, what, name, fallback, warn):
+    """A material's base-colour image as linear RGB, or None with a warning
+    saying why it is not used."""
+    if image is None:
+        warn(f"{what}: texture {name} could not be read; rendered with its {fallback} colour")
+        return None
+    if not has_uv:
+        warn(f"{what} has a texture ({name}) but the mesh has no texture coordinates; "
+             f"rendered with its {fallback} colour")
+        return None
+    try:
+        rgb = np.asarray(image.convert("RGB"), dtype=np.float32) / np.float32(255.0)
+    except (AttributeError, OSError, ValueError) as exc:
+        warn(f"{what}: texture {name} could not be decoded ({exc}); rendered with its "
+             f"{fallback} colour")
+        return None
+    return srgb_to_linear(rgb)
+
+
+def srgb_to_linear(c):
+    """The sRGB transfer function's inverse (IEC 61966-2-1), elementwise."""
+    c = np.asarray(c)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(c.dtype)
+
+
+def decode_colours(values, linear):
+    """(n, 3) linear RGB of trimesh's colours ((n, 3 or 4), 8-bit or 0..1
+    floats; alpha dropped), sRGB-decoded unless ``linear``."""
+    a = np.asarray(values)
+    if a.ndim != 2 or a.shape[1] < 3:
+        return None
+    rgb = a[:, :3].astype(np.float64)
+    if np.issubdtype(a.dtype, np.integer):
+        rgb /= 255.0
+    rgb = np.clip(rgb, 0.0, 1.0)
+    return rgb if linear else srgb_to_linear(rgb)
+
+
+def gltf_material(pbr, base, source, warn, has_uv=False):
     """The Material of a trimesh PBRMaterial (glTF metallic-roughness).
 
-    colour = baseColorFactor's RGB.  Roughness r becomes the Blinn-Phong
+    colour = baseColorFactor's RGB, times baseColorTexture where the mesh
+    has texture coordinates.  Roughness r becomes the Blinn-Phong
     exponent 2 / r^4 - 2 (Walter et al. 2007's match of Beckmann and Phong
     lobes, with glTF's alpha = r^2), kept within 1..1000.  The highlight's
     reflectance F0 is 0.04 for a dielectric and the base colour's mean for a
@@ -107,7 +150,8 @@ def gltf_material(pbr, base, source, warn):
         warn(f"{what} is a polished metal (metallic={metallic:g}, roughness={rough:g}); "
              f"rendered as a sharp mirror of weight {mat.reflect:.2g}")
     if getattr(pbr, "baseColorTexture", None) is not None:
-        warn(f"{what} has an image texture (baseColorTexture); rendered with its base colour")
+        mat.texture = _texture(pbr.baseColorTexture, has_uv, what, "baseColorTexture", "base",
+                               warn)
     return mat
 
 
@@ -130,8 +174,3 @@ def _factor(value, default=1.0):
     except (TypeError, ValueError):
         return default
     return float(np.clip(x, 0.0, 1.0)) if np.isfinite(x) else default
-
-
-def vertex_colour_warning(source, kind):
-    return (f"{source}: the mesh has per-{kind} colours, which are not rendered yet; "
-            "drawn with the default material")

@@ -145,6 +145,9 @@ class MeshPart:
     faces: np.ndarray                # (m, 3) int64
     normals: np.ndarray = None       # (n, 3) the file's vertex normals, or None if it has none
     material: object = None          # the file's Material for these faces, or None
+    colors: np.ndarray = None        # (n, 3) linear RGB per vertex, or None
+    face_colors: np.ndarray = None   # (m, 3) linear RGB per face, or None
+    uv: np.ndarray = None            # (n, 2) texture coordinates, or None
 
 
 def read_mesh(path):
@@ -201,7 +204,25 @@ def read_mesh_parts(path, warn=None, base=None):
         p.vertices, p.faces = check_mesh_arrays(path, p.vertices, p.faces)
         if p.normals is not None and np.shape(p.normals) != p.vertices.shape:
             p.normals = None
+        _check_surface_arrays(path, p, warn)
     return parts
+
+
+def _check_surface_arrays(path, part, warn):
+    """Drop, with a warning, colours or texture coordinates that do not fit
+    the mesh (a row count that differs, NaN); the mesh still renders."""
+    for attr, rows, cols in (("colors", len(part.vertices), 3), ("uv", len(part.vertices), 2),
+                             ("face_colors", len(part.faces), 3)):
+        a = getattr(part, attr)
+        if a is None:
+            continue
+        if np.shape(a) != (rows, cols) or not np.isfinite(a).all():
+            what = "texture coordinates" if attr == "uv" else "colours"
+            warn(f"{path.name}: the mesh's {what} are damaged (shape {np.shape(a)} for {rows} "
+                 f"rows, or not finite); ignored")
+            setattr(part, attr, None)
+            if attr == "uv" and part.material is not None:
+                part.material.texture = None
 
 
 def part_mesh(part, base, crease, flat, name):
@@ -211,7 +232,17 @@ def part_mesh(part, base, crease, flat, name):
     from ..scene import Mesh
     vertices, faces, normals = shading_normals(part.vertices, part.faces, part.normals,
                                                crease=crease, flat=bool(flat))
-    return Mesh(vertices, faces, part.material or base, normals=normals, name=name)
+    colors, uv = part.colors, part.uv
+    if part.face_colors is not None:
+        # A colour per face: each face gets vertices of its own, after the
+        # shading normals were found from the shared ones.
+        corners = faces.reshape(-1)
+        vertices, normals = vertices[corners], normals[corners] if normals is not None else None
+        uv = uv[corners] if uv is not None else None
+        colors = np.repeat(part.face_colors, 3, axis=0)
+        faces = np.arange(len(corners), dtype=np.int64).reshape(-1, 3)
+    return Mesh(vertices, faces, part.material or base, normals=normals, name=name,
+                colors=colors, uv=uv)
 
 
 def _part(trimesh, scene, node, library, source, warn, base):
@@ -225,32 +256,54 @@ def _part(trimesh, scene, node, library, source, warn, base):
     # normals read from the file are already in its cache (a private
     # attribute: tests/test_mesh_io.py checks both cases on every format).
     had_normals = "vertex_normals" in mesh._cache
-    placed = mesh.copy()
+    # A bare copy: copying the visual too turns face colours into vertex
+    # colours, which needs scipy (a face-coloured PLY failed to load).
+    placed = trimesh.Trimesh(np.array(mesh.vertices), np.array(mesh.faces), process=False)
     if had_normals:
         placed.vertex_normals = mesh.vertex_normals
     placed.apply_transform(transform)   # turns the normals too, and flips mirrored faces
     normals = np.array(placed.vertex_normals) if had_normals else None
-    return MeshPart(np.asarray(placed.vertices), np.asarray(placed.faces), normals,
+    part = MeshPart(np.asarray(placed.vertices), np.asarray(placed.faces), normals,
                     _visual_material(mesh.visual, library, source, warn, base))
+    _visual_colours(part, mesh.visual, source.lower().endswith(".glb"))
+    return part
+
+
+def _visual_colours(part, visual, linear):
+    """The part's vertex or face colours and texture coordinates from
+    trimesh's visual.  8-bit colours are sRGB-encoded, but glTF's COLOR_0
+    is linear (its specification), and trimesh keeps it so."""
+    from .materials import decode_colours
+    kind = getattr(visual, "kind", None)
+    if kind == "vertex" and not hasattr(visual, "material"):
+        part.colors = decode_colours(visual.vertex_colors, linear)
+    elif kind == "face" and not hasattr(visual, "material"):
+        part.face_colors = decode_colours(visual.face_colors, linear)
+    attributes = getattr(visual, "vertex_attributes", None) or {}
+    if attributes.get("color") is not None and part.colors is None:
+        part.colors = decode_colours(attributes["color"], linear)
+    uv = getattr(visual, "uv", None)
+    if uv is not None and part.material is not None and part.material.texture is not None:
+        part.uv = np.asarray(uv, dtype=np.float64)
+    elif part.material is not None:
+        part.material.texture = None
 
 
 def _visual_material(visual, library, source, warn, base):
     """The Material trimesh's visual names (an MTL entry, a glTF PBR
-    material), or None for the default; colours per vertex or face are
-    warned about."""
-    from .materials import gltf_material, mtl_material, vertex_colour_warning
+    material) with its base-colour texture, or None for the default."""
+    from .materials import gltf_material, mtl_material
     base = base or Material()
-    kind = getattr(visual, "kind", None)
-    if kind in ("vertex", "face") and not hasattr(visual, "material"):
-        warn(vertex_colour_warning(source, kind))
-        return None
     material = getattr(visual, "material", None)
     if material is None:
         return None
     if type(material).__name__ == "PBRMaterial":
-        return gltf_material(material, base, source, warn)
+        return gltf_material(material, base, source, warn, has_uv=getattr(visual, "uv", None) is not None)
     entry = (library or {}).get(getattr(material, "name", None))
-    return None if entry is None else mtl_material(entry, base, source, warn)
+    if entry is None:
+        return None
+    return mtl_material(entry, base, source, warn, image=getattr(material, "image", None),
+                        has_uv=getattr(visual, "uv", None) is not None)
 
 
 _MTLLIB = re.compile(rb"(?m)^[ \t]*mtllib[ \t]+([^\r\n]*?)[ \t]*$")

@@ -42,6 +42,7 @@ from .query import closest_hit, occluded
 from .ray import make_ray
 from .sampling import hash_key, rand01, square_sample
 from .shade import albedo, albedo_filtered, smooth_point, surface
+from .texture import mesh_color
 
 # Shadow modes: rays to each light's centre (``cast`` False: none, every light seen;
 # one kernel for both, as they differ by a branch), or from samples of
@@ -133,12 +134,22 @@ def _light_visibility(shadows, geo, acc, lights, li, ox, oy, oz, seed, pixel, sa
 
 
 @njit(**JIT)
-def surface_albedo(textures, geo, cam, prim, mat, px, py, pz, sxn, syn):
-    """Material colour at a hit of the camera ray through (sxn, syn)."""
+def surface_albedo(textures, geo, cam, hit, mat, px, py, pz, sxn, syn):
+    """Surface colour at a hit of the camera ray through (sxn, syn)."""
+    if hit.prim < geo.tri_v0.shape[0]:
+        return mesh_color(geo, hit, mat, textures.filtered)
     if not textures.filtered:
-        return albedo(geo, prim, mat, px, py, pz)
-    return albedo_filtered(geo, cam, prim, mat, px, py, pz, sxn, syn, textures.step_x,
+        return albedo(geo, hit.prim, mat, px, py, pz)
+    return albedo_filtered(geo, cam, hit.prim, mat, px, py, pz, sxn, syn, textures.step_x,
                            textures.step_y)
+
+
+@njit(**JIT)
+def point_albedo(textures, geo, hit, mat, px, py, pz):
+    """Surface colour at a hit of a mirror or glass ray (no footprint)."""
+    if hit.prim < geo.tri_v0.shape[0]:
+        return mesh_color(geo, hit, mat, textures.filtered)
+    return albedo(geo, hit.prim, mat, px, py, pz)
 
 
 @njit(**JIT)
@@ -283,7 +294,7 @@ def _local_sample(geo, acc, cam, lights, shadows, textures, background, seed, pi
         return r, g, b, np.inf, -1, 0.0, 0.0, 0.0
     cnt[SHADING_POINTS] += 1
     px, py, pz, gx, gy, gz, nx, ny, nz, side, mat, eps, _ = _frame(geo, ray, hit)
-    ar, ag, ab = surface_albedo(textures, geo, cam, hit.prim, mat, px, py, pz, sxn, syn)
+    ar, ag, ab = surface_albedo(textures, geo, cam, hit, mat, px, py, pz, sxn, syn)
     r, g, b = _direct(geo, acc, lights, shadows, hit, mat, ar, ag, ab, px, py, pz, gx, gy, gz,
                       nx, ny, nz, side, eps, ray.dx, ray.dy, ray.dz, seed, pixel, sample, cnt)
     return r, g, b, hit.t, hit.prim, nx, ny, nz
@@ -334,9 +345,9 @@ def _whitted_sample(max_depth, geo, acc, cam, lights, shadows, textures, backgro
         if kind == _CAMERA:
             cnt[SHADING_POINTS] += 1
             t0, prim0, n0x, n0y, n0z = hit.t, hit.prim, nx, ny, nz
-            ar, ag, ab = surface_albedo(textures, geo, cam, hit.prim, mat, px, py, pz, sxn, syn)
+            ar, ag, ab = surface_albedo(textures, geo, cam, hit, mat, px, py, pz, sxn, syn)
         else:
-            ar, ag, ab = albedo(geo, hit.prim, mat, px, py, pz)
+            ar, ag, ab = point_albedo(textures, geo, hit, mat, px, py, pz)
         kr = geo.mat_param[mat, MAT_REFLECT]
         kt = geo.mat_param[mat, MAT_TRANSMIT]
         dx, dy, dz = ray.dx, ray.dy, ray.dz
