@@ -1,9 +1,9 @@
 """bench.sh's ``structures`` section: every structure and BVH builder on
 the teapot, the 118k-triangle teapot, the teapot in a stadium, the scene
-of many sizes and Whitted's mirrors and glass, through ``raytrace
-compare`` (raytrace/compare.py): build time, render time (best of
-interleaved renders), speedup, tests and nodes or cells per ray, memory,
-and the identical-images check.
+of many sizes, Whitted's mirrors and glass and the textured example,
+through ``raytrace compare`` (raytrace/compare.py): build time, render
+time (best of interleaved renders), speedup, tests and nodes or cells per
+ray, memory, and the identical-images check.
 
 Brute force and per-object boxes are left out where one render would take
 minutes (the 118k teapot, the stadium): they add nothing there but waiting.
@@ -35,6 +35,8 @@ def cases():
          lambda w, h: load_scene(_example("sizes.toml"), width=w, height=h), EVERY),
         ("Mirrors and glass (assets/whitted.toml)",
          lambda w, h: load_scene(_example("whitted.toml"), width=w, height=h), EVERY),
+        ("Vertex colours and a texture (assets/textured.toml)",
+         lambda w, h: load_scene(_example("textured.toml"), width=w, height=h), EVERY),
     ]
 
 

@@ -160,15 +160,17 @@ def shadow_record(shadows, pattern):
     return SoftShadows(pattern=int(PATTERN_NAMES[pattern]))
 
 
-def texture_record(texture_filter, width, height, spp):
-    """The kernel's texture record.  A box-filtered texture is averaged
-    over one camera sample's share of the pixel, 1/sqrt(spp) of its width
-    and height (the screen spans 2 units in each direction), as pbrt
-    scales its ray differentials."""
-    from .kernels.render import Textures
+def texture_record(texture_filter, width, height, spp, geo):
+    """The kernel's texture record: MeshTextures where a mesh has vertex
+    colours or an image texture (their lookups compile only then).  A
+    box-filtered texture is averaged over one camera sample's share of the
+    pixel, 1/sqrt(spp) of its width and height (the screen spans 2 units in
+    each direction), as pbrt scales its ray differentials."""
+    from .kernels.render import MeshTextures, Textures
     share = 1.0 / math.sqrt(spp)
-    return Textures(filtered=texture_filter != "none", step_x=2.0 / width * share,
-                    step_y=2.0 / height * share)
+    kind = MeshTextures if len(geo.tri_color) or len(geo.tri_uv) else Textures
+    return kind(filtered=texture_filter != "none", step_x=2.0 / width * share,
+                step_y=2.0 / height * share)
 
 
 def bounce_record(scene, max_depth):
@@ -242,7 +244,7 @@ def render(scene, opts=None, **kw):
     lights = light_buffers(scene, opts.shadows, opts.light_samples)
     background = f64(scene.background)
     shadows = shadow_record(opts.shadows, opts.pattern)
-    textures = texture_record(opts.texture_filter, width, height, int(opts.spp))
+    textures = texture_record(opts.texture_filter, width, height, int(opts.spp), geo)
     bounces = bounce_record(scene, opts.max_depth)
     t_import = time.perf_counter() - t_start
 

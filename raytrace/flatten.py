@@ -125,6 +125,9 @@ def flatten(scene, with_sources=False):
                 colors.append(_corner_values(obj, "colors", 3, faces))
                 # Texture coordinates only where a texture uses them.
                 textured = getattr(obj.material, "texture", None) is not None
+                if textured and obj.uv is None:
+                    raise RaytraceError(f"{obj.name}: its material has a texture but the mesh "
+                                        "has no texture coordinates (uv)")
                 uvs.append(_corner_values(obj, "uv", 2, faces) if textured else None)
                 tri_src.append(np.stack([np.full(k, j), kept], axis=1))
                 obj_ranges.append((n_tris, k))

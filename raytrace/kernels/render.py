@@ -57,6 +57,10 @@ Aovs = namedtuple("Aovs", ["depth", "normal", "primid", "cost"])
 # or with ``filtered`` False sampled at the hit point (aliasing shows); one
 # kernel serves both, as they differ by a branch.
 Textures = namedtuple("Textures", ["filtered", "step_x", "step_y"])
+# The same, for a scene with vertex colours or image textures (bilinear
+# when filtered, else the nearest texel): a type of its own, so other
+# scenes never compile the lookups (kernels/texture.py).
+MeshTextures = namedtuple("MeshTextures", Textures._fields)
 # Mirror and glass rays followed to max_depth bounces, or none: a scene
 # whose materials neither reflect nor transmit never compiles them.
 NoBounces = namedtuple("NoBounces", [])
@@ -133,11 +137,28 @@ def _light_visibility(shadows, geo, acc, lights, li, ox, oy, oz, seed, pixel, sa
     return impl
 
 
+def triangle_albedo(textures, geo, hit, mat):
+    """Colour of a triangle at its hit; compiled code only."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(triangle_albedo, jit_options=OVERLOAD)
+def _triangle_albedo(textures, geo, hit, mat):
+    if textures.instance_class is MeshTextures:
+        def impl(textures, geo, hit, mat):
+            return mesh_color(geo, hit, mat, textures.filtered)
+        return impl
+
+    def impl(textures, geo, hit, mat):
+        return geo.mat_color[mat, 0], geo.mat_color[mat, 1], geo.mat_color[mat, 2]
+    return impl
+
+
 @njit(**JIT)
 def surface_albedo(textures, geo, cam, hit, mat, px, py, pz, sxn, syn):
     """Surface colour at a hit of the camera ray through (sxn, syn)."""
     if hit.prim < geo.tri_v0.shape[0]:
-        return mesh_color(geo, hit, mat, textures.filtered)
+        return triangle_albedo(textures, geo, hit, mat)
     if not textures.filtered:
         return albedo(geo, hit.prim, mat, px, py, pz)
     return albedo_filtered(geo, cam, hit.prim, mat, px, py, pz, sxn, syn, textures.step_x,
@@ -148,7 +169,7 @@ def surface_albedo(textures, geo, cam, hit, mat, px, py, pz, sxn, syn):
 def point_albedo(textures, geo, hit, mat, px, py, pz):
     """Surface colour at a hit of a mirror or glass ray (no footprint)."""
     if hit.prim < geo.tri_v0.shape[0]:
-        return mesh_color(geo, hit, mat, textures.filtered)
+        return triangle_albedo(textures, geo, hit, mat)
     return albedo(geo, hit.prim, mat, px, py, pz)
 
 
