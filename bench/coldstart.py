@@ -137,7 +137,9 @@ def measure(quick):
                       ("then --shadows none", ["teapot", "--shadows", "none"]),
                       ("then --aov depth", ["teapot", "--aov", "depth"]),
                       ("then --spp 4", ["teapot", "--spp", "4"]),
-                      ("then assets/whitted.toml (mirrors, glass)", [_example("whitted.toml")])]
+                      ("then assets/whitted.toml (mirrors, glass)", [_example("whitted.toml")]),
+                      ("then assets/textured.toml (vertex colours, a texture)",
+                       [_example("textured.toml")])]
             for label, args in steps:
                 log(f"coldstart: {label} (one cache)")
                 wall, comp, build = cli_render(args, cache, tmp)
