@@ -4,8 +4,9 @@ A triangle's colour is its material's colour, times its vertex colours
 interpolated by the hit's barycentrics, times its material's texture at the
 interpolated texture coordinates: the products glTF specifies for
 baseColorFactor, COLOR_0 and baseColorTexture, and MTL for Kd and map_Kd.
-Meshes without them pay a length check: ``Geometry.tri_color`` and
-``tri_uv`` are empty unless some mesh has them.
+Compiled only for scenes that have them (``MeshTextures`` in render.py);
+there ``Geometry.tri_color`` or ``tri_uv`` may still be empty, when no
+mesh has colours, or none has a texture.
 
 Texture coordinates follow OBJ: (0, 0) is the image's lower left corner,
 and the texture repeats outside [0, 1).  Texels are linear RGB, rows stored
