@@ -56,3 +56,29 @@ def test_empty_and_coincident_boxes():
     leaf = same.node_axis == LEAF
     assert (same.node_count[~leaf] == 0).all()
     assert sorted(set(same.prim_list.tolist())) == list(range(40))
+
+
+@pytest.mark.parametrize("seed, n, size", [(4, 40, 0.6), (5, 400, 0.2)])
+def test_clipped_triangles_are_in_every_leaf_they_cross(seed, n, size):
+    """Perfect splits: a triangle is listed in each leaf whose widened box
+    holds a point of it (points sampled over each triangle), and clipping
+    lists long triangles in fewer leaves than their boxes touch."""
+    rng = np.random.default_rng(seed)
+    c = rng.uniform(-1, 1, (n, 1, 3))
+    tri = c + rng.uniform(-size, size, (n, 3, 3))
+    v0, v1, v2 = tri[:, 0], tri[:, 1], tri[:, 2]
+    lo, hi = tri.min(axis=1), tri.max(axis=1)
+    tree = build_kdtree(lo, hi, triangles=(v0, v1, v2))
+    eps = grid_eps(tree.lo, tree.hi)
+    w = np.array([(i / 12, j / 12) for i in range(13) for j in range(13 - i)])
+    points = (v0[:, None] * (1 - w.sum(axis=1))[None, :, None] + v1[:, None] * w[None, :, :1]
+              + v2[:, None] * w[None, :, 1:])                        # (n, samples, 3)
+    refs = 0
+    for node, blo, bhi in leaves_with_boxes(tree):
+        listed = set(tree.prim_list[tree.node_index[node]:
+                                    tree.node_index[node] + tree.node_count[node]].tolist())
+        inside = ((points >= blo - eps) & (points <= bhi + eps)).all(axis=2).any(axis=1)
+        assert set(np.flatnonzero(inside).tolist()) <= listed
+        refs += len(listed)
+    boxes_only = build_kdtree(lo, hi)
+    assert refs < len(boxes_only.prim_list)
