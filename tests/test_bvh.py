@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from raytrace.accel.bvh import MAX_DEPTH, binned_sah, build_bvh, collapse_bvh4
+from raytrace.accel.bvh import MAX_DEPTH, build_bvh, build_bvh_kernel, collapse_bvh4
 from raytrace.buffers import INDEX, prim_bounds
 from raytrace.flatten import flatten
 from raytrace.kernels.cast import cast_closest, cast_occluded
@@ -280,7 +280,7 @@ def test_build_accel_fields():
 
 def test_build_kernel_depth_reported():
     lo, hi = boxes_of(random_soup(np.random.default_rng(2), 1000, 0.01))
-    *_, depth = binned_sah(lo, hi, 4)
+    *_, depth = build_bvh_kernel(lo, hi, 4)
     assert 0 < depth <= MAX_DEPTH
 
 

@@ -73,29 +73,36 @@ def _half_area(x0, y0, z0, x1, y1, z1):
 
 
 @njit(**BUILD)
-def build_bvh_kernel(lo, hi, max_leaf, node_lo, node_hi, node_start, node_count, prim_ids,
-                     cen, bin_count, bin_lo, bin_hi, right_cost, bin_scale, stack):
-    """Fills the first n_nodes rows of the node arrays and prim_ids; returns
-    (n_nodes, depth).  The caller allocates every array (``binned_sah``):
-    a kernel that allocates compiles Numba's allocation code for each shape
-    and dtype, about half a second of a cold build."""
+def build_bvh_kernel(lo, hi, max_leaf):
+    """Returns (node_lo, node_hi, node_start, node_count, prim_ids, depth)."""
     n = lo.shape[0]
-    if n == 0:
-        return 0, 0
+    max_nodes = max(2 * n - 1, 0)
+    node_lo = np.empty((max_nodes, 3), np.float64)
+    node_hi = np.empty((max_nodes, 3), np.float64)
+    node_start = np.empty(max_nodes, np.int64)
+    node_count = np.empty(max_nodes, np.int64)
+    prim_ids = np.empty(n, np.int64)
     for i in range(n):
         prim_ids[i] = i
+    if n == 0:
+        return node_lo, node_hi, node_start, node_count, prim_ids, 0
 
     # Centroids, transposed so each axis is one contiguous row.
+    cen = np.empty((3, n), np.float64)
     for i in range(n):
         for a in range(3):
             cen[a, i] = 0.5 * (lo[i, a] + hi[i, a])
 
-    # bin_count, bin_lo, bin_hi: (3, N_BINS[, 3]) per-axis bins.
+    bin_count = np.empty((3, N_BINS), np.int64)
+    bin_lo = np.empty((3, N_BINS, 3), np.float64)
+    bin_hi = np.empty((3, N_BINS, 3), np.float64)
     # right_cost[b] = N_R * A_R (half area) of bins b.. on the current axis.
-    # bin_scale: bins per unit length on each axis.
+    right_cost = np.empty(N_BINS, np.float64)
+    bin_scale = np.empty(3, np.float64)  # bins per unit length on each axis
 
-    # stack: pending right subtrees (start, end, depth, parent), at most
-    # one entry per level, and levels are capped at MAX_DEPTH.
+    # Work stack of pending right subtrees: (start, end, depth, parent).
+    # At most one entry per level, and levels are capped at MAX_DEPTH.
+    stack = np.empty((MAX_DEPTH + 2, 4), np.int64)
     sp = 0
     n_nodes = 0
     max_depth = 0
@@ -266,7 +273,9 @@ def build_bvh_kernel(lo, hi, max_leaf, node_lo, node_hi, node_start, node_count,
             depth = stack[sp, 2]
             parent = stack[sp, 3]
 
-    return n_nodes, max_depth
+    return (node_lo[:n_nodes].copy(), node_hi[:n_nodes].copy(),
+            node_start[:n_nodes].copy(), node_count[:n_nodes].copy(),
+            prim_ids, max_depth)
 
 
 def collapse_bvh4(node_lo, node_hi, node_start, node_count):
@@ -369,22 +378,7 @@ def build_bvh(lo, hi, max_leaf=MAX_LEAF):
     hi = np.ascontiguousarray(hi, dtype=np.float64).reshape(-1, 3)
     if lo.shape != hi.shape:
         raise ValueError(f"box arrays differ in shape: {lo.shape} vs {hi.shape}")
-    return binned_sah(lo, hi, max_leaf)[:5]
-
-
-def binned_sah(lo, hi, max_leaf):
-    """build_bvh's tree and its depth: the kernel's arrays, allocated here."""
-    n = len(lo)
-    max_nodes = max(2 * n - 1, 0)
-    node_lo, node_hi = np.empty((max_nodes, 3)), np.empty((max_nodes, 3))
-    node_start, node_count = np.empty(max_nodes, np.int64), np.empty(max_nodes, np.int64)
-    prim_ids = np.empty(n, np.int64)
-    n_nodes, depth = build_bvh_kernel(
-        lo, hi, int(max_leaf), node_lo, node_hi, node_start, node_count, prim_ids,
-        np.empty((3, n)), np.empty((3, N_BINS), np.int64), np.empty((3, N_BINS, 3)),
-        np.empty((3, N_BINS, 3)), np.empty(N_BINS), np.empty(3), np.empty((MAX_DEPTH + 2, 4), np.int64))
-    return (node_lo[:n_nodes].copy(), node_hi[:n_nodes].copy(), node_start[:n_nodes].copy(),
-            node_count[:n_nodes].copy(), prim_ids, depth)
+    return build_bvh_kernel(lo, hi, int(max_leaf))[:5]
 
 
 # The binary tree's builders: name -> module with build_binary(lo, hi,
