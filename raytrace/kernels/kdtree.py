@@ -73,9 +73,6 @@ def _traversal(mode):
             return best
         if mode == ALL_HITS or not _walkable(ray, acc.lo, acc.hi):
             return scan(geo, ray, t_max, cnt)
-        o = (ray.ox, ray.oy, ray.oz)
-        d = (ray.dx, ray.dy, ray.dz)
-        inv = (ray.inv_x, ray.inv_y, ray.inv_z)
         stack = frame_array(STACK_SIZE, np.int64)
         stack_t0 = frame_array(STACK_SIZE, np.float64)
         stack_t1 = frame_array(STACK_SIZE, np.float64)
@@ -90,13 +87,21 @@ def _traversal(mode):
                 axis = axis_of[node]
                 if axis != LEAF:
                     s = split_of[node]
-                    below_first = o[axis] < s or (o[axis] == s and d[axis] <= 0.0)
+                    # Selects, not a tuple indexed by axis (which Numba
+                    # lowers through memory).
+                    if axis == 0:
+                        oa, da, ia = ray.ox, ray.dx, ray.inv_x
+                    elif axis == 1:
+                        oa, da, ia = ray.oy, ray.dy, ray.inv_y
+                    else:
+                        oa, da, ia = ray.oz, ray.dz, ray.inv_z
+                    below_first = oa < s or (oa == s and da <= 0.0)
                     first = node + 1 if below_first else index_of[node]
                     second = index_of[node] if below_first else node + 1
-                    if d[axis] == 0.0:
+                    if da == 0.0:
                         node = first       # parallel to the plane: one side only
                         continue
-                    t_plane = (s - o[axis]) * inv[axis]
+                    t_plane = (s - oa) * ia
                     if t_plane > tmax or t_plane <= 0.0:
                         node = first
                     elif t_plane < tmin:
