@@ -204,18 +204,27 @@ def build_kdtree_kernel(lo, hi, v0, v1, v2, glo, ghi, eps, max_depth):
                 scratch = _grow_i(scratch, scap)
                 sb_lo = _grow_f3(sb_lo, scap)
                 sb_hi = _grow_f3(sb_hi, scap)
-            left = top
-            for c in range(3):
-                child_lo[c] = bl[c]
-                child_hi[c] = bh[c]
-            child_hi[a] = s
+            # The lists below and above the plane, each with its child's box.
             # Copied here rather than by a helper: a call passing arrays under
             # the runtime counts their references each time (5x slower build).
-            for k in range(start, start + count):
-                if sb_lo[k, a] - eps <= s:
+            left = right = top
+            for side in range(2):
+                for c in range(3):
+                    child_lo[c] = bl[c]
+                    child_hi[c] = bh[c]
+                if side == 0:
+                    child_hi[a] = s
+                else:
+                    child_lo[a] = s
+                    right = top
+                for k in range(start, start + count):
+                    below = sb_lo[k, a] - eps <= s
+                    above = sb_hi[k, a] + eps >= s
+                    if not (below if side == 0 else above):
+                        continue
                     p = scratch[k]
                     scratch[top] = p
-                    if p < n_tris and sb_hi[k, a] + eps >= s:
+                    if p < n_tris and below and above:   # cut by the plane: clip it
                         _clip_bounds(v0, v1, v2, p, child_lo, child_hi, eps, poly, tmp, sb_lo,
                                      sb_hi, top)
                         if sb_lo[top, 0] > sb_hi[top, 0]:
@@ -225,24 +234,7 @@ def build_kdtree_kernel(lo, hi, v0, v1, v2, glo, ghi, eps, max_depth):
                             sb_lo[top, c] = sb_lo[k, c]
                             sb_hi[top, c] = sb_hi[k, c]
                     top += 1
-            n_left = top - left
-            right = top
-            child_hi[a] = bh[a]
-            child_lo[a] = s
-            for k in range(start, start + count):
-                if sb_hi[k, a] + eps >= s:
-                    p = scratch[k]
-                    scratch[top] = p
-                    if p < n_tris and sb_lo[k, a] - eps <= s:
-                        _clip_bounds(v0, v1, v2, p, child_lo, child_hi, eps, poly, tmp, sb_lo,
-                                     sb_hi, top)
-                        if sb_lo[top, 0] > sb_hi[top, 0]:
-                            continue   # nothing of it on this side
-                    else:
-                        for c in range(3):
-                            sb_lo[top, c] = sb_lo[k, c]
-                            sb_hi[top, c] = sb_hi[k, c]
-                    top += 1
+            n_left = right - left
             n_right = top - right
             axis_of[node] = a
             split_of[node] = s
