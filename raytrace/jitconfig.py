@@ -5,7 +5,11 @@ Numba's on-disk cache keys a function by its own file's timestamp only, so
 editing a helper in another file (an intersection test, say) would leave a
 stale compiled render kernel in place.  The cache therefore lives in a
 directory named by a hash of every kernel source file: any change to any
-kernel starts a fresh cache.  NUMBA_CACHE_DIR, if the user sets it, wins.
+kernel starts a fresh cache.  NUMBA_CACHE_DIR, if the user sets it, says
+where that directory goes (in place of ~/.cache/raytrace): used as the
+cache itself, it kept entries across upgrades, so a kernel compiled
+against an older helper loaded, and an index naming a record type since
+removed failed to unpickle (AttributeError) before Numba checked anything.
 """
 import hashlib
 import os
@@ -23,12 +27,13 @@ def _cache_dir():
         digest.update(path.name.encode())
         digest.update(path.read_bytes())
     digest.update(numba.__version__.encode())
-    root = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-    return root / "raytrace" / f"numba-{digest.hexdigest()[:16]}"
+    root = os.environ.get("NUMBA_CACHE_DIR")
+    if not root:
+        root = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "raytrace"
+    return Path(root) / f"numba-{digest.hexdigest()[:16]}"
 
 
-if not os.environ.get("NUMBA_CACHE_DIR"):
-    numba.config.CACHE_DIR = str(_cache_dir())
+numba.config.CACHE_DIR = str(_cache_dir())
 
 # Numba picks OpenMP when it can, and GNU OpenMP's parallel-region start
 # measured 8 ms per kernel call here (threads asleep between calls) against

@@ -1,0 +1,25 @@
+"""Where compiled kernels are cached: a directory named by a hash of the
+kernel sources, under NUMBA_CACHE_DIR when it is set (raytrace/jitconfig.py)."""
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+SCRIPT = "import raytrace.kernels, numba; print(numba.config.CACHE_DIR)"
+
+
+def cache_dir(env):
+    p = subprocess.run([sys.executable, "-c", SCRIPT], env=env, capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    return Path(p.stdout.strip())
+
+
+def test_cache_directory_is_named_by_the_sources_hash(tmp_path):
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    default = cache_dir(dict(env, XDG_CACHE_HOME=str(tmp_path / "xdg")))
+    assert default.parent == tmp_path / "xdg" / "raytrace"
+    assert default.name.startswith("numba-") and len(default.name) == len("numba-") + 16
+    # A user's NUMBA_CACHE_DIR says where, and the hash still separates
+    # versions: an upgrade never loads (or fails to unpickle) older kernels.
+    chosen = cache_dir(dict(env, NUMBA_CACHE_DIR=str(tmp_path / "mine")))
+    assert chosen == tmp_path / "mine" / default.name
