@@ -194,3 +194,18 @@ def test_bad_colour_arrays_are_errors():
         flatten(quad_scene(np.ones((1, 1, 3)), uv=np.full((4, 2), np.nan)))
     with pytest.raises(RaytraceError, match=r"texture must be an \(h, w, 3\) image"):
         flatten(quad_scene(np.ones((4, 4))))
+
+
+def test_gltf_colour_0_beside_a_material_is_linear(tmp_path):
+    """glTF's COLOR_0 with a material (trimesh keeps it as a vertex
+    attribute): linear, as the glTF specification says, not sRGB-decoded."""
+    import trimesh
+    material = trimesh.visual.material.PBRMaterial(baseColorFactor=[255, 255, 255, 255])
+    visual = trimesh.visual.TextureVisuals(uv=QUAD_UV, material=material)
+    rgba = np.array([[255, 0, 0, 255], [0, 255, 0, 255], [0, 0, 255, 255], [128, 128, 128, 255]],
+                    np.uint8)
+    visual.vertex_attributes["color"] = rgba
+    trimesh.Trimesh(QUAD_V, QUAD_F, visual=visual, process=False).export(tmp_path / "c.glb")
+    (m,) = raytrace.load_scene(tmp_path / "c.glb").objects[:1]
+    order = np.lexsort(m.vertices.T)
+    assert np.allclose(m.colors[order], (rgba[:, :3] / 255.0)[np.lexsort(QUAD_V.T)])
