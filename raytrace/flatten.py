@@ -57,8 +57,9 @@ def _check_finite(name, arr):
 
 
 def mesh_triangles(mesh):
-    """(v0, v1, v2, n0, n1, n2, kept) of a mesh, degenerates removed;
-    kept holds the indices into mesh.faces of the triangles returned."""
+    """(v0, v1, v2, n0, n1, n2, kept, faces) of a mesh, degenerates
+    removed; kept holds the indices into mesh.faces of the triangles
+    returned, faces their vertex indices."""
     v = np.asarray(mesh.vertices, dtype=np.float64)
     f = np.asarray(mesh.faces)
     if v.ndim != 2 or v.shape[1] != 3:
@@ -83,7 +84,7 @@ def mesh_triangles(mesh):
     else:
         fn = unit_rows(np.cross(v1 - v0, v2 - v0))
         n0 = n1 = n2 = fn
-    return v0, v1, v2, n0, n1, n2, np.flatnonzero(keep)
+    return v0, v1, v2, n0, n1, n2, np.flatnonzero(keep), f
 
 
 def flatten(scene, with_sources=False):
@@ -114,14 +115,13 @@ def flatten(scene, with_sources=False):
     dropped = n_tris = 0
     for j, obj in enumerate(scene.objects):
         if isinstance(obj, Mesh):
-            *parts, kept = mesh_triangles(obj)
+            *parts, kept, faces = mesh_triangles(obj)
             dropped += len(np.asarray(obj.faces).reshape(-1, 3)) - len(kept)
             k = len(parts[0])
             if k:
                 for dst, src in zip(tris, parts):
                     dst.append(src)
                 tri_mat.append(np.full(k, mat_id(obj.material)))
-                faces = np.asarray(obj.faces).reshape(-1, 3).astype(np.int64)[kept]
                 colors.append(_corner_values(obj, "colors", 3, faces))
                 # Texture coordinates only where a texture uses them.
                 textured = getattr(obj.material, "texture", None) is not None

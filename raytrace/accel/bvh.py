@@ -312,8 +312,8 @@ def collapse_bvh4(node_lo, node_hi, node_start, node_count):
 @njit(**BUILD)
 def collapse_bvh4_kernel(node_lo, node_hi, node_start, node_count,
                          node_box, node_child, count4, kids, stack):
-    """collapse_bvh4's loop, into arrays it allocates; returns the number
-    of wide nodes."""
+    """collapse_bvh4's loop, into the arrays its caller allocates; returns
+    the number of wide nodes."""
     sp = 0
     n_wide = 1
     src = 0   # binary node the current wide node is made of
@@ -401,6 +401,17 @@ def build(geo, obj_ranges, bvh_build="sah", leaf_size=MAX_LEAF, **_):
     return BVH(node_box=node_box, node_child=node_child, node_count=node_count4, prim_ids=prim_ids)
 
 
+def _lanes(bvh):
+    """(used, inner, depth): the lanes holding a child, those holding an
+    inner node, and each wide node's depth (the root's 0)."""
+    used = bvh.node_box[:, 0, :] < np.inf
+    inner = used & (bvh.node_count == 0)
+    depth = np.zeros(len(bvh.node_child), np.int64)
+    for node in range(len(depth)):              # depth-first numbered: parents first
+        depth[bvh.node_child[node][inner[node]]] = depth[node] + 1
+    return used, inner, depth
+
+
 def statistics(bvh, n_prims):
     """Node and leaf counts, depths, leaf sizes, SAH cost and memory of a
     4-wide BVH.  SAH cost: the expected number of node visits (TRAVERSAL_COST
@@ -411,13 +422,8 @@ def statistics(bvh, n_prims):
     out = {"nodes": int(m)}
     if m == 0:
         return out | leaves([], []) | memory(bvh, n_prims)
-    used = bvh.node_box[:, 0, :] < np.inf           # lanes holding a child
-    is_leaf = used & (bvh.node_count > 0)
-    inner = used & ~is_leaf
-    depth = np.zeros(m, np.int64)                    # wide nodes, depth-first numbered
-    for node in range(m):
-        kids = bvh.node_child[node][inner[node]]
-        depth[kids] = depth[node] + 1
+    used, inner, depth = _lanes(bvh)
+    is_leaf = used & ~inner
     lo = np.moveaxis(bvh.node_box[:, 0:3, :], 1, 2)  # (m, 4, 3)
     hi = np.moveaxis(bvh.node_box[:, 3:6, :], 1, 2)
     area = np.where(used, half_area(np.where(used[..., None], lo, 0.0),
@@ -433,15 +439,10 @@ def statistics(bvh, n_prims):
 def outline(bvh, depth):
     """(lo, hi, level) of every box down to ``depth`` (--show-structure):
     the root's box is level 0, a node's child lanes one deeper than it."""
-    m = len(bvh.node_child)
-    if m == 0:
+    if len(bvh.node_child) == 0:
         return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, np.int64)
-    used = bvh.node_box[:, 0, :] < np.inf
-    inner = used & (bvh.node_count == 0)
-    node_level = np.zeros(m, np.int64)           # level of the lanes a node holds
-    node_level[0] = 1
-    for node in range(m):                        # depth-first: parents come first
-        node_level[bvh.node_child[node][inner[node]]] = node_level[node] + 1
+    used, _, node_depth = _lanes(bvh)
+    node_level = node_depth + 1                  # level of the lanes a node holds
     lanes = used & (node_level[:, None] <= depth)
     lo = np.moveaxis(bvh.node_box[:, 0:3, :], 1, 2)[lanes]
     hi = np.moveaxis(bvh.node_box[:, 3:6, :], 1, 2)[lanes]

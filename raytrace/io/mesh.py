@@ -282,11 +282,9 @@ def _visual_colours(part, visual, linear):
     attributes = getattr(visual, "vertex_attributes", None) or {}
     if attributes.get("color") is not None and part.colors is None:
         part.colors = decode_colours(attributes["color"], linear)
-    uv = getattr(visual, "uv", None)
-    if uv is not None and part.material is not None and part.material.texture is not None:
-        part.uv = np.asarray(uv, dtype=np.float64)
-    elif part.material is not None:
-        part.material.texture = None
+    # A texture was kept (io/materials.py) only where the visual has texture coordinates.
+    if part.material is not None and part.material.texture is not None:
+        part.uv = np.asarray(visual.uv, dtype=np.float64)
 
 
 def _visual_material(visual, library, source, warn, base):
