@@ -9,6 +9,7 @@ import time
 
 import click
 
+from .command import raise_if_interrupted
 from .errors import OptionError, RaytraceError, RaytraceWarning
 from .options import CREASE, DETAIL, FOV_RANGE, OPTIONS
 
@@ -361,6 +362,7 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
             with _warnings_once():
                 sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
                                 crease=crease, flat=flat, **_view_options(view, up))
+            raise_if_interrupted()
             if not named and kind == "toml":      # a scene file's name names its image
                 output = f"{sc.name}.png"
                 if aov:
@@ -377,6 +379,7 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
                 progress.close()
             if show_depth is not None:
                 result.image = _show_structure(result, sc, opts.accel, show_depth)
+            raise_if_interrupted()
             from .output import Outputs
             with Outputs() as outputs:
                 notes = _write_outputs(result, output, aov, aov_out, heatmap, outputs)
@@ -444,6 +447,7 @@ def compare_cmd(ctx, scene, accel_list, detail, view, up, crease, flat, fov, rep
             with _warnings_once():
                 sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
                                 crease=crease, flat=flat, **_view_options(view, up))
+            raise_if_interrupted()
             stem = sc.name if kind == "toml" else scene if kind == "builtin" else Path(scene).stem
             output = output or f"{stem}.compare.png"
             check_writable(output)
@@ -454,6 +458,7 @@ def compare_cmd(ctx, scene, accel_list, detail, view, up, crease, flat, fov, rep
             s = result.entries[0].stats
             setting = (f"{s['width']}x{s['height']}, {s['spp']} spp, {s['shadows']} shadows, "
                        f"{s['triangles']:,} triangles, {s['threads']} threads, best of {repeat}")
+            raise_if_interrupted()
             with Outputs() as outputs:
                 outputs.add(output, image_writer(figure(result, setting)[0], output))
     except KeyboardInterrupt:
