@@ -215,32 +215,53 @@ def to_srgb8(linear):
     return out
 
 
-def render(scene, opts=None, **kw):
-    """Render a Scene; returns a RenderResult (image, linear, stats, aovs).
+@dataclass
+class Setup:
+    """What every frame and tile of a render shares, made once: the
+    flattened scene, its structure, lights and the kernel's mode records.
+    Only the camera differs between frames, and only rows between tiles."""
+    opts: object
+    width: int
+    height: int
+    threads: int
+    geo: object
+    acc: object
+    lights: object
+    shadows: object
+    textures: object
+    bounces: object
+    background: np.ndarray
+    info: dict
+    times: dict                  # setup_s, build_s, and the builder's load in compile_s
 
-    Keyword arguments override fields of RenderOptions, e.g.
-    ``render(scene, accel="bvol", shadows="soft", width=320, height=240)``.
-    """
+    def payload(self):
+        """The arrays and records a worker needs (distributed.py): no
+        options object, no callables, so it pickles small and safe."""
+        return (self.geo, self.acc, self.lights, self.shadows, self.textures, self.bounces,
+                self.background, self.width, self.height, int(self.opts.spp), int(self.opts.seed))
+
+
+def _apply(opts, kw):
     opts = opts or RenderOptions()
     for k, v in kw.items():
         if not hasattr(opts, k):
             raise OptionError(f"render() got an unknown option {k!r}")
         setattr(opts, k, v)
-    width, height = (int(n) for n in validate(opts, scene))
+    return opts
 
+
+def prepare(scene, opts):
+    """Validate, flatten and build: a Setup for any number of frames."""
+    width, height = (int(n) for n in validate(opts, scene))
     t_start = time.perf_counter()
     import numba  # deferred: `raytrace scenes` and --help never pay for it
 
     from .flatten import flatten
-    from .kernels.counters import N_COUNTERS
-    from .kernels.render import render_rows
-    from .stats import counters_from_rows, derive
     from .structures import build_structure, get
 
     threads = int(opts.threads or numba.config.NUMBA_NUM_THREADS)
     numba.set_num_threads(threads)
     geo, obj_ranges, info = flatten(scene)
-    cam = camera_buffer(scene.camera, width, height)
     lights = light_buffers(scene, opts.shadows, opts.light_samples)
     background = f64(scene.background)
     shadows = shadow_record(opts.shadows, opts.pattern)
@@ -253,45 +274,96 @@ def render(scene, opts=None, **kw):
     # Loading (or compiling) the builder is compile time, not build time.
     t_load = get(opts.accel).load(**build_opts)
     acc, t_build = build_structure(opts.accel, geo, obj_ranges, **build_opts)
+    return Setup(opts=opts, width=width, height=height, threads=threads, geo=geo, acc=acc,
+                 lights=lights, shadows=shadows, textures=textures, bounces=bounces,
+                 background=background, info=info,
+                 times={"setup_s": t_import, "build_s": t_build, "compile_s": t_load})
 
-    image = np.zeros((height, width, 3), np.float32)
-    stats_rows = np.zeros((height, N_COUNTERS), np.int64)
-    aovs = aov_buffers(width, height, opts.aov)
+
+def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows=None, row0=None):
+    """Rows y0 .. y1 of the frame seen from ``cam`` (camera_buffer), from a
+    Setup's payload: (linear float32 rows, counter rows, compile_s,
+    render_s).  Without buffers, the band gets its own (rows y0 .. y1 only:
+    a tile of a poster costs its own rows, not the poster's)."""
+    from .kernels.counters import N_COUNTERS
+    from .kernels.render import render_rows
+    geo, acc, lights, shadows, textures, bounces, background, width, height, spp, seed = payload
+    if image is None:
+        row0 = y0
+        image = np.empty((y1 - y0, width, 3), np.float32)
+        stats_rows = np.zeros((y1 - y0, N_COUNTERS), np.int64)
+    if aovs is None:
+        aovs = aov_buffers(width, height, False)
     # Plain Python scalars only: a NumPy integer or a bool where an int is
     # expected would compile the kernel again for that type.
     args = (geo, acc, cam, lights, shadows, textures, bounces, aovs, background, int(width),
             int(height))
-    tail = (threads, int(opts.spp), int(opts.seed), image, stats_rows)
-
+    tail = (int(threads), int(spp), int(seed), image, stats_rows)
     # An empty band compiles the kernel (or loads it from Numba's cache)
     # without rendering anything, so that time is reported apart.
     t0 = time.perf_counter()
-    render_rows(*args, 0, 0, *tail)
-    t_compile = time.perf_counter() - t0 + t_load
+    render_rows(*args, 0, 0, int(row0), *tail)
+    t_compile = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    render_rows(*args, int(y0), int(y1), int(row0), *tail)
+    return image, stats_rows, t_compile, time.perf_counter() - t0
+
+
+def render(scene, opts=None, **kw):
+    """Render a Scene; returns a RenderResult (image, linear, stats, aovs).
+
+    Keyword arguments override fields of RenderOptions, e.g.
+    ``render(scene, accel="bvol", shadows="soft", width=320, height=240)``.
+    """
+    from .kernels.counters import N_COUNTERS
+    from .stats import counters_from_rows, derive
+    opts = _apply(opts, kw)
+    setup = prepare(scene, opts)
+    cam = camera_buffer(scene.camera, setup.width, setup.height)
+    width, height = setup.width, setup.height
+    image = np.zeros((height, width, 3), np.float32)
+    stats_rows = np.zeros((height, N_COUNTERS), np.int64)
+    aovs = aov_buffers(width, height, opts.aov)
+    payload = setup.payload()
 
     # Bands of rows let a progress bar move; ~32 bands cost < 1 ms of calls.
     band = max(1, height // 32) if opts.progress else height
-    t0 = time.perf_counter()
+    t_compile = t_render = 0.0
     for y0 in range(0, height, band):
         y1 = min(height, y0 + band)
-        render_rows(*args, y0, y1, *tail)
+        _, _, tc, tr = render_band(payload, cam, y0, y1, setup.threads, aovs, image,
+                                   stats_rows, 0)
+        t_compile += tc
+        t_render += tr
         if opts.progress:
             opts.progress(y1, height)
-    t_render = time.perf_counter() - t0
-
-    stats = {
-        "scene": scene.name, "accel": opts.accel, "shadows": opts.shadows,
-        "light_samples": int(lights.samples.max()) if len(lights.samples) else 0,
-        "bvh_build": opts.bvh_build, "leaf_size": opts.leaf_size, "grid_density": opts.grid_density,
-        "pattern": opts.pattern, "texture_filter": opts.texture_filter,
-        "max_depth": getattr(bounces, "max_depth", None), "width": width,
-        "height": height, "spp": opts.spp, "seed": opts.seed, "threads": threads,
-        **info,
-        "time": {"render_s": t_render, "build_s": t_build, "compile_s": t_compile,
-                 "setup_s": t_import},
-        "counters": counters_from_rows(stats_rows),
-        "structure": get(opts.accel).statistics(acc, geo.tri_v0.shape[0] + geo.sph_center.shape[0]),
-    }
+    if height == 0:
+        t_compile = render_band(payload, cam, 0, 0, setup.threads, aovs, image, stats_rows, 0)[2]
+    stats = base_stats(setup, scene.name)
+    stats["time"] = {"render_s": t_render, "build_s": setup.times["build_s"],
+                     "compile_s": t_compile + setup.times["compile_s"],
+                     "setup_s": setup.times["setup_s"]}
+    stats["counters"] = counters_from_rows(stats_rows)
     result_aovs = aovs._asdict() if opts.aov else {}
     return RenderResult(image=to_srgb8(image), linear=image, stats=derive(stats), aovs=result_aovs,
-                        structure=acc)
+                        structure=setup.acc)
+
+
+def base_stats(setup, scene_name):
+    """The statistics that describe the render's setting (no times, no counters)."""
+    from .structures import get
+    opts = setup.opts
+    return {
+        "scene": scene_name, "accel": opts.accel, "shadows": opts.shadows,
+        "light_samples": int(setup.lights.samples.max()) if len(setup.lights.samples) else 0,
+        "bvh_build": opts.bvh_build, "leaf_size": opts.leaf_size, "grid_density": opts.grid_density,
+        "pattern": opts.pattern, "texture_filter": opts.texture_filter,
+        "max_depth": getattr(setup.bounces, "max_depth", None), "width": setup.width,
+        "height": setup.height, "spp": opts.spp, "seed": opts.seed, "threads": setup.threads,
+        **setup.info,
+        "time": {},
+        "counters": {},
+        "structure": get(opts.accel).statistics(
+            setup.acc, setup.geo.tri_v0.shape[0] + setup.geo.sph_center.shape[0]),
+    }
+

@@ -422,11 +422,13 @@ def _push(stack, sp, ox, oy, oz, dx, dy, dz, wr, wg, wb, depth, kind):
 
 @njit(**JIT)
 def render_part(geo, acc, cam, lights, shadows, textures, bounces, aovs, background, width, height,
-                y_first, y_end, y_step, spp, seed, image, stats_rows):
-    """Rows y_first, y_first + y_step, ... below y_end into image (height,
-    width, 3) float32, linear.  Each row counts into its own stats_rows[y]."""
+                y_first, y_end, y_step, row0, spp, seed, image, stats_rows):
+    """Rows y_first, y_first + y_step, ... below y_end into image (rows,
+    width, 3) float32, linear, at row y - row0.  Each row counts into its
+    own stats_rows[y - row0]."""
     for y in range(y_first, y_end, y_step):
-        cnt = stats_rows[y]
+        row = y - row0
+        cnt = stats_rows[row]
         for x in range(width):
             pixel = y * width + x
             before = cnt[BOX_TESTS] + cnt[PRIM_TESTS]
@@ -444,17 +446,19 @@ def render_part(geo, acc, cam, lights, shadows, textures, bounces, aovs, backgro
                 g += sg
                 b += sb
                 if s == 0:
-                    record_sample(aovs, y, x, t, prim, nx, ny, nz)
-            image[y, x, 0] = r / spp
-            image[y, x, 1] = g / spp
-            image[y, x, 2] = b / spp
-            record_cost(aovs, y, x, cnt[BOX_TESTS] + cnt[PRIM_TESTS] - before)
+                    record_sample(aovs, row, x, t, prim, nx, ny, nz)
+            image[row, x, 0] = r / spp
+            image[row, x, 1] = g / spp
+            image[row, x, 2] = b / spp
+            record_cost(aovs, row, x, cnt[BOX_TESTS] + cnt[PRIM_TESTS] - before)
 
 
 @njit(**PARALLEL)
 def render_rows(geo, acc, cam, lights, shadows, textures, bounces, aovs, background, width, height,
-                y0, y1, n_threads, spp, seed, image, stats_rows):
-    """Render rows y0 .. y1-1.
+                y0, y1, row0, n_threads, spp, seed, image, stats_rows):
+    """Render rows y0 .. y1-1 into a band: image row y is image[y - row0]
+    (row0 = 0 for a whole-image buffer; a tile's own buffer starts at its
+    first row), likewise stats_rows and the AOVs.
 
     Part k of n_threads renders rows y0 + k, y0 + k + n_threads, ...:
     prange gives each thread one contiguous range, and the bottom of a
@@ -466,4 +470,4 @@ def render_rows(geo, acc, cam, lights, shadows, textures, bounces, aovs, backgro
     n_parts = max(1, min(n_threads, y1 - y0))
     for k in prange(n_parts):
         render_part(geo, acc, cam, lights, shadows, textures, bounces, aovs, background, width,
-                    height, y0 + k, y1, n_parts, spp, seed, image, stats_rows)
+                    height, y0 + k, y1, n_parts, row0, spp, seed, image, stats_rows)
