@@ -9,7 +9,7 @@ import time
 
 import click
 
-from .command import raise_if_interrupted
+from .interrupt import raise_if_interrupted
 from .errors import OptionError, RaytraceError, RaytraceWarning
 from .options import CREASE, DETAIL, FOV_RANGE, OPTIONS
 

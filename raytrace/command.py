@@ -5,32 +5,7 @@ import os
 import signal
 import sys
 
-_interrupted = False
-
-
-def _on_sigint(signum, frame):
-    """Python's own handler, which also remembers that Ctrl-C came: a C
-    extension importing when it lands may turn the KeyboardInterrupt into an
-    ImportError ("numba._devicearray failed to import")."""
-    global _interrupted
-    _interrupted = True
-    raise KeyboardInterrupt
-
-
-def _unraisable(info):
-    """A Ctrl-C that lands in a weakref callback or a __del__ cannot propagate:
-    Python prints it as "Exception ignored" and goes on.  Keep quiet about it:
-    raise_if_interrupted reports it at the command's next check."""
-    if not issubclass(info.exc_type, KeyboardInterrupt):
-        sys.__unraisablehook__(info)
-
-
-def raise_if_interrupted():
-    """Raise the KeyboardInterrupt of a Ctrl-C that Python dropped (see
-    _unraisable; code called from C that clears errors drops it silently), so
-    the command still stops with 130 rather than finish as if not asked to."""
-    if _interrupted:
-        raise KeyboardInterrupt
+from .interrupt import interrupted, on_sigint, unraisable
 
 
 def _exit_interrupted(message=None):
@@ -47,8 +22,8 @@ def _exit_interrupted(message=None):
 
 def main():
     if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
-        signal.signal(signal.SIGINT, _on_sigint)    # not when started with SIGINT ignored
-        sys.unraisablehook = _unraisable
+        signal.signal(signal.SIGINT, on_sigint)     # not when started with SIGINT ignored
+        sys.unraisablehook = unraisable
     try:
         from .cli import entry
         entry()
@@ -59,6 +34,6 @@ def main():
     except KeyboardInterrupt:
         _exit_interrupted("no image written")
     except Exception:
-        if _interrupted:
+        if interrupted():
             _exit_interrupted("no image written")
         raise

@@ -250,13 +250,13 @@ def test_16_ctrl_c_python_dropped_still_stops_the_render(tmp_path):
     rc, err = _command(tmp_path, "import gc, weakref\n"
                                  "class Part: pass\n"
                                  "part = Part()\n"
+                                 "from raytrace import interrupt\n"
                                  "def signal_lands_here(ref):\n"
-                                 "    from raytrace import command\n"
-                                 "    command._on_sigint(2, None)\n"
+                                 "    interrupt.on_sigint(2, None)\n"
                                  "ref = weakref.ref(part, signal_lands_here)\n"
-                                 "import signal, raytrace.command\n"
-                                 "signal.signal(signal.SIGINT, raytrace.command._on_sigint)\n"
-                                 "import sys; sys.unraisablehook = raytrace.command._unraisable\n"
+                                 "import signal, sys\n"
+                                 "signal.signal(signal.SIGINT, interrupt.on_sigint)\n"
+                                 "sys.unraisablehook = interrupt.unraisable\n"
                                  "del part\n")
     assert rc == 130, (rc, err)
     assert one_line(err) == "interrupted: no image written"
