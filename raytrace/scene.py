@@ -87,3 +87,6 @@ class Scene:
     objects: list = field(default_factory=list)
     lights: list = field(default_factory=list)
     background: tuple = (0.55, 0.7, 0.9)
+    # A scene file's [animation] table (raytrace.animation.Animation), or
+    # None; typed loosely so this module imports nothing more.
+    animation: object = None

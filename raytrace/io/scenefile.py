@@ -4,20 +4,23 @@ Parsed with the standard library's tomllib (Python 3.11+; the tomli
 backport is used on 3.10 if installed).  Every key is checked: an unknown
 key or a wrong type is an error naming the file and the key.
 """
-import math
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
+from ..animation import MAX_FRAMES, Animation, Key, key_values, view_problem
 from ..errors import RaytraceError, warn
 from ..options import BY_NAME, CREASE, DETAIL, FOV_RANGE
 from ..scene import Camera, Light, Material, Plane, Scene, Sphere
 from .fields import Fields
 from .mesh import MAX_COORD, check_readable
 
-TOP_KEYS = ("name", "description", "background", "camera", "materials", "lights", "objects")
+TOP_KEYS = ("name", "description", "background", "camera", "materials", "lights", "objects",
+            "animation")
 CAMERA_KEYS = ("position", "look_at", "up", "fov", "width", "height")
+ANIMATION_KEYS = ("frames", "keys")
+KEY_KEYS = ("frame", "position", "look_at", "fov")
 MATERIAL_KEYS = ("color", "ambient", "diffuse", "specular", "shininess", "checker", "reflect",
                  "transmit", "ior")
 IOR_RANGE = (1.0, 10.0)   # air to beyond diamond (2.42); below 1 is no material in air
@@ -95,6 +98,8 @@ def _read_scene_file(path):
     top.string("description")
     if top.has("background"):
         scene.background = top.color("background")
+    if top.has("animation"):
+        scene.animation = _animation(path, top.table["animation"], scene.camera)
     return scene
 
 
@@ -106,20 +111,53 @@ def _camera(path, table):
                  width=f.integer("width", default=640, lo=BY_NAME["width"].lo, hi=BY_NAME["width"].hi),
                  height=f.integer("height", default=480, lo=BY_NAME["height"].lo,
                                   hi=BY_NAME["height"].hi))
-    view = [b - a for a, b in zip(cam.eye, cam.look_at)]
-    if not any(view):
-        f.fail("look_at", "must differ from position")
-    up = cam.up
-    cross = (view[1] * up[2] - view[2] * up[1], view[2] * up[0] - view[0] * up[2],
-             view[0] * up[1] - view[1] * up[0])
-    if not math.hypot(*cross) > 1e-12 * math.hypot(*view) * math.hypot(*up):
-        f.fail("up", "parallel to the view direction (position to look_at)")
+    problem = view_problem(cam.eye, cam.look_at, cam.up)
+    if problem:
+        f.fail(*problem)
     if not FOV_RANGE[0] < cam.fov < FOV_RANGE[1]:
         f.fail("fov", f"must be between {FOV_RANGE[0]:g} and {FOV_RANGE[1]:g} degrees (exclusive), "
                       f"got {cam.fov:g}")
     if cam.eye == cam.look_at:
         f.fail("look_at", "must differ from the camera position")
     return cam
+
+
+def _animation(path, table, camera):
+    """An [animation] table: frames, and keys in increasing frame order,
+    each a valid camera with the [camera]'s up -- and so is every frame
+    between them, where position and look_at move linearly."""
+    f = Fields(path, "animation", table, ANIMATION_KEYS)
+    frames = f.integer("frames", required=True, lo=1, hi=MAX_FRAMES)
+    tables = f.tables("keys")
+    if not tables:
+        f.fail(None, "missing [[animation.keys]] (at least one: frame, position, look_at)")
+    keys = []
+    for i, t in enumerate(tables):
+        k = Fields(path, f"animation.keys[{i}]", t, KEY_KEYS)
+        frame = k.integer("frame", required=True, lo=0, hi=frames - 1)
+        if keys and frame <= keys[-1].frame:
+            k.fail("frame", f"keys must be in strictly increasing frame order, got {frame} "
+                            f"after {keys[-1].frame}")
+        key = Key(frame=frame, position=k.vec3("position", required=True),
+                  look_at=k.vec3("look_at", required=True), fov=k.number("fov"))
+        if key.fov is not None and not FOV_RANGE[0] < key.fov < FOV_RANGE[1]:
+            k.fail("fov", f"must be between {FOV_RANGE[0]:g} and {FOV_RANGE[1]:g} degrees "
+                          f"(exclusive), got {key.fov:g}")
+        problem = view_problem(key.position, key.look_at, camera.up)
+        if problem:
+            k.fail(*(problem if problem[0] == "look_at" else
+                     ("look_at", "view direction (position to look_at) parallel to [camera] up")))
+        keys.append(key)
+    animation = Animation(frames=frames, keys=tuple(keys))
+    # Between two valid keys the eye may still cross look_at, or look along up.
+    for n, (eye, look_at, _) in enumerate(key_values(animation, camera.fov)):
+        problem = view_problem(eye, look_at, camera.up)
+        if problem:
+            i = sum(key.frame < n for key in keys)
+            f.fail("keys", f"frame {n}, between keys[{i - 1}] and keys[{i}]: "
+                           + ("position meets look_at" if problem[0] == "look_at"
+                              else "view direction parallel to [camera] up"))
+    return animation
 
 
 def _materials(path, top):
