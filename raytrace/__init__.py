@@ -12,8 +12,8 @@ Numba and trimesh are imported by the first call that needs them.
 """
 from .errors import RaytraceError, RaytraceWarning
 
-__all__ = ["load_scene", "render", "RayScene", "cast_rays", "occluded", "create_rays_pinhole",
-           "create_rays_from_matrices", "RaytraceError", "RaytraceWarning"]
+__all__ = ["load_scene", "render", "render_frames", "RayScene", "cast_rays", "occluded",
+           "create_rays_pinhole", "create_rays_from_matrices", "RaytraceError", "RaytraceWarning"]
 # Imported on first use, so that `import raytrace` stays light.
 _LAZY = {"RayScene": "rayscene", "create_rays_pinhole": "rayscene",
          "create_rays_from_matrices": "rayscene"}
@@ -31,7 +31,7 @@ def load_scene(name_or_path, **opts):
     return _load(name_or_path, **opts)
 
 
-def render(scene, **options):
+def render(scene, client=None, tiles=None, **options):
     """Render a Scene (or a name or path, loaded with load_scene) and return
     a RenderResult: ``image`` (h, w, 3) uint8 sRGB, ``linear`` float32,
     ``stats`` (times and counters, as the CLI's --json), ``aovs`` with
@@ -40,16 +40,68 @@ def render(scene, **options):
     Options are the fields of raytrace.driver.RenderOptions: accel
     ("none", "bvol", "bvh", "grid"), shadows ("none", "hard", "soft"),
     light_samples, pattern, width, height, spp, seed, threads, aov.
+
+    ``tiles=N`` renders the image as N bands of rows; ``client=`` (a
+    dask.distributed Client) runs them on its workers (4 per worker by
+    default).  The image is the same, byte for byte; ``linear`` and the
+    AOVs then stay unassembled (None / not available).
     """
+    scene = _scene(scene)
+    if client is None and tiles is None:
+        from .driver import render as _render
+        return _render(scene, **options)
+    from .batch import render_tiled
+    from .driver import _apply
+    opts = _apply(None, options)
+    if opts.aov:
+        raise RaytraceError("aov=True needs the whole image in this process: drop client and tiles")
+    runner = _runner(client)
+    return render_tiled(scene, opts, runner, tiles or (4 * runner.workers if runner else 1))
+
+
+def render_frames(scene, cameras=None, turntable=None, output=None, fps=24, resume=False,
+                  client=None, tiles=1, progress=None, **options):
+    """Render a camera path: a list of Cameras, ``turntable=N`` frames
+    orbiting the scene's camera, or the scene file's [animation].
+
+    Returns (frames, stats): frames a list of (h, w, 3) uint8 images, or
+    None when ``output`` (.gif, .mp4, or a PNG pattern like
+    "frames/spin_%04d.png") received them; stats sum the counters over
+    frames and give time per worker.  ``client``: a dask.distributed
+    Client whose workers render the frames; ``progress(done, frames)``.
+    """
+    from .animation import camera_path
+    from .batch import animate
+    from .driver import _apply
+    scene = _scene(scene)
+    if cameras is None:
+        cameras = camera_path(scene, turntable)
+    elif turntable is not None:
+        raise RaytraceError("give cameras or turntable, not both")
+    if output is not None:
+        from .frames import check_frame_output
+        check_frame_output(str(output), resume=resume)
+    opts = _apply(None, options)
+    return animate(scene, list(cameras), opts, output=None if output is None else str(output),
+                   fps=fps, resume=resume, runner=_runner(client), tiles=tiles, progress=progress)
+
+
+def _scene(scene):
     from pathlib import Path
 
-    from .driver import render as _render
     from .scene import Scene
     if isinstance(scene, (str, Path)):
         scene = load_scene(scene)
     if not isinstance(scene, Scene):
         raise RaytraceError(f"scene: expected a Scene, a name or a path, got {type(scene).__name__}")
-    return _render(scene, **options)
+    return scene
+
+
+def _runner(client):
+    if client is None:
+        return None
+    from .distributed import DaskRunner
+    return DaskRunner(client, None)
 
 
 def cast_rays(target, origins, directions, accel="bvh", t_max=None):

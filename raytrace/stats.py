@@ -74,8 +74,9 @@ def format_table(stats):
         ("Render time (s)", t["render_s"]),
         ("Build time (s)", t["build_s"]),
         ("Compile/load time (s)", t["compile_s"]),
-        ("Rays cast", d["rays"]),
     ]
+    rows += _batch_rows(stats)
+    rows += [("Rays cast", d["rays"])]
     rows += [(label, c[key]) for key, label, _, _ in COUNTERS]
     rows += [
         ("Primitive tests per ray", d["prim_tests_per_ray"]),
@@ -91,6 +92,23 @@ def format_table(stats):
     lines = [f"{k:<{width}}  {v:>{vwidth}}" for (k, _), v in zip(rows, vals)]
     rule = "-" * (width + 2 + vwidth)
     return "\n".join([rule, *lines, rule])
+
+
+def _batch_rows(stats):
+    """Frames, tiles and workers (batch.py): render and compile times per
+    worker, and the wall-clock time their work does not explain."""
+    if "frames" not in stats:
+        return []
+    t = stats["time"]
+    rows = [("Frames", stats["frames"]), ("Tiles per frame", stats["tiles"])]
+    if stats.get("frames_skipped"):
+        rows.append(("Frames already written (skipped)", stats["frames_skipped"]))
+    for k, w in enumerate(stats["workers"].values(), 1):
+        rows.append((f"Worker {k}: tasks, compile/load, render (s)",
+                     f"{w['tasks']:,}, {w['compile_s']:,.3f}, {w['render_s']:,.3f}"))
+    rows += [("Wall time (s)", t["wall_s"]),
+             ("Overhead: scheduling, transfer, assembly (s)", t["overhead_s"])]
+    return rows
 
 
 def to_json(stats):

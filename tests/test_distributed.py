@@ -1,0 +1,141 @@
+"""Tiles and frames (raytrace/batch.py), here and on a local Dask cluster of
+two worker processes (raytrace/distributed.py): byte for byte the still
+render, counters summed exactly, a killed worker changes nothing, and a
+missing extra is one line."""
+import os
+import signal
+import sys
+
+import numpy as np
+import pytest
+
+import raytrace
+from raytrace import RaytraceError
+from raytrace.animation import turntable
+from raytrace.batch import InProcess, animate, bands, render_frames, render_tiled
+from raytrace.driver import RenderOptions
+
+# The options other tests compile kernels for (tests/test_determinism.py):
+# soft shadows and several samples a pixel use the hashed random numbers.
+pytestmark = pytest.mark.filterwarnings("ignore:Port .* is already in use")
+SOFT = dict(shadows="soft", light_samples=16, spp=4, seed=2024, width=48, height=36)
+HARD = dict(width=64, height=48)
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return raytrace.load_scene("teapot", width=64, height=48)
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    import logging
+
+    import distributed  # the test extra installs it
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None, silence_logs=logging.ERROR) as c, \
+            distributed.Client(c) as client:
+        yield client
+
+
+def test_bands_cover_the_rows_once():
+    for h, n in ((48, 5), (7, 7), (3, 10), (1, 1)):
+        b = bands(h, n)
+        assert b[0][0] == 0 and b[-1][1] == h
+        assert all(y1 == next_y0 for (_, y1), (next_y0, _) in zip(b, b[1:]))
+        assert all(y1 > y0 for y0, y1 in b)
+        assert len(b) == min(n, h)
+
+
+@pytest.mark.parametrize("opts", [HARD, SOFT], ids=["hard", "soft"])
+def test_tiles_here_are_the_still_byte_for_byte_with_the_same_counters(scene, opts):
+    still = raytrace.render(scene, **opts)
+    tiled = raytrace.render(scene, tiles=5, **opts)
+    assert tiled.image.dtype == np.uint8 and np.array_equal(tiled.image, still.image)
+    assert tiled.stats["counters"] == still.stats["counters"]
+    assert tiled.stats["tiles"] == 5 and tiled.stats["frames"] == 1
+
+
+def test_turntable_frames_here_first_is_the_still_and_counters_add_up(scene):
+    cams = turntable(scene.camera, 3)
+    frames, stats = animate(scene, cams, RenderOptions(**HARD), tiles=2)
+    assert len(frames) == 3
+    assert np.array_equal(frames[0], raytrace.render(scene, **HARD).image)
+    assert not np.array_equal(frames[0], frames[1])       # the camera moved
+    total = {}
+    for cam in cams:
+        one = raytrace.render(raytrace.scene.Scene(**{**scene.__dict__, "camera": cam}), **HARD)
+        for k, v in one.stats["counters"].items():
+            total[k] = total.get(k, 0) + v
+    assert stats["counters"] == total
+    assert stats["frames"] == 3 and stats["tiles"] == 2
+
+
+def test_skipped_frames_are_not_rendered(scene):
+    seen = []
+    render_frames(scene, turntable(scene.camera, 4), RenderOptions(**HARD), InProcess(1),
+                  skip={0, 2}, on_frame=lambda i, image: seen.append(i))
+    assert seen == [1, 3]
+
+
+def test_dask_tiles_and_frames_are_the_local_render_byte_for_byte(scene, cluster):
+    from raytrace.distributed import DaskRunner
+    still = raytrace.render(scene, **SOFT)
+    on_dask = raytrace.render(scene, client=cluster, **SOFT)
+    assert np.array_equal(on_dask.image, still.image)
+    assert on_dask.stats["counters"] == still.stats["counters"]
+    assert on_dask.stats["tiles"] == 8                      # 4 a worker, 2 workers
+    assert len(on_dask.stats["workers"]) == 2               # both took part
+    cams = turntable(scene.camera, 4)
+    here, _ = animate(scene, cams, RenderOptions(**HARD))
+    there, stats = animate(scene, cams, RenderOptions(**HARD), runner=DaskRunner(cluster, 1),
+                           tiles=3)
+    assert all(np.array_equal(a, b) for a, b in zip(here, there))
+    assert stats["time"]["overhead_s"] >= 0 and stats["frames"] == 4
+
+
+def test_a_worker_killed_mid_render_changes_nothing(scene):
+    import logging
+
+    import distributed
+
+    from raytrace.distributed import DaskRunner
+    cams = turntable(scene.camera, 6)
+    here, _ = animate(scene, cams, RenderOptions(**SOFT))
+    killed = []
+
+    def kill_one(done, total):
+        if not killed:          # after the first frame: the other tasks are in flight
+            pids = client.run(os.getpid)
+            victim = sorted(pids.values())[0]
+            os.kill(victim, signal.SIGKILL)
+            killed.append(victim)
+
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None, silence_logs=logging.CRITICAL) as c, \
+            distributed.Client(c) as client:
+        there, _ = animate(scene, cams, RenderOptions(**SOFT), runner=DaskRunner(client, 1),
+                           tiles=2, progress=kill_one)
+        assert killed and killed[0] not in client.run(os.getpid).values()
+    assert all(np.array_equal(a, b) for a, b in zip(here, there))
+
+
+def test_missing_extra_is_one_line(monkeypatch):
+    from raytrace.distributed import connect
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    with pytest.raises(RaytraceError, match=r"distributed extra: pip install 'raytrace\[distributed\]'"):
+        with connect(workers=2):
+            pass
+
+
+def test_a_task_that_fails_on_a_worker_is_one_raytrace_error(scene, cluster):
+    from raytrace.distributed import DaskRunner
+    bad = (None,) * 11                      # not a scene's buffers: the worker's kernel call fails
+    with pytest.raises(RaytraceError, match="a Dask worker failed"):
+        list(DaskRunner(cluster, 1).run(bad, [(np.zeros(12), 0, 0, 4)]))
+
+
+def test_tiled_render_has_no_linear_image_and_refuses_aovs(scene):
+    assert render_tiled(scene, RenderOptions(**HARD), None, 2).linear is None
+    with pytest.raises(RaytraceError, match="aov=True"):
+        raytrace.render(scene, tiles=2, aov=True, **HARD)
