@@ -9,8 +9,8 @@ import time
 
 import click
 
-from .interrupt import raise_if_interrupted
 from .errors import OptionError, RaytraceError, RaytraceWarning
+from .interrupt import raise_if_interrupted
 from .options import CREASE, DETAIL, FOV_RANGE, OPTIONS
 
 
@@ -104,8 +104,9 @@ class _Progress:
     render has run for a second (short renders stay quiet)."""
     DELAY_S = 1.0
 
-    def __init__(self, enabled):
+    def __init__(self, enabled, label="rendering"):
         self.enabled = enabled and _is_tty(sys.stderr)
+        self.label = label
         self.start = time.perf_counter()
         self.bar = None
         self.done = 0
@@ -114,7 +115,7 @@ class _Progress:
         if not self.enabled:
             return
         if self.bar is None and time.perf_counter() - self.start >= self.DELAY_S:
-            self.bar = click.progressbar(length=rows_total, label="rendering", file=sys.stderr)
+            self.bar = click.progressbar(length=rows_total, label=self.label, file=sys.stderr)
             self.bar.__enter__()
         if self.bar is not None:
             self.bar.update(rows_done - self.done)
@@ -271,6 +272,62 @@ def _scene_options(command):
     return command
 
 
+def _work_options(command):
+    """Frame sequences, tiles, and where the work runs (batch.py, distributed.py)."""
+    options = [
+        click.option("--turntable", type=click.IntRange(min=1, max=100_000), default=None,
+                     metavar="N", help="Render N frames orbiting the camera about its look-at "
+                                       "point (around the scene's up axis) [-o default: SCENE.gif]."),
+        click.option("--fps", type=FiniteFloatRange(min=1, max=240), default=None,
+                     help="Frames per second of a .gif or .mp4 [default: 24]."),
+        click.option("--resume", is_flag=True, default=False,
+                     help="PNG sequences: keep the frames already written, render the rest."),
+        click.option("--tiles", type=click.IntRange(min=1, max=1 << 16), default=None,
+                     metavar="N", help="Render each image as N bands of rows, one task each "
+                                       "[default: 1; 4 per Dask worker for a still]."),
+        click.option("--workers", type=click.IntRange(min=1, max=1024), default=None,
+                     metavar="N", help="Run the tasks on a local Dask cluster of N processes "
+                                       "(the distributed extra)."),
+        click.option("--scheduler", default=None, envvar="DASK_SCHEDULER_ADDRESS",
+                     metavar="ADDRESS", help="Run the tasks on the Dask cluster at ADDRESS "
+                                             "[default: $DASK_SCHEDULER_ADDRESS]."),
+    ]
+    for option in reversed(options):
+        command = option(command)
+    return command
+
+
+def _is_frame_path(path):
+    """An output that holds frames: an animation file or a numbered PNG pattern."""
+    return path is not None and (path.lower().endswith((".gif", ".mp4")) or "%" in path)
+
+
+def _check_work(animated, still_extras, turntable, fps, resume, tiles, workers, scheduler):
+    """UsageError for the frame and work options that contradict each other."""
+    if workers is not None and scheduler is not None:
+        raise click.UsageError("--workers starts a local cluster; --scheduler (or "
+                               "DASK_SCHEDULER_ADDRESS) names a running one: give one")
+    if not animated:
+        for flag, value in (("--fps", fps), ("--resume", resume or None)):
+            if value is not None:
+                raise click.UsageError(f"{flag} applies to frame sequences (--turntable, or -o "
+                                       f"with .gif, .mp4 or a pattern like frames/f_%04d.png)")
+    for flag in still_extras:
+        if animated:
+            raise click.UsageError(f"{flag} applies to still images")
+        if tiles is not None or workers is not None or scheduler is not None:
+            raise click.UsageError(f"{flag} needs the whole image in this process: "
+                                   f"drop --tiles, --workers and --scheduler")
+
+
+def _runner(workers, scheduler):
+    """Where the tasks run: a Dask cluster, or None (here)."""
+    if workers is None and scheduler is None:
+        return contextlib.nullcontext(None)
+    from .distributed import connect
+    return connect(workers=workers, scheduler=scheduler)
+
+
 def _scene_kind(scene, detail, view, up, crease, flat):
     """The scene's kind (load.scene_kind); UsageError for a scene option
     that does not apply to it."""
@@ -306,7 +363,8 @@ def _check_image_path(flag, path):
 @_render_options
 @_scene_options
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
-              help="PNG to write [default: SCENE.png].")
+              help="Image to write [default: SCENE.png]; frames: .gif, .mp4 or a pattern like "
+                   "frames/spin_%04d.png.")
 @click.option("--aov", type=AovType(), default=None,
               help="Also save these buffers (depth,normal,primid,cost) to OUTPUT's name with .aov.npz.")
 @click.option("--heatmap", type=click.Path(dir_okay=False), default=None,
@@ -314,10 +372,11 @@ def _check_image_path(flag, path):
 @click.option("--show-structure", "show_depth", type=click.IntRange(min=0, max=64), default=None,
               metavar="DEPTH", help="Draw the structure's boxes (BVH nodes, kd-tree cells, grid "
                                     "cells, object boxes) down to DEPTH over the image.")
+@_work_options
 @click.option("--json", "as_json", is_flag=True, help="Print the statistics as JSON on stdout.")
 @click.option("-q", "--quiet", is_flag=True, help="No table, no progress bar.")
 def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, heatmap, show_depth,
-               as_json, quiet, **options):
+               turntable, fps, resume, tiles, workers, scheduler, as_json, quiet, **options):
     """Render SCENE to PNG and print the statistics table.
 
     SCENE is a built-in scene name (see `raytrace scenes`), a TOML scene
@@ -337,6 +396,15 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
     width, height = options.pop("width"), options.pop("height")
     options = {k: v for k, v in options.items() if v is not None}
     kind = _scene_kind(scene, detail, view, up, crease, flat)
+    animated = turntable is not None or _is_frame_path(output)
+    still_extras = [flag for flag, value in (("--aov", aov), ("--heatmap", heatmap),
+                                             ("--show-structure", show_depth)) if value is not None]
+    _check_work(animated, still_extras, turntable, fps, resume, tiles, workers, scheduler)
+    if animated:
+        return _render_animation(scene, kind, output, turntable, fps, resume, tiles, workers,
+                                 scheduler, as_json, quiet, options, width, height,
+                                 dict(detail=detail, fov=fov, crease=crease, flat=flat,
+                                      **_view_options(view, up)))
     for flag, path in (("-o/--output", output), ("--heatmap", heatmap)):
         _check_image_path(flag, path)
     named = output is not None
@@ -374,7 +442,13 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
             progress = _Progress(enabled=not quiet)
             opts = RenderOptions(aov=bool(aov or heatmap), progress=progress, **options)
             try:
-                result = render(sc, opts)
+                if tiles is None and workers is None and scheduler is None:
+                    result = render(sc, opts)
+                else:
+                    from .batch import render_tiled
+                    with _runner(workers, scheduler) as runner:
+                        n = tiles or (4 * runner.workers if runner is not None else 1)
+                        result = render_tiled(sc, opts, runner, n)
             finally:
                 progress.close()
             if show_depth is not None:
@@ -394,6 +468,63 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
         click.echo(f"wrote {output}")
         for note in notes:
             click.echo(note)
+
+
+
+def _render_animation(scene, kind, output, turntable, fps, resume, tiles, workers, scheduler,
+                      as_json, quiet, options, width, height, scene_opts):
+    """`raytrace SCENE --turntable N` or -o with frames: a turntable or the
+    scene file's [animation], written frame by frame (frames.py)."""
+    from pathlib import Path
+
+    from .errors import RaytraceError
+    from .frames import check_frame_output
+    stem = scene if kind == "builtin" else Path(scene).stem
+    if output is not None:
+        try:
+            check_frame_output(output, resume=resume)
+        except RaytraceError as exc:
+            raise click.UsageError(f"-o/--output: {exc}") from None
+    try:
+        with _one_line_errors():
+            from .animation import camera_path
+            from .batch import animate
+            from .driver import RenderOptions
+            from .load import load_scene
+            from .stats import format_table, to_json
+
+            with _warnings_once():
+                sc = load_scene(scene, width=width, height=height, **scene_opts)
+            raise_if_interrupted()
+            if output is None:
+                output = f"{sc.name if kind == 'toml' else stem}.gif"
+                check_frame_output(output, resume=resume)
+            cameras = camera_path(sc, turntable)
+            progress = _Progress(enabled=not quiet, label="frames")
+            opts = RenderOptions(**options)
+            try:
+                with _runner(workers, scheduler) as runner:
+                    _, stats = animate(sc, cameras, opts, output=output, fps=fps or 24,
+                                       resume=resume, runner=runner, tiles=tiles or 1,
+                                       progress=progress)
+            finally:
+                progress.close()
+            stats["output"] = str(output)
+    except KeyboardInterrupt:
+        click.echo("interrupted: no animation written" if not _is_numbered(output)
+                   else "interrupted: the frames written are complete", err=True)
+        sys.exit(130)
+    if as_json:
+        click.echo(to_json(stats))
+    elif not quiet:
+        click.echo(format_table(stats))
+        skipped = stats.get("frames_skipped", 0)
+        click.echo(f"wrote {stats['frames'] - skipped} frames to {output}"
+                   + (f" ({skipped} already there)" if skipped else ""))
+
+
+def _is_numbered(path):
+    return path is not None and "%" in path
 
 
 QUICK_SIZE = (320, 240)
