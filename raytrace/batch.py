@@ -31,10 +31,13 @@ def render_tile(payload, threads, cam, frame, y0, y1):
     """One task: rows y0 .. y1 of a frame, as 8-bit sRGB (a quarter of the
     linear floats' bytes to send back).  Runs on a worker or in-process."""
     import numba
-    if threads:
-        numba.set_num_threads(threads)
-    image, rows, t_compile, t_render = render_band(payload, cam, y0, y1,
-                                                   threads or numba.get_num_threads())
+
+    from .jitconfig import KERNEL_LOCK
+    with KERNEL_LOCK:                       # a Dask worker may run tasks on several threads
+        if threads:
+            numba.set_num_threads(threads)
+        image, rows, t_compile, t_render = render_band(payload, cam, y0, y1,
+                                                       threads or numba.get_num_threads())
     return Tile(frame=frame, y0=y0, y1=y1, image=to_srgb8(image), counters=rows.sum(axis=0),
                 compile_s=t_compile, render_s=t_render, worker=_worker_name())
 

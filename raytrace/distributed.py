@@ -8,6 +8,8 @@ depends only on its arguments, so a rerun changes nothing in the image.
 import contextlib
 import os
 
+import numpy as np
+
 from .errors import RaytraceError
 
 EXTRA = "pip install 'raytrace[distributed]'"
@@ -100,3 +102,68 @@ class DaskRunner:
             raise RaytraceError(f"a Dask worker failed: {type(exc).__name__}: {exc}"
                                 + (" (is raytrace installed on the workers?)"
                                    if isinstance(exc, ImportError) else "")) from None
+
+
+# One record a ray for the hits of a block: every field of RayHits in one
+# map_blocks call, so the rays of a block are cast once, not once a field.
+HIT_RECORD = np.dtype([("t", "f8"), ("geometry_id", "i8"), ("prim_id", "i8"), ("u", "f8"),
+                       ("v", "f8"), ("normal", "f8", (3,)), ("point", "f8", (3,))])
+
+
+def _hits_block(origins, directions, scene, t_min, t_max):
+    from .jitconfig import KERNEL_LOCK
+    out = np.empty(len(origins), dtype=HIT_RECORD)
+    if len(origins):
+        with KERNEL_LOCK:           # Dask's threads would launch kernels at once
+            hits = scene.cast_rays(origins, directions, t_min, t_max)
+            for name in HIT_RECORD.names:
+                out[name] = hits[name]
+    return out
+
+
+def _occluded_block(origins, directions, scene, t_min, t_max):
+    from .jitconfig import KERNEL_LOCK
+    if not len(origins):
+        return np.zeros(0, bool)
+    with KERNEL_LOCK:
+        return scene.occluded(origins, directions, t_min, t_max)
+
+
+def _ray_blocks(scene, origins, directions, why):
+    """The rays as (n, 3) Dask arrays chunked by rows only (each block whole
+    rays), and the scene, built here and shared by every block's task."""
+    try:
+        import dask
+        import dask.array as da
+    except ImportError:
+        raise RaytraceError(f"{why} needs the distributed extra: {EXTRA}") from None
+    from .rayscene import RayScene
+    if not isinstance(scene, RayScene):
+        raise RaytraceError(f"scene: expected a RayScene, got {type(scene).__name__}")
+    o, d = da.asarray(origins), da.asarray(directions)
+    if o.ndim != 2 or o.shape[1] != 3 or d.shape != o.shape:
+        raise RaytraceError(f"origins and directions must both be (n, 3) arrays, "
+                            f"got {o.shape} and {d.shape}")
+    d = d.rechunk({0: o.chunks[0], 1: 3})
+    o = o.rechunk({1: 3})
+    scene._built()                  # once, here: each worker gets the structure, not the job
+    return da, o, d, dask.delayed(scene, pure=True)
+
+
+def cast_rays(scene, origins, directions, t_min=0.0, t_max=float("inf")):
+    """Closest hits of a Dask array of rays against a RayScene, block by
+    block (map_blocks): a dict of lazy Dask arrays, the fields of RayHits
+    (t, geometry_id, prim_id, u, v, normal, point).  Compute them on any
+    Dask scheduler; billions of rays never need to fit in one memory."""
+    da, o, d, shared = _ray_blocks(scene, origins, directions, "cast_rays on Dask arrays")
+    records = da.map_blocks(_hits_block, o, d, shared, t_min, t_max, drop_axis=1,
+                            dtype=HIT_RECORD, meta=np.empty(0, HIT_RECORD))
+    return {name: records[name] for name in HIT_RECORD.names}
+
+
+def occluded(scene, origins, directions, t_min=0.0, t_max=float("inf")):
+    """RayScene.occluded for a Dask array of rays: a lazy (n,) boolean
+    Dask array, block by block."""
+    da, o, d, shared = _ray_blocks(scene, origins, directions, "occluded on Dask arrays")
+    return da.map_blocks(_occluded_block, o, d, shared, t_min, t_max, drop_axis=1, dtype=bool,
+                         meta=np.empty(0, bool))

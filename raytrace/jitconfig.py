@@ -13,6 +13,7 @@ removed failed to unpickle (AttributeError) before Numba checked anything.
 """
 import hashlib
 import os
+import threading
 from pathlib import Path
 
 import numba
@@ -40,6 +41,9 @@ numba.config.CACHE_DIR = str(_cache_dir())
 # 0.09 ms for Numba's own workqueue: 0.26 s against 0.05 s for a
 # 640x480 teapot rendered in 32 bands for the progress bar, and 1.93 s
 # against 1.74 s with soft shadows.  The workqueue cannot run kernels from
-# several Python threads at once; raytrace never does.
+# several Python threads at once (it aborts the process): Dask's tasks,
+# which may share a process, take KERNEL_LOCK around their kernel calls.
 if not os.environ.get("NUMBA_THREADING_LAYER"):
     numba.config.THREADING_LAYER = "workqueue"
+# One parallel kernel at a time in a process; each uses every render thread.
+KERNEL_LOCK = threading.Lock()

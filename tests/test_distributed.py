@@ -139,3 +139,29 @@ def test_tiled_render_has_no_linear_image_and_refuses_aovs(scene):
     assert render_tiled(scene, RenderOptions(**HARD), None, 2).linear is None
     with pytest.raises(RaytraceError, match="aov=True"):
         raytrace.render(scene, tiles=2, aov=True, **HARD)
+
+
+def test_dask_arrays_of_rays_give_the_one_batch_answers(scene, cluster):
+    """Block by block, on Dask's threads (several kernels would run at once
+    without the kernel lock: Numba's workqueue aborts the process) and on
+    the cluster's processes."""
+    import dask.array as da
+
+    from raytrace.distributed import cast_rays, occluded
+    mesh = next(o for o in scene.objects if hasattr(o, "faces"))
+    rays = raytrace.RayScene((mesh.vertices, mesh.faces))
+    rng = np.random.default_rng(7)
+    o = rng.normal(size=(5000, 3)) * 3
+    d = rng.normal(size=(5000, 3)) - o
+    want = rays.cast_rays(o, d)
+    got = cast_rays(rays, da.from_array(o, chunks=(701, 3)), da.from_array(d, chunks=(701, 3)))
+    assert set(got) == set(raytrace.rayscene.RayHits.FIELDS)
+    for name, lazy in got.items():
+        np.testing.assert_array_equal(lazy.compute(scheduler="threads"), want[name])
+    assert 0 < want.hit.sum() < len(o)
+    np.testing.assert_array_equal(cluster.compute(got["prim_id"]).result(), want.prim_id)
+    blocked = occluded(rays, da.from_array(o, chunks=1000), da.from_array(d, chunks=1000), t_max=1.0)
+    np.testing.assert_array_equal(cluster.compute(blocked).result(),
+                                  rays.occluded(o, d, t_max=1.0))
+    with pytest.raises(RaytraceError, match=r"\(n, 3\)"):
+        cast_rays(rays, da.zeros((4, 2)), da.zeros((4, 2)))
