@@ -112,6 +112,7 @@ class _Progress:
         self.done = 0
 
     def __call__(self, rows_done, rows_total):
+        raise_if_interrupted()          # each band or frame: a dropped Ctrl-C stops here
         if not self.enabled:
             return
         if self.bar is None and time.perf_counter() - self.start >= self.DELAY_S:

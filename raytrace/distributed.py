@@ -14,6 +14,7 @@ from .errors import RaytraceError
 
 EXTRA = "pip install 'raytrace[distributed]'"
 WAIT_FOR_WORKERS_S = 30      # a scheduler with no workers would wait for ever
+CONNECT_S = 10               # Dask retries a refused connection until then
 TASKS_PER_WORKER = 4         # in flight at once: enough to hide the round trips
 
 
@@ -48,7 +49,7 @@ def connect(workers=None, scheduler=None):
     else:
         distributed = _dask("--scheduler")
         try:
-            client = distributed.Client(scheduler, timeout=WAIT_FOR_WORKERS_S)
+            client = distributed.Client(scheduler, timeout=CONNECT_S)
         except (OSError, TimeoutError) as exc:
             raise RaytraceError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
         with client:
@@ -73,7 +74,10 @@ class DaskRunner:
         except TimeoutError:
             raise RaytraceError(f"no Dask workers joined the scheduler in "
                                 f"{WAIT_FOR_WORKERS_S} s") from None
-        shared = self.client.scatter(payload, broadcast=True, hash=False)
+        try:
+            shared = self.client.scatter(payload, broadcast=True, hash=False)
+        except Exception as exc:           # the workers could not take the scene's buffers
+            raise _failure(exc) from None
         window = TASKS_PER_WORKER * self.workers
         futures = []
         try:
@@ -94,14 +98,19 @@ class DaskRunner:
             return future.result()
         except RaytraceError:
             raise
-        except Exception as exc:       # a worker's failure, said in one line
-            from distributed.scheduler import KilledWorker
-            if isinstance(exc, KilledWorker):
-                raise RaytraceError("Dask workers died running a tile, more often than Dask "
-                                    "retries a task") from None
-            raise RaytraceError(f"a Dask worker failed: {type(exc).__name__}: {exc}"
-                                + (" (is raytrace installed on the workers?)"
-                                   if isinstance(exc, ImportError) else "")) from None
+        except Exception as exc:
+            raise _failure(exc) from None
+
+
+def _failure(exc):
+    """A worker's failure, said in one line."""
+    from distributed.scheduler import KilledWorker
+    if isinstance(exc, KilledWorker):
+        return RaytraceError("Dask workers died running a tile, more often than Dask retries a task")
+    text = str(exc).splitlines()[0] if str(exc) else ""
+    missing = isinstance(exc, ImportError) or "No module named" in text
+    return RaytraceError(f"a Dask worker failed: {type(exc).__name__}: {text}"
+                         + (" (is raytrace installed on the workers?)" if missing else ""))
 
 
 # One record a ray for the hits of a block: every field of RayHits in one
