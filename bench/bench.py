@@ -16,6 +16,9 @@ peer         our batch ray casting against Embree (embreex) or Open3D, if
              importable, on the same primary and shadow rays (peer.py).
 convergence  soft-shadow error against run time for each sampling pattern
              (convergence.py).
+turntable    a 36-frame teapot turntable in this process against --workers 2
+             (a local Dask cluster): frames/s, Dask's overhead as a ratio,
+             compile/load per worker (turntable.py; needs the distributed extra).
 coldstart    each entry point's first run in a fresh process with an empty
              Numba cache, and what each option adds (coldstart.py).  First,
              so that nothing else competes with it for the cores.
@@ -33,7 +36,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import common  # noqa: E402
 from common import ACCELS, STRUCTURES, fmt_g, fmt_s, interleaved, log, markdown_table, median  # noqa: E402
 
-SECTIONS = ("coldstart", "workshop", "scaling", "structures", "peer", "convergence")
+SECTIONS = ("coldstart", "workshop", "scaling", "structures", "peer", "convergence", "turntable")
 # The scaling table's structures: those whose cost grows slower than the
 # mesh, each with a visit counter of its own (nodes, cells).
 HIERARCHICAL = tuple(n for n, s in STRUCTURES.items() if s.visit_metric)
@@ -261,6 +264,10 @@ def main(quick, json_path, plot_path, sections):
         import convergence
         report["convergence"] = convergence.run(quick, plot_path)
         print(convergence.markdown(report["convergence"]) + "\n", flush=True)
+    if "turntable" in chosen:
+        import turntable
+        report["turntable"] = turntable.measure(repeat=1 if quick else 3)
+        print(turntable.markdown(report["turntable"]) + "\n", flush=True)
     try:
         load = [round(x, 2) for x in __import__("os").getloadavg()]
     except OSError:
