@@ -165,3 +165,24 @@ def test_dask_arrays_of_rays_give_the_one_batch_answers(scene, cluster):
                                   rays.occluded(o, d, t_max=1.0))
     with pytest.raises(RaytraceError, match=r"\(n, 3\)"):
         cast_rays(rays, da.zeros((4, 2)), da.zeros((4, 2)))
+
+
+def test_a_layout_unpickled_in_a_fresh_process_finds_its_traversal(scene):
+    """A Dask worker gets the structure's layout by unpickling: its
+    traversal module was never imported there, and a cold cache compiled
+    the render kernel against nothing ("no traversal registered")."""
+    import pickle
+    import subprocess
+
+    from raytrace.driver import prepare
+    acc = prepare(scene, RenderOptions(**HARD)).acc
+    code = ("import pickle, sys, numba\n"
+            "acc = pickle.loads(sys.stdin.buffer.read())\n"
+            "assert 'raytrace.kernels.bvh' not in sys.modules\n"
+            "from raytrace.kernels.query import _traversal\n"
+            "closest, any_hit, all_hits = _traversal(numba.typeof(acc))\n"
+            "print(closest.__module__)\n")
+    p = subprocess.run([sys.executable, "-c", code], input=pickle.dumps(acc),
+                       capture_output=True, timeout=120)
+    assert p.returncode == 0, p.stderr.decode()
+    assert p.stdout.decode().strip() == "raytrace.kernels.bvh"

@@ -8,6 +8,8 @@ traversal for that class, and a kernel calling ``closest_hit(geo, acc,
 chosen at compile time (Numba's ``@overload``): a BVH render never
 compiles, or branches over, the grid's code.
 """
+import importlib
+
 from numba.core.errors import TypingError
 from numba.extending import overload
 
@@ -34,6 +36,12 @@ def register(layout, closest, any_hit, all_hits):
 
 def _traversal(acc):
     cls = getattr(acc, "instance_class", None)
+    if cls is not None and cls not in _TRAVERSALS:
+        # A layout unpickled in another process (a Dask worker's scene) comes
+        # without its traversal: that is its namesake under kernels/.
+        module = cls.__module__.replace(".accel.", ".kernels.", 1)
+        if module != cls.__module__:
+            importlib.import_module(module)
     if cls not in _TRAVERSALS:
         raise TypingError(f"no traversal registered for structure layout {acc}")
     return _TRAVERSALS[cls]
