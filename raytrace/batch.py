@@ -7,6 +7,7 @@ on the pixel, never on the order or the band, so an image assembled from
 tiles is byte for byte the unsplit render.
 """
 import os
+import sys
 import time
 from dataclasses import dataclass
 
@@ -43,11 +44,15 @@ def render_tile(payload, threads, cam, frame, y0, y1):
 
 
 def _worker_name():
-    try:
-        from distributed import get_worker
-        return get_worker().address
-    except (ImportError, ValueError):     # not on a Dask worker
-        return f"this process ({os.getpid()})"
+    # A Dask worker has imported distributed; this process need not (a
+    # render here never imports Dask: it costs 0.5 s).
+    distributed = sys.modules.get("distributed")
+    if distributed is not None:
+        try:
+            return distributed.get_worker().address
+        except ValueError:                # a client, not a worker
+            pass
+    return f"this process ({os.getpid()})"
 
 
 def bands(height, tiles):

@@ -186,3 +186,17 @@ def test_a_layout_unpickled_in_a_fresh_process_finds_its_traversal(scene):
                        capture_output=True, timeout=120)
     assert p.returncode == 0, p.stderr.decode()
     assert p.stdout.decode().strip() == "raytrace.kernels.bvh"
+
+
+def test_frames_and_tiles_here_never_import_dask():
+    import subprocess
+    code = ("import sys, raytrace\n"
+            "from raytrace.batch import animate\nfrom raytrace.animation import turntable\n"
+            "from raytrace.driver import RenderOptions\n"
+            "s = raytrace.load_scene('teapot', width=16, height=12)\n"
+            "animate(s, turntable(s.camera, 2), RenderOptions(width=16, height=12), tiles=2)\n"
+            "raytrace.render(s, tiles=3, width=16, height=12)\n"
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('dask', 'distributed')))\n")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.strip() == "[]"
