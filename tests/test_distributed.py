@@ -94,32 +94,6 @@ def test_dask_tiles_and_frames_are_the_local_render_byte_for_byte(scene, cluster
     assert stats["time"]["overhead_s"] >= 0 and stats["frames"] == 4
 
 
-def test_a_worker_killed_mid_render_changes_nothing(scene):
-    import logging
-
-    import distributed
-
-    from raytrace.distributed import DaskRunner
-    cams = turntable(scene.camera, 6)
-    here, _ = animate(scene, cams, RenderOptions(**SOFT))
-    killed = []
-
-    def kill_one(done, total):
-        if not killed:          # after the first frame: the other tasks are in flight
-            pids = client.run(os.getpid)
-            victim = sorted(pids.values())[0]
-            os.kill(victim, signal.SIGKILL)
-            killed.append(victim)
-
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None, silence_logs=logging.CRITICAL) as c, \
-            distributed.Client(c) as client:
-        there, _ = animate(scene, cams, RenderOptions(**SOFT), runner=DaskRunner(client, 1),
-                           tiles=2, progress=kill_one)
-        assert killed and killed[0] not in client.run(os.getpid).values()
-    assert all(np.array_equal(a, b) for a, b in zip(here, there))
-
-
 def test_missing_extra_is_one_line(monkeypatch):
     from raytrace.distributed import connect
     monkeypatch.setitem(sys.modules, "distributed", None)
@@ -167,10 +141,12 @@ def test_dask_arrays_of_rays_give_the_one_batch_answers(scene, cluster):
         cast_rays(rays, da.zeros((4, 2)), da.zeros((4, 2)))
 
 
-def test_a_layout_unpickled_in_a_fresh_process_finds_its_traversal(scene):
-    """A Dask worker gets the structure's layout by unpickling: its
-    traversal module was never imported there, and a cold cache compiled
-    the render kernel against nothing ("no traversal registered")."""
+def test_in_a_fresh_process_a_layout_finds_its_traversal_and_dask_stays_out(scene):
+    """One new process, two checks.  A Dask worker gets the structure's
+    layout by unpickling: its traversal module was never imported there,
+    and with a cold cache the render kernel compiled against nothing ("no
+    traversal registered").  And frames and tiles rendered here never
+    import Dask (half a second)."""
     import pickle
     import subprocess
 
@@ -181,22 +157,35 @@ def test_a_layout_unpickled_in_a_fresh_process_finds_its_traversal(scene):
             "assert 'raytrace.kernels.bvh' not in sys.modules\n"
             "from raytrace.kernels.query import _traversal\n"
             "closest, any_hit, all_hits = _traversal(numba.typeof(acc))\n"
-            "print(closest.__module__)\n")
-    p = subprocess.run([sys.executable, "-c", code], input=pickle.dumps(acc),
-                       capture_output=True, timeout=120)
-    assert p.returncode == 0, p.stderr.decode()
-    assert p.stdout.decode().strip() == "raytrace.kernels.bvh"
-
-
-def test_frames_and_tiles_here_never_import_dask():
-    import subprocess
-    code = ("import sys, raytrace\n"
+            "print(closest.__module__)\n"
+            "import raytrace\n"
             "from raytrace.batch import animate\nfrom raytrace.animation import turntable\n"
             "from raytrace.driver import RenderOptions\n"
             "s = raytrace.load_scene('teapot', width=16, height=12)\n"
             "animate(s, turntable(s.camera, 2), RenderOptions(width=16, height=12), tiles=2)\n"
             "raytrace.render(s, tiles=3, width=16, height=12)\n"
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('dask', 'distributed')))\n")
-    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
-    assert p.returncode == 0, p.stderr
-    assert p.stdout.strip() == "[]"
+    p = subprocess.run([sys.executable, "-c", code], input=pickle.dumps(acc),
+                       capture_output=True, timeout=120)
+    assert p.returncode == 0, p.stderr.decode()
+    assert p.stdout.decode().split() == ["raytrace.kernels.bvh", "[]"]
+
+
+def test_a_worker_killed_mid_render_changes_nothing(scene, cluster):
+    """Last in this file: it kills one of the shared cluster's workers (its
+    nanny starts another)."""
+    from raytrace.distributed import DaskRunner
+    cams = turntable(scene.camera, 6)
+    here, _ = animate(scene, cams, RenderOptions(**SOFT))
+    killed = []
+
+    def kill_one(done, total):
+        if not killed:          # after the first frame: the other tasks are in flight
+            victim = sorted(cluster.run(os.getpid).values())[0]
+            os.kill(victim, signal.SIGKILL)
+            killed.append(victim)
+
+    there, _ = animate(scene, cams, RenderOptions(**SOFT), runner=DaskRunner(cluster, 1),
+                       tiles=2, progress=kill_one)
+    assert killed and killed[0] not in cluster.run(os.getpid).values()
+    assert all(np.array_equal(a, b) for a, b in zip(here, there))
