@@ -109,6 +109,8 @@ class Tally:
             "overhead_s": max(0.0, wall - busy),
         }
         stats["workers"] = self.workers
+        from .driver import peak_memory_mb
+        stats["peak_memory_mb"] = {**setup.peaks, "render": peak_memory_mb()}   # this process
         stats["counters"] = {key: int(counters[idx]) for key, _, _, idx in COUNTERS}
         return derive(stats)
 

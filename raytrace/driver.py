@@ -3,6 +3,7 @@
 Python owns validation and dtype casting; the kernels see only arrays.
 """
 import math
+import sys
 import time
 from dataclasses import dataclass, field, make_dataclass
 
@@ -233,6 +234,7 @@ class Setup:
     background: np.ndarray
     info: dict
     times: dict                  # setup_s, build_s, and the builder's load in compile_s
+    peaks: dict                  # peak memory (MB) after each phase: load, flatten, build
 
     def payload(self):
         """The arrays and records a worker needs (distributed.py): no
@@ -250,9 +252,20 @@ def _apply(opts, kw):
     return opts
 
 
+def peak_memory_mb():
+    """This process's peak resident memory so far, in MB (0 where unknown)."""
+    try:
+        import resource
+    except ImportError:          # Windows
+        return 0.0
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak / 2**20 if sys.platform == "darwin" else peak / 2**10   # bytes / KiB
+
+
 def prepare(scene, opts):
     """Validate, flatten and build: a Setup for any number of frames."""
     width, height = (int(n) for n in validate(opts, scene))
+    peaks = {"load": peak_memory_mb()}
     t_start = time.perf_counter()
     import numba  # deferred: `raytrace scenes` and --help never pay for it
 
@@ -268,16 +281,19 @@ def prepare(scene, opts):
     textures = texture_record(opts.texture_filter, width, height, int(opts.spp), geo)
     bounces = bounce_record(scene, opts.max_depth)
     t_import = time.perf_counter() - t_start
+    peaks["flatten"] = peak_memory_mb()
 
     build_opts = dict(bvh_build=opts.bvh_build, leaf_size=opts.leaf_size,
                       grid_density=opts.grid_density)
     # Loading (or compiling) the builder is compile time, not build time.
     t_load = get(opts.accel).load(**build_opts)
     acc, t_build = build_structure(opts.accel, geo, obj_ranges, **build_opts)
+    peaks["build"] = peak_memory_mb()
     return Setup(opts=opts, width=width, height=height, threads=threads, geo=geo, acc=acc,
                  lights=lights, shadows=shadows, textures=textures, bounces=bounces,
                  background=background, info=info,
-                 times={"setup_s": t_import, "build_s": t_build, "compile_s": t_load})
+                 times={"setup_s": t_import, "build_s": t_build, "compile_s": t_load},
+                 peaks=peaks)
 
 
 def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows=None, row0=None):
@@ -344,6 +360,7 @@ def render(scene, opts=None, **kw):
                      "compile_s": t_compile + setup.times["compile_s"],
                      "setup_s": setup.times["setup_s"]}
     stats["counters"] = counters_from_rows(stats_rows)
+    stats["peak_memory_mb"] = {**setup.peaks, "render": peak_memory_mb()}
     result_aovs = aovs._asdict() if opts.aov else {}
     return RenderResult(image=to_srgb8(image), linear=image, stats=derive(stats), aovs=result_aovs,
                         structure=setup.acc)

@@ -30,12 +30,18 @@ def unit_rows(v):
     return out
 
 
+def _longest2(e1, e2, e3):
+    """Each triangle's longest edge, squared (np.maximum: no stacked copy)."""
+    d = [np.einsum("ij,ij->i", e, e) for e in (e1, e2, e3)]
+    return np.maximum(np.maximum(d[0], d[1]), d[2])
+
+
 def degenerate_mask(v0, v1, v2):
     e1 = v1 - v0
     e2 = v2 - v0
     e3 = v2 - v1
     with np.errstate(over="ignore"):
-        longest2 = np.max([np.einsum("ij,ij->i", e, e) for e in (e1, e2, e3)], axis=0)
+        longest2 = _longest2(e1, e2, e3)
     # The area's square is about longest2 squared: outside this range it
     # over- or underflows, so compare the edges scaled by their largest
     # component (the ratio does not change); other rows are divided by 1,
@@ -46,7 +52,7 @@ def degenerate_mask(v0, v1, v2):
         s[odd] = np.max([np.abs(e[odd]).max(axis=1, initial=0.0) for e in (e1, e2, e3)], axis=0)
         s[s == 0] = 1.0
         e1, e2, e3 = (e / s[:, None] for e in (e1, e2, e3))
-        longest2 = np.max([np.einsum("ij,ij->i", e, e) for e in (e1, e2, e3)], axis=0)
+        longest2 = _longest2(e1, e2, e3)
     area2 = np.linalg.norm(np.cross(e1, e2), axis=1)
     return ~(area2 > DEGENERATE_RATIO * longest2)
 
@@ -58,8 +64,9 @@ def _check_finite(name, arr):
 
 def mesh_triangles(mesh):
     """(v0, v1, v2, n0, n1, n2, kept, faces) of a mesh, degenerates
-    removed; kept holds the indices into mesh.faces of the triangles
-    returned, faces their vertex indices."""
+    removed, normals unit length (n0 is n1 is n2 for a flat mesh: one array
+    serves the three corners); kept holds the indices into mesh.faces of
+    the triangles returned, faces their vertex indices."""
     v = np.asarray(mesh.vertices, dtype=np.float64)
     f = np.asarray(mesh.faces)
     if v.ndim != 2 or v.shape[1] != 3:
@@ -77,12 +84,17 @@ def mesh_triangles(mesh):
     _check_finite(mesh.name, v)
     v0, v1, v2 = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
     keep = ~degenerate_mask(v0, v1, v2)
-    v0, v1, v2, f = v0[keep], v1[keep], v2[keep], f[keep]
+    if not keep.all():
+        v0, v1, v2, f = v0[keep], v1[keep], v2[keep], f[keep]
+    # Made unit here, a second time for normals that normals.py made unit
+    # (a pass that may move a last bit; the images and exact counters are
+    # made with it).  Per vertex, then gathered: per-corner results at a
+    # sixth of the work.
     if mesh.normals is not None:
-        nrm = np.asarray(mesh.normals, dtype=np.float64)
+        nrm = unit_rows(np.asarray(mesh.normals, dtype=np.float64))
         n0, n1, n2 = nrm[f[:, 0]], nrm[f[:, 1]], nrm[f[:, 2]]
     else:
-        fn = unit_rows(np.cross(v1 - v0, v2 - v0))
+        fn = unit_rows(unit_rows(np.cross(v1 - v0, v2 - v0)))
         n0 = n1 = n2 = fn
     return v0, v1, v2, n0, n1, n2, np.flatnonzero(keep), f
 
@@ -151,13 +163,16 @@ def flatten(scene, with_sources=False):
         obj_ranges.append((n_tris + j, 1))
 
     def cat(parts):
+        if len(parts) == 1:           # one mesh: its arrays as they are, not a copy
+            return f64(parts[0], 3)
         return f64(np.concatenate(parts) if parts else np.zeros((0, 3)), 3)
 
     if not materials:
         mat_id(scene.objects[0].material if scene.objects else _default_material())
     pl_n = unit_rows(np.array([p.normal for p in planes], dtype=float).reshape(-1, 3))
+    # Unit already (mesh_triangles); a zero one falls back to the face normal
+    # in the kernels.  A flat single mesh's three corners share one array.
     tri_n = [cat(tris[k]) for k in (3, 4, 5)]
-    tri_n = [unit_rows(n) for n in tri_n]  # renormalised; zero ones fall back later
     counts = [len(m) for m in tri_mat]
     mat_tex, tex_rgb = _textures(materials)
     geo = Geometry(

@@ -75,8 +75,7 @@ def load_scene(name_or_path, *, detail=None, view=None, azimuth=None, elevation=
         from .scenes.framing import MESH_MATERIAL, mesh_scene
         path = Path(name_or_path)
         parts = read_mesh_parts(path, warn=warn, base=Material(**MESH_MATERIAL))
-        from .flatten import degenerate_mask
-        if all(degenerate_mask(*(p.vertices[p.faces[:, k]] for k in range(3))).all() for p in parts):
+        if not any(_has_area(p) for p in parts):
             raise RaytraceError(f"{path}: no non-degenerate triangles (every face has no area)")
         meshes = [part_mesh(p, Material(**MESH_MATERIAL), crease, flat, str(path)) for p in parts]
         extra = {k: v for k, v in dict(fov=fov, width=width, height=height).items() if v is not None}
@@ -129,3 +128,14 @@ def _check_view_numbers(**values):
             raise RaytraceError(f"fov must be between {lo:g} and {hi:g} degrees (exclusive), got {v!r}")
         if name == "elevation" and not lo <= v <= hi:
             raise RaytraceError(f"elevation must be between -90 and 90 degrees, got {v!r}")
+
+
+def _has_area(part, chunk=4096):
+    """Whether any face of a MeshPart has an area: a chunk at a time, so a
+    good mesh answers from its first faces (flatten tests every face)."""
+    from .flatten import degenerate_mask
+    for k in range(0, len(part.faces), chunk):
+        f = part.faces[k:k + chunk]
+        if not degenerate_mask(*(part.vertices[f[:, c]] for c in range(3))).all():
+            return True
+    return False

@@ -76,6 +76,8 @@ def format_table(stats):
         ("Compile/load time (s)", t["compile_s"]),
     ]
     rows += _batch_rows(stats)
+    if stats.get("peak_memory_mb"):
+        rows.append(("Peak memory (MB)", max(stats["peak_memory_mb"].values())))
     rows += [("Rays cast", d["rays"])]
     rows += [(label, c[key]) for key, label, _, _ in COUNTERS]
     rows += [
