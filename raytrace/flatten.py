@@ -22,6 +22,8 @@ def unit_rows(v):
     with np.errstate(over="ignore", under="ignore"):   # the rows handled below
         sq = np.add.reduce(v * v, axis=1) if len(v) else np.zeros(0)
     ok = (sq > 1e-290) & (sq < 1e290)
+    if ok.all():                 # the usual case, without the masks' copies
+        return v / np.sqrt(sq)[:, None]
     out = np.zeros_like(v)
     out[ok] = v[ok] / np.sqrt(sq[ok])[:, None]
     odd = ~ok & (np.abs(v).max(axis=1, initial=0.0) > 0)
@@ -77,7 +79,7 @@ def mesh_triangles(mesh):
     f = f.reshape(-1, 3)
     if f.size and not np.issubdtype(f.dtype, np.integer):
         raise RaytraceError(f"{mesh.name}: face indices must be integers")
-    f = f.astype(np.int64)
+    f = f.astype(np.int64, copy=False)
     if f.size and (f.min() < 0 or f.max() >= len(v)):
         raise RaytraceError(
             f"{mesh.name}: face index out of range (mesh has {len(v)} vertices, "
