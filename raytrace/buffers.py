@@ -59,10 +59,13 @@ def n_bounded(geo):
 
 def prim_bounds(geo):
     """(lo, hi) boxes of all bounded primitives, indexed by unified id."""
-    v = np.stack([geo.tri_v0, geo.tri_v1, geo.tri_v2])
-    r = geo.sph_radius[:, None]
-    lo = np.concatenate([v.min(axis=0), geo.sph_center - r])
-    hi = np.concatenate([v.max(axis=0), geo.sph_center + r])
+    # Pairwise minima and maxima: no stacked copy of the three corners.
+    lo = np.minimum(np.minimum(geo.tri_v0, geo.tri_v1), geo.tri_v2)
+    hi = np.maximum(np.maximum(geo.tri_v0, geo.tri_v1), geo.tri_v2)
+    if len(geo.sph_radius):
+        r = geo.sph_radius[:, None]
+        lo = np.concatenate([lo, geo.sph_center - r])
+        hi = np.concatenate([hi, geo.sph_center + r])
     return f64(lo, 3), f64(hi, 3)
 
 Lights = namedtuple(

@@ -273,8 +273,9 @@ def build_bvh_kernel(lo, hi, max_leaf):
             depth = stack[sp, 2]
             parent = stack[sp, 3]
 
-    return (node_lo[:n_nodes].copy(), node_hi[:n_nodes].copy(),
-            node_start[:n_nodes].copy(), node_count[:n_nodes].copy(),
+    # Views, not copies: the rows past n_nodes were never touched, so they
+    # hold no memory, and a copy would double the rows that were.
+    return (node_lo[:n_nodes], node_hi[:n_nodes], node_start[:n_nodes], node_count[:n_nodes],
             prim_ids, max_depth)
 
 
