@@ -300,7 +300,13 @@ def _work_options(command):
 
 def _is_frame_path(path):
     """An output that holds frames: an animation file or a numbered PNG pattern."""
-    return path is not None and (path.lower().endswith((".gif", ".mp4")) or "%" in path)
+    return path is not None and (path.lower().endswith((".gif", ".mp4")) or _is_numbered(path))
+
+
+def _is_numbered(path):
+    """A name with a frame-number field, %d or %04d (frames.py)."""
+    import re
+    return path is not None and re.search(r"%\d*d", path.rsplit("/", 1)[-1]) is not None
 
 
 def _check_work(animated, still_extras, turntable, fps, resume, tiles, workers, scheduler):
@@ -378,7 +384,7 @@ def _check_image_path(flag, path):
 @click.option("-q", "--quiet", is_flag=True, help="No table, no progress bar.")
 def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, heatmap, show_depth,
                turntable, fps, resume, tiles, workers, scheduler, as_json, quiet, **options):
-    """Render SCENE to PNG and print the statistics table.
+    """Render SCENE to PNG (or frames: --turntable, -o .gif) and print the statistics table.
 
     SCENE is a built-in scene name (see `raytrace scenes`), a TOML scene
     file, or a mesh file (.obj, .ply, .stl, .off, .glb), which is shown
@@ -471,7 +477,6 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
             click.echo(note)
 
 
-
 def _render_animation(scene, kind, output, turntable, fps, resume, tiles, workers, scheduler,
                       as_json, quiet, options, width, height, scene_opts):
     """`raytrace SCENE --turntable N` or -o with frames: a turntable or the
@@ -522,10 +527,6 @@ def _render_animation(scene, kind, output, turntable, fps, resume, tiles, worker
         skipped = stats.get("frames_skipped", 0)
         click.echo(f"wrote {stats['frames'] - skipped} frames to {output}"
                    + (f" ({skipped} already there)" if skipped else ""))
-
-
-def _is_numbered(path):
-    return path is not None and "%" in path
 
 
 QUICK_SIZE = (320, 240)
