@@ -40,6 +40,12 @@ TOLERANCE = 0.02
 COUNTER_SCENE = dict(detail=4, width=96, height=72, shadows="hard", seed=0)
 COUNTERS = {"bvh": ("prim_tests_per_ray", "nodes_per_ray"),
             "grid": ("prim_tests_per_ray", "cells_per_ray")}
+# A mid-size mesh, the same view: its structures' memory (bytes a
+# primitive, exact for a given build) and visits per ray, so a build that
+# grows or loses quality at scale shows (issue 15).  Rows "bvh 118k" ...
+MID_DETAIL = 43
+MID_COUNTERS = {"bvh": ("prim_tests_per_ray", "nodes_per_ray", "bytes_per_primitive"),
+                "grid": ("prim_tests_per_ray", "cells_per_ray", "bytes_per_primitive")}
 # The timing scene: the workshop's soft-shadow row (81 shadow rays per
 # point), where a structure's speed, not per-pixel shading, sets the time,
 # at a size where brute force takes ~0.5 s a run.
@@ -84,11 +90,14 @@ def measure_counters():
     from raytrace.driver import render
     from raytrace.scenes.builtin import teapot
     c = dict(COUNTER_SCENE)
-    scene = teapot(c.pop("detail"))
     out = {}
-    for accel, keys in COUNTERS.items():
-        d = render(scene, accel=accel, **c).stats["derived"]
-        out[accel] = {k: d[k] for k in keys} | {"rays": d["rays"]}
+    for detail, suffix, counters in ((c.pop("detail"), "", COUNTERS),
+                                     (MID_DETAIL, f" {MID_DETAIL}-detail", MID_COUNTERS)):
+        scene = teapot(detail)
+        for accel, keys in counters.items():
+            stats = render(scene, accel=accel, **c).stats
+            d = stats["derived"] | stats["structure"]
+            out[accel + suffix] = {k: d[k] for k in keys} | {"rays": d["rays"]}
     return out
 
 
