@@ -125,3 +125,35 @@ def test_tiles_and_workers_on_the_command_line_write_the_still(tmp_path):
     assert r.exit_code == 0, r.output
     assert "Worker 2: tasks, compile/load, render (s)" in r.output
     assert np.array_equal(pixels(tmp_path / "d_0.png"), pixels(tmp_path / "still.png"))
+
+
+def test_ctrl_c_with_workers_stops_writes_nothing_and_closes_the_cluster(tmp_path):
+    """A run on a local cluster it started, interrupted mid-way: exit 130,
+    one line, no animation file, and none of its processes left behind."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    import psutil        # distributed's own dependency
+    p = subprocess.Popen([sys.executable, "-m", "raytrace", "teapot", *SIZE, "--turntable", "5000",
+                          "--workers", "2", "-o", "spin.gif", "-q"], cwd=tmp_path,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    me = psutil.Process(p.pid)
+
+    def workers():
+        return [c for c in me.children(recursive=True) if "spawn_main" in " ".join(c.cmdline())]
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and len(workers()) < 2:
+        time.sleep(0.2)
+    time.sleep(2.0)              # frames under way
+    cluster = me.children(recursive=True)   # the workers and multiprocessing's tracker
+    assert len(workers()) == 2 and p.poll() is None
+    p.send_signal(signal.SIGINT)
+    out, err = p.communicate(timeout=120)
+    assert p.returncode == 130, err
+    assert err.strip() == "interrupted: no animation written"
+    assert list(tmp_path.iterdir()) == []
+    _, alive = psutil.wait_procs(cluster, timeout=30)
+    assert not alive, alive
