@@ -135,7 +135,7 @@ def test_ctrl_c_with_workers_stops_writes_nothing_and_closes_the_cluster(tmp_pat
     import sys
     import time
 
-    import psutil        # distributed's own dependency
+    import psutil  # distributed's own dependency
     p = subprocess.Popen([sys.executable, "-m", "raytrace", "teapot", *SIZE, "--turntable", "5000",
                           "--workers", "2", "-o", "spin.gif", "-q"], cwd=tmp_path,
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
