@@ -2,6 +2,7 @@
 two worker processes (raytrace/distributed.py): byte for byte the still
 render, counters summed exactly, a killed worker changes nothing, and a
 missing extra is one line."""
+import json
 import os
 import signal
 import sys
@@ -92,6 +93,24 @@ def test_dask_tiles_and_frames_are_the_local_render_byte_for_byte(scene, cluster
                            tiles=3)
     assert all(np.array_equal(a, b) for a, b in zip(here, there))
     assert stats["time"]["overhead_s"] >= 0 and stats["frames"] == 4
+
+
+def test_scheduler_option_uses_a_running_cluster(scene, cluster, tmp_path, monkeypatch):
+    """`--scheduler ADDRESS` (here through DASK_SCHEDULER_ADDRESS): the
+    cluster's workers render the tiles; the image is the still's."""
+    from click.testing import CliRunner
+
+    from raytrace.cli import main
+    size = ["--width", str(HARD["width"]), "--height", str(HARD["height"])]
+    monkeypatch.setenv("DASK_SCHEDULER_ADDRESS", cluster.scheduler.address)
+    r = CliRunner().invoke(main, ["teapot", *size, "-o", str(tmp_path / "d.png"), "--json"])
+    assert r.exit_code == 0, r.output
+    stats = json.loads(r.output)
+    assert stats["tiles"] == 8 and len(stats["workers"]) == 2
+    monkeypatch.delenv("DASK_SCHEDULER_ADDRESS")
+    r = CliRunner().invoke(main, ["teapot", *size, "-o", str(tmp_path / "s.png"), "-q"])
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "d.png").read_bytes() == (tmp_path / "s.png").read_bytes()
 
 
 def test_missing_extra_is_one_line(monkeypatch):
