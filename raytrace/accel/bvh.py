@@ -443,8 +443,8 @@ def statistics(bvh, n_prims):
     is_leaf = used & ~inner
     lo = np.moveaxis(bvh.node_box[:, 0:3, :], 1, 2)  # (m, 4, 3)
     hi = np.moveaxis(bvh.node_box[:, 3:6, :], 1, 2)
-    area = np.where(used, half_area(np.where(used[..., None], lo, 0.0),
-                                    np.where(used[..., None], hi, 0.0)), 0.0)
+    area = np.zeros(used.shape)
+    area[used] = half_area(lo[used], hi[used])     # only the lanes in use: no masked copies
     root = half_area(lo[0][used[0]].min(axis=0), hi[0][used[0]].max(axis=0))
     visits = 1.0 + area[inner].sum() / root if root > 0 else float(m)
     tests = (area[is_leaf] * bvh.node_count[is_leaf]).sum() / root if root > 0 else 0.0
