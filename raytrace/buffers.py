@@ -19,7 +19,10 @@ Geometry = namedtuple(
     "Geometry",
     [
         "tri_v0", "tri_v1", "tri_v2",   # (n, 3) vertices
-        "tri_n0", "tri_n1", "tri_n2",   # (n, 3) shading normals at the vertices
+        # Shading normals, unit: vtx_normal (k, 3) once per vertex, and each
+        # triangle's corners' rows of it, tri_normal (n, 3) int32 (36 bytes a
+        # triangle less than three (n, 3) arrays; read only when shading).
+        "vtx_normal", "tri_normal",
         "tri_mat",                      # (n,) material index
         # At each triangle's three corners: linear RGB multiplying the
         # material's colour (n, 3, 3), and texture coordinates (n, 3, 2);

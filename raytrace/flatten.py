@@ -66,10 +66,11 @@ def _check_finite(name, arr):
 
 
 def mesh_triangles(mesh):
-    """(v0, v1, v2, n0, n1, n2, kept, faces) of a mesh, degenerates
-    removed, normals unit length (n0 is n1 is n2 for a flat mesh: one array
-    serves the three corners); kept holds the indices into mesh.faces of
-    the triangles returned, faces their vertex indices."""
+    """(v0, v1, v2, normals, corners, kept, faces) of a mesh, degenerates
+    removed: normals (k, 3) unit shading normals and corners (n, 3) each
+    triangle's rows of them (the mesh's vertex normals, or a flat mesh's
+    face normals, one row a triangle); kept holds the indices into
+    mesh.faces of the triangles returned, faces their vertex indices."""
     v = np.asarray(mesh.vertices, dtype=np.float64)
     f = np.asarray(mesh.faces)
     if v.ndim != 2 or v.shape[1] != 3:
@@ -103,11 +104,11 @@ def mesh_triangles(mesh):
     # sixth of the work.
     if mesh.normals is not None:
         nrm = unit_rows(np.asarray(mesh.normals, dtype=np.float64))
-        n0, n1, n2 = (np.take(nrm, corners[k], axis=0) for k in range(3))
+        at = f
     else:
-        fn = unit_rows(unit_rows(np.cross(v1 - v0, v2 - v0)))
-        n0 = n1 = n2 = fn
-    return v0, v1, v2, n0, n1, n2, np.flatnonzero(keep), f
+        nrm = unit_rows(unit_rows(np.cross(v1 - v0, v2 - v0)))
+        at = np.repeat(np.arange(len(f)), 3).reshape(-1, 3)
+    return v0, v1, v2, nrm, at, np.flatnonzero(keep), f
 
 
 def flatten(scene, with_sources=False):
@@ -130,7 +131,9 @@ def flatten(scene, with_sources=False):
             materials.append(m)
         return mat_index[id(m)]
 
-    tris = [[] for _ in range(6)]
+    tris = [[] for _ in range(3)]
+    normals, normal_at = [], []     # per mesh: unit normals, and each triangle's rows of them
+    n_normals = 0
     tri_mat, obj_ranges = [], []
     colors, uvs = [], []   # per mesh: (3 arrays or None, 3 arrays or None)
     spheres, planes = [], []
@@ -138,12 +141,15 @@ def flatten(scene, with_sources=False):
     dropped = n_tris = 0
     for j, obj in enumerate(scene.objects):
         if isinstance(obj, Mesh):
-            *parts, kept, faces = mesh_triangles(obj)
+            v0, v1, v2, nrm, at, kept, faces = mesh_triangles(obj)
             dropped += len(np.asarray(obj.faces).reshape(-1, 3)) - len(kept)
-            k = len(parts[0])
+            k = len(v0)
             if k:
-                for dst, src in zip(tris, parts):
+                for dst, src in zip(tris, (v0, v1, v2)):
                     dst.append(src)
+                normals.append(nrm)
+                normal_at.append(at + n_normals)
+                n_normals += len(nrm)
                 tri_mat.append(np.full(k, mat_id(obj.material)))
                 colors.append(_corner_values(obj, "colors", 3, faces))
                 # Texture coordinates only where a texture uses them.
@@ -182,13 +188,16 @@ def flatten(scene, with_sources=False):
         mat_id(scene.objects[0].material if scene.objects else _default_material())
     pl_n = unit_rows(np.array([p.normal for p in planes], dtype=float).reshape(-1, 3))
     # Unit already (mesh_triangles); a zero one falls back to the face normal
-    # in the kernels.  A flat single mesh's three corners share one array.
-    tri_n = [cat(tris[k]) for k in (3, 4, 5)]
+    # in the kernels.  int32 rows: 2^31 normals, far past any memory here.
+    tri_normal = np.ascontiguousarray(
+        np.concatenate(normal_at) if normal_at else np.zeros((0, 3)), dtype=np.int32)
+    if n_normals >= 2**31:
+        raise RaytraceError(f"{n_normals:,} vertex normals: more than this renderer indexes")
     counts = [len(m) for m in tri_mat]
     mat_tex, tex_rgb = _textures(materials)
     geo = Geometry(
         tri_v0=cat(tris[0]), tri_v1=cat(tris[1]), tri_v2=cat(tris[2]),
-        tri_n0=tri_n[0], tri_n1=tri_n[1], tri_n2=tri_n[2],
+        vtx_normal=cat(normals), tri_normal=tri_normal.reshape(-1, 3),
         tri_mat=i64(np.concatenate(tri_mat) if tri_mat else []),
         tri_color=_corner_buffer(colors, counts, 3, 1.0),
         tri_uv=_corner_buffer(uvs, counts, 2, 0.0),

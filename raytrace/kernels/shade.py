@@ -46,10 +46,11 @@ def surface(geo, ray, hit):
         e1x, e1y, e1z = v1[prim, 0] - v0[prim, 0], v1[prim, 1] - v0[prim, 1], v1[prim, 2] - v0[prim, 2]
         e2x, e2y, e2z = v2[prim, 0] - v0[prim, 0], v2[prim, 1] - v0[prim, 1], v2[prim, 2] - v0[prim, 2]
         gx, gy, gz = _normalize(e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x)
-        n0, n1, n2 = geo.tri_n0, geo.tri_n1, geo.tri_n2
-        sx, sy, sz = _normalize(b0 * n0[prim, 0] + b1 * n1[prim, 0] + b2 * n2[prim, 0],
-                                b0 * n0[prim, 1] + b1 * n1[prim, 1] + b2 * n2[prim, 1],
-                                b0 * n0[prim, 2] + b1 * n1[prim, 2] + b2 * n2[prim, 2])
+        vn = geo.vtx_normal
+        i0, i1, i2 = geo.tri_normal[prim, 0], geo.tri_normal[prim, 1], geo.tri_normal[prim, 2]
+        sx, sy, sz = _normalize(b0 * vn[i0, 0] + b1 * vn[i1, 0] + b2 * vn[i2, 0],
+                                b0 * vn[i0, 1] + b1 * vn[i1, 1] + b2 * vn[i2, 1],
+                                b0 * vn[i0, 2] + b1 * vn[i1, 2] + b2 * vn[i2, 2])
         if sx == 0.0 and sy == 0.0 and sz == 0.0:
             sx, sy, sz = gx, gy, gz
         scale = 0.0
@@ -100,12 +101,14 @@ def smooth_point(geo, hit, px, py, pz, side):
     qx = qy = qz = 0.0
     for corner in range(3):
         if corner == 0:
-            v, n, b = geo.tri_v0, geo.tri_n0, 1.0 - b1 - b2
+            v, b = geo.tri_v0, 1.0 - b1 - b2
         elif corner == 1:
-            v, n, b = geo.tri_v1, geo.tri_n1, b1
+            v, b = geo.tri_v1, b1
         else:
-            v, n, b = geo.tri_v2, geo.tri_n2, b2
-        nx, ny, nz = side * n[prim, 0], side * n[prim, 1], side * n[prim, 2]
+            v, b = geo.tri_v2, b2
+        k = geo.tri_normal[prim, corner]
+        n = geo.vtx_normal
+        nx, ny, nz = side * n[k, 0], side * n[k, 1], side * n[k, 2]
         # Height of the point over this vertex's tangent plane; only a
         # point below it is moved (by -below along the normal).
         below = min(0.0, (px - v[prim, 0]) * nx + (py - v[prim, 1]) * ny + (pz - v[prim, 2]) * nz)
