@@ -86,18 +86,9 @@ def mesh_triangles(mesh):
             f"{mesh.name}: face index out of range (mesh has {len(v)} vertices, "
             f"indices span {f.min()}..{f.max()})")
     _check_finite(mesh.name, v)
-    # Each corner's indices contiguous: np.take then gathers 3x faster than
-    # indexing with a strided column (0.26 s against 0.85 s at 4.2M).
-    corners = np.ascontiguousarray(f.T)
-    v0, v1, v2 = (np.take(v, corners[k], axis=0) for k in range(3))
-    # In chunks: the test's edge and cross-product temporaries are 5 times
-    # the triangles' size (650 MB at 4.2M triangles), a chunk's are not.
-    keep = np.empty(len(f), bool)
-    for k in range(0, len(f), DEGENERATE_CHUNK):
-        c = slice(k, k + DEGENERATE_CHUNK)
-        keep[c] = ~degenerate_mask(v0[c], v1[c], v2[c])
+    v0, v1, v2, keep = _kept_corners(v, f)
     if not keep.all():
-        v0, v1, v2, f, corners = v0[keep], v1[keep], v2[keep], f[keep], corners[:, keep]
+        f = f[keep]
     # Made unit here, a second time for normals that normals.py made unit
     # (a pass that may move a last bit; the images and exact counters are
     # made with it).  Per vertex, then gathered: per-corner results at a
@@ -109,6 +100,31 @@ def mesh_triangles(mesh):
         nrm = unit_rows(unit_rows(np.cross(v1 - v0, v2 - v0)))
         at = np.repeat(np.arange(len(f)), 3).reshape(-1, 3)
     return v0, v1, v2, nrm, at, np.flatnonzero(keep), f
+
+
+def _kept_corners(v, f):
+    """(v0, v1, v2, keep): the corners of the triangles that are not
+    degenerate, and which those are.  A chunk at a time: gathered, tested,
+    and its kept rows written on, so neither the test's temporaries (5
+    times the triangles' size) nor a second, filtered copy of the corners
+    is ever made; the outputs are views of buffers whose unused tail is
+    never touched, so it takes no memory."""
+    n = len(f)
+    # Each corner's indices contiguous: np.take then gathers 3x faster than
+    # indexing with a strided column (0.26 s against 0.85 s at 4.2M).
+    corners = np.ascontiguousarray(f.T)
+    out = [np.empty((n, 3)) for _ in range(3)]
+    keep = np.empty(n, bool)
+    m = 0
+    for k in range(0, n, DEGENERATE_CHUNK):
+        c = slice(k, k + DEGENERATE_CHUNK)
+        a = [np.take(v, corners[i, c], axis=0) for i in range(3)]
+        ok = keep[c] = ~degenerate_mask(*a)
+        j = int(np.count_nonzero(ok))
+        for dst, src in zip(out, a):
+            dst[m:m + j] = src if j == len(ok) else src[ok]
+        m += j
+    return out[0][:m], out[1][:m], out[2][:m], keep
 
 
 def flatten(scene, with_sources=False):
@@ -148,7 +164,8 @@ def flatten(scene, with_sources=False):
                 for dst, src in zip(tris, (v0, v1, v2)):
                     dst.append(src)
                 normals.append(nrm)
-                normal_at.append(at + n_normals)
+                # int32 before the offset: no (n, 3) int64 temporaries
+                normal_at.append(at.astype(np.int32) + np.int32(n_normals))
                 n_normals += len(nrm)
                 tri_mat.append(np.full(k, mat_id(obj.material)))
                 colors.append(_corner_values(obj, "colors", 3, faces))
@@ -158,7 +175,8 @@ def flatten(scene, with_sources=False):
                     raise RaytraceError(f"{obj.name}: its material has a texture but the mesh "
                                         "has no texture coordinates (uv)")
                 uvs.append(_corner_values(obj, "uv", 2, faces) if textured else None)
-                tri_src.append(np.stack([np.full(k, j), kept], axis=1))
+                if with_sources:      # RayScene's map back to the user's faces only
+                    tri_src.append(np.stack([np.full(k, j), kept], axis=1))
                 obj_ranges.append((n_tris, k))
                 n_tris += k
         elif isinstance(obj, Sphere):
@@ -189,16 +207,17 @@ def flatten(scene, with_sources=False):
     pl_n = unit_rows(np.array([p.normal for p in planes], dtype=float).reshape(-1, 3))
     # Unit already (mesh_triangles); a zero one falls back to the face normal
     # in the kernels.  int32 rows: 2^31 normals, far past any memory here.
-    tri_normal = np.ascontiguousarray(
-        np.concatenate(normal_at) if normal_at else np.zeros((0, 3)), dtype=np.int32)
     if n_normals >= 2**31:
         raise RaytraceError(f"{n_normals:,} vertex normals: more than this renderer indexes")
+    tri_normal = (normal_at[0] if len(normal_at) == 1 else np.ascontiguousarray(
+        np.concatenate(normal_at) if normal_at else np.zeros((0, 3)), dtype=np.int32))
     counts = [len(m) for m in tri_mat]
     mat_tex, tex_rgb = _textures(materials)
     geo = Geometry(
         tri_v0=cat(tris[0]), tri_v1=cat(tris[1]), tri_v2=cat(tris[2]),
         vtx_normal=cat(normals), tri_normal=tri_normal.reshape(-1, 3),
-        tri_mat=i64(np.concatenate(tri_mat) if tri_mat else []),
+        tri_mat=i64(tri_mat[0] if len(tri_mat) == 1 else
+                    np.concatenate(tri_mat) if tri_mat else []),
         tri_color=_corner_buffer(colors, counts, 3, 1.0),
         tri_uv=_corner_buffer(uvs, counts, 2, 0.0),
         sph_center=f64([s.center for s in spheres], 3),
