@@ -33,11 +33,13 @@ def run(tree, mesh, extra, out):
     env = dict(os.environ)
     if tree is not None:
         env["PYTHONPATH"] = str(tree)
-    code = ("import resource, runpy, sys\n"
+    # VmHWM: this process's own peak (ru_maxrss would add the parent's at the fork).
+    code = ("import runpy, sys\n"
             "sys.argv = ['raytrace'] + sys.argv[1:]\n"
             "try:\n    runpy.run_module('raytrace', run_name='__main__')\n"
             "finally:\n"
-            "    sys.stderr.write(f\"peak {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss}\\n\")\n")
+            "    hwm = [ln for ln in open('/proc/self/status') if ln.startswith('VmHWM:')]\n"
+            "    sys.stderr.write(f\"peak {hwm[0].split()[1]}\\n\")\n")
     t0 = time.perf_counter()
     p = subprocess.run([sys.executable, "-c", code, str(mesh), *SIZE, *extra, "--json", "-o", out],
                        capture_output=True, text=True, env=env, cwd=Path(out).parent)
