@@ -84,8 +84,8 @@ class Tally:
 
     def add(self, tile):
         self.counters = tile.counters.copy() if self.counters is None else self.counters + tile.counters
-        w = self.workers.setdefault(tile.worker, {"tasks": 0, "compile_s": 0.0, "render_s": 0.0})
-        w["tasks"] += 1
+        w = self.workers.setdefault(tile.worker, {"tiles": 0, "compile_s": 0.0, "render_s": 0.0})
+        w["tiles"] += 1
         w["compile_s"] += tile.compile_s
         w["render_s"] += tile.render_s
 
@@ -138,7 +138,9 @@ def render_frames(scene, cameras, opts, runner=None, tiles=1, skip=(), on_frame=
             del pending[tile.frame]
             if on_frame is not None:
                 on_frame(tile.frame, image)
-    return tally.stats(setup, scene.name, len(cameras), per_frame)
+    stats = tally.stats(setup, scene.name, len(cameras), per_frame)
+    stats["time"]["scatter_s"] = getattr(runner, "scatter_s", 0.0)
+    return stats
 
 
 def render_tiled(scene, opts, runner=None, tiles=1):

@@ -106,8 +106,8 @@ def _batch_rows(stats):
     if stats.get("frames_skipped"):
         rows.append(("Frames already written (skipped)", stats["frames_skipped"]))
     for k, w in enumerate(stats["workers"].values(), 1):
-        rows.append((f"Worker {k}: tasks, compile/load, render (s)",
-                     f"{w['tasks']:,}, {w['compile_s']:,.3f}, {w['render_s']:,.3f}"))
+        rows.append((f"Worker {k}: tiles, compile/load, render (s)",
+                     f"{w['tiles']:,}, {w['compile_s']:,.3f}, {w['render_s']:,.3f}"))
     rows += [("Wall time (s)", t["wall_s"]),
              ("Overhead: scheduling, transfer, assembly (s)", t["overhead_s"])]
     return rows

@@ -123,7 +123,7 @@ def test_tiles_and_workers_on_the_command_line_write_the_still(tmp_path):
     assert (tmp_path / "tiled.png").read_bytes() == (tmp_path / "still.png").read_bytes()
     r = run("teapot", *SIZE, "--turntable", 2, "--workers", 2, "-o", tmp_path / "d_%d.png")
     assert r.exit_code == 0, r.output
-    assert "Worker 2: tasks, compile/load, render (s)" in r.output
+    assert "Worker 2: tiles, compile/load, render (s)" in r.output
     assert np.array_equal(pixels(tmp_path / "d_0.png"), pixels(tmp_path / "still.png"))
 
 

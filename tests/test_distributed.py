@@ -95,6 +95,25 @@ def test_dask_tiles_and_frames_are_the_local_render_byte_for_byte(scene, cluster
     assert stats["time"]["overhead_s"] >= 0 and stats["frames"] == 4
 
 
+def test_small_tiles_share_a_task_and_still_come_back_in_order(scene, cluster):
+    """24 small frames on 2 workers: 3 frames a Dask task (each task costs
+    ~7 ms of scheduling), the frames the same and in order."""
+    from raytrace.distributed import DaskRunner, _group_size
+    from raytrace.driver import prepare
+    cams = turntable(scene.camera, 24)
+    payload = prepare(scene, RenderOptions(**HARD)).payload()
+    tasks = [(None, f, 0, HARD["height"]) for f in range(24)]
+    assert _group_size(tasks, payload, 2) == 3
+    assert _group_size(tasks[:8], payload, 2) == 1           # too few to share
+    here, _ = animate(scene, cams, RenderOptions(**HARD))
+    order = []
+    there, stats = animate(scene, cams, RenderOptions(**HARD), runner=DaskRunner(cluster, 1),
+                           progress=lambda done, total: order.append(done))
+    assert all(np.array_equal(a, b) for a, b in zip(here, there))
+    assert order == list(range(1, 25))
+    assert sum(w["tiles"] for w in stats["workers"].values()) == 24
+
+
 def test_scheduler_option_uses_a_running_cluster(scene, cluster, tmp_path, monkeypatch):
     """`--scheduler ADDRESS` (here through DASK_SCHEDULER_ADDRESS): the
     cluster's workers render the tiles; the image is the still's."""
