@@ -41,9 +41,13 @@ def connect(workers=None, scheduler=None):
             # Its scheduler's HTTP server moves off a busy port 8787 (another
             # Dask's) and says so; nothing for a renderer's user to do.
             warnings.filterwarnings("ignore", message="Port .* is already in use")
+            # The workers import Numba and the render kernel's modules as they
+            # start, while this process loads and builds the scene, instead of
+            # when the scene first reaches them (0.36 s inside the frames).
             cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1,
                                                processes=True, dashboard_address=None,
-                                               silence_logs=logging.ERROR)
+                                               silence_logs=logging.ERROR,
+                                               preload=["raytrace.kernels.render"])
         with cluster, distributed.Client(cluster) as client:
             yield DaskRunner(client, threads)
     else:
