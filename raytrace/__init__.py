@@ -51,8 +51,8 @@ def render(scene, client=None, tiles=None, **options):
         from .driver import render as _render
         return _render(scene, **options)
     from .batch import render_tiled
-    from .driver import _apply
-    opts = _apply(None, options)
+    from .driver import options_with
+    opts = options_with(None, options)
     if opts.aov:
         raise RaytraceError("aov=True needs the whole image in this process: drop client and tiles")
     runner = _runner(client)
@@ -72,7 +72,7 @@ def render_frames(scene, cameras=None, turntable=None, output=None, fps=24, resu
     """
     from .animation import camera_path
     from .batch import animate
-    from .driver import _apply
+    from .driver import options_with
     scene = _scene(scene)
     if cameras is None:
         cameras = camera_path(scene, turntable)
@@ -81,7 +81,7 @@ def render_frames(scene, cameras=None, turntable=None, output=None, fps=24, resu
     if output is not None:
         from .frames import check_frame_output
         check_frame_output(str(output), resume=resume)
-    opts = _apply(None, options)
+    opts = options_with(None, options)
     return animate(scene, list(cameras), opts, output=None if output is None else str(output),
                    fps=fps, resume=resume, runner=_runner(client), tiles=tiles, progress=progress)
 

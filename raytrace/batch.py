@@ -123,12 +123,12 @@ def render_frames(scene, cameras, opts, runner=None, tiles=1, skip=(), on_frame=
     setup = prepare(scene, opts)
     runner = runner or InProcess(setup.threads)
     w, h = setup.width, setup.height
+    rows = bands(h, tiles)
     tasks = [(camera_buffer(cam, w, h), f, y0, y1)
-             for f, cam in enumerate(cameras) if f not in skip
-             for y0, y1 in bands(h, tiles)]
+             for f, cam in enumerate(cameras) if f not in skip for y0, y1 in rows]
     tally = Tally()
     pending = {}
-    per_frame = len(bands(h, tiles))
+    per_frame = len(rows)
     for tile in runner.run(setup.payload(), tasks):
         tally.add(tile)
         parts = pending.setdefault(tile.frame, [])

@@ -305,8 +305,8 @@ def _is_frame_path(path):
 
 def _is_numbered(path):
     """A name with a frame-number field, %d or %04d (frames.py)."""
-    import re
-    return path is not None and re.search(r"%\d*d", path.rsplit("/", 1)[-1]) is not None
+    from .frames import FIELD
+    return path is not None and FIELD.search(path.rsplit("/", 1)[-1]) is not None
 
 
 def _check_work(animated, still_extras, turntable, fps, resume, tiles, workers, scheduler):

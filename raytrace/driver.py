@@ -243,7 +243,8 @@ class Setup:
                 self.background, self.width, self.height, int(self.opts.spp), int(self.opts.seed))
 
 
-def _apply(opts, kw):
+def options_with(opts, kw):
+    """``opts`` (or the defaults) with the keyword overrides ``kw``, each checked by name."""
     opts = opts or RenderOptions()
     for k, v in kw.items():
         if not hasattr(opts, k):
@@ -306,11 +307,13 @@ def prepare(scene, opts):
                  peaks=peaks)
 
 
-def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows=None, row0=None):
+def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows=None, row0=None,
+                load=True):
     """Rows y0 .. y1 of the frame seen from ``cam`` (camera_buffer), from a
     Setup's payload: (linear float32 rows, counter rows, compile_s,
     render_s).  Without buffers, the band gets its own (rows y0 .. y1 only:
-    a tile of a poster costs its own rows, not the poster's)."""
+    a tile of a poster costs its own rows, not the poster's).  ``load``:
+    first compile or load the kernel, timed apart (compile_s; 0 without)."""
     from .kernels.counters import N_COUNTERS
     from .kernels.render import render_rows
     geo, acc, lights, shadows, textures, bounces, background, width, height, spp, seed = payload
@@ -327,9 +330,11 @@ def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows
     tail = (int(threads), int(spp), int(seed), image, stats_rows)
     # An empty band compiles the kernel (or loads it from Numba's cache)
     # without rendering anything, so that time is reported apart.
-    t0 = time.perf_counter()
-    render_rows(*args, 0, 0, int(row0), *tail)
-    t_compile = time.perf_counter() - t0
+    t_compile = 0.0
+    if load:
+        t0 = time.perf_counter()
+        render_rows(*args, 0, 0, int(row0), *tail)
+        t_compile = time.perf_counter() - t0
     t0 = time.perf_counter()
     render_rows(*args, int(y0), int(y1), int(row0), *tail)
     return image, stats_rows, t_compile, time.perf_counter() - t0
@@ -343,7 +348,7 @@ def render(scene, opts=None, **kw):
     """
     from .kernels.counters import N_COUNTERS
     from .stats import counters_from_rows, derive
-    opts = _apply(opts, kw)
+    opts = options_with(opts, kw)
     setup = prepare(scene, opts)
     cam = camera_buffer(scene.camera, setup.width, setup.height)
     width, height = setup.width, setup.height
@@ -358,13 +363,11 @@ def render(scene, opts=None, **kw):
     for y0 in range(0, height, band):
         y1 = min(height, y0 + band)
         _, _, tc, tr = render_band(payload, cam, y0, y1, setup.threads, aovs, image,
-                                   stats_rows, 0)
+                                   stats_rows, 0, load=y0 == 0)
         t_compile += tc
         t_render += tr
         if opts.progress:
             opts.progress(y1, height)
-    if height == 0:
-        t_compile = render_band(payload, cam, 0, 0, setup.threads, aovs, image, stats_rows, 0)[2]
     stats = base_stats(setup, scene.name)
     stats["time"] = {"render_s": t_render, "build_s": setup.times["build_s"],
                      "compile_s": t_compile + setup.times["compile_s"],

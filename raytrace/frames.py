@@ -11,8 +11,6 @@ numbered PNG per frame, never half a file.
 """
 import os
 import re
-import signal
-import stat
 import tempfile
 from fractions import Fraction
 from numbers import Real
@@ -22,7 +20,7 @@ import numpy as np
 
 from .animation import check_frame_count
 from .errors import RaytraceError
-from .output import IMAGE_FORMATS, NAME_MAX, Outputs, check_writable, target, write_png
+from .output import IMAGE_FORMATS, NAME_MAX, Outputs, check_writable, temp_beside, write_png
 
 FPS_RANGE = (1.0, 240.0)
 # printf's frame number: %d, or %0Nd zero-padded to N digits.
@@ -259,9 +257,7 @@ class Mp4Frames(FrameSequence):
         return (OSError, self.av.FFmpegError)
 
     def _open(self, h, w):
-        real = target(self.path)
-        fd, self.tmp = tempfile.mkstemp(prefix=f".{real.name[:200]}.", suffix=".tmp",
-                                        dir=real.parent if str(real.parent) else ".")
+        fd, self.tmp = temp_beside(self.path)
         os.close(fd)
         self.container = self.av.open(self.tmp, "w", format="mp4")
         self.stream = self.container.add_stream("libx264", rate=Fraction(self.fps).limit_denominator(1001))
@@ -289,9 +285,10 @@ class Mp4Frames(FrameSequence):
                 self.container.mux(packet)
             self.container.close()
             self.container = None
-            _publish(self.tmp, target(self.path))
         except self._errors() as exc:
             raise RaytraceError(f"{self.path}: cannot write ({exc})") from None
+        with Outputs() as out:          # renamed into place as every output is
+            out.adopt(self.path, self.tmp)
         self.tmp = None
 
     def _abort(self):
@@ -334,20 +331,3 @@ class PngSequence(FrameSequence):
                                 f"({exc.strerror or exc})") from None
         write_png(path, image)
 
-
-def _umask():
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
-def _publish(tmp, real):
-    """Rename a finished temporary file onto ``real`` as output.Outputs
-    does: the mode a new file would get (or the replaced file's), and the
-    rename with SIGINT and SIGTERM held back."""
-    os.chmod(tmp, stat.S_IMODE(real.stat().st_mode) if real.exists() else 0o666 & ~_umask())
-    held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
-    try:
-        os.replace(tmp, real)
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, held)

@@ -67,6 +67,20 @@ def _umask():
     return mask
 
 
+def temp_beside(path):
+    """(fd, name) of a new private temporary file in the directory ``path``
+    is written to, so that the final rename stays on one file system."""
+    real = target(path)
+    return tempfile.mkstemp(prefix=f".{real.name[:200]}.", suffix=".tmp",
+                            dir=real.parent if str(real.parent) else ".")
+
+
+def _give_mode(tmp, real):
+    # mkstemp makes the file private (0600): a file replaced keeps its mode,
+    # a new one gets the usual one.
+    os.chmod(tmp, stat.S_IMODE(real.stat().st_mode) if real.exists() else 0o666 & ~_umask())
+
+
 class Outputs:
     """The outputs of one run, committed together or not at all:
 
@@ -85,18 +99,22 @@ class Outputs:
 
     def add(self, path, write):
         check_writable(path)
-        real = target(path)
-        fd, tmp = tempfile.mkstemp(prefix=f".{real.name[:200]}.", suffix=".tmp",
-                                   dir=real.parent if str(real.parent) else ".")
-        self.pending.append((tmp, real))
+        fd, tmp = temp_beside(path)
+        self.pending.append((tmp, target(path)))
         try:
             with os.fdopen(fd, "wb") as fh:
                 write(fh)
-            # mkstemp makes the file private (0600): a file replaced keeps its
-            # mode, a new one gets the usual one.
-            os.chmod(tmp, stat.S_IMODE(real.stat().st_mode) if real.exists()
-                     else 0o666 & ~_umask())
+            _give_mode(tmp, target(path))
         except OSError as exc:    # a full disk, a quota
+            raise RaytraceError(f"{path}: cannot write ({exc.strerror or exc})") from None
+
+    def adopt(self, path, tmp):
+        """Commit ``tmp``, a finished file from temp_beside(path) (written
+        as it went, like a video), as ``path`` together with the others."""
+        self.pending.append((tmp, target(path)))
+        try:
+            _give_mode(tmp, target(path))
+        except OSError as exc:
             raise RaytraceError(f"{path}: cannot write ({exc.strerror or exc})") from None
 
     def __enter__(self):
