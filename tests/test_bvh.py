@@ -284,26 +284,6 @@ def test_build_kernel_depth_reported():
     assert 0 < depth <= MAX_DEPTH
 
 
-@pytest.mark.parametrize("threads", [1, 2, 3])
-@pytest.mark.parametrize("split", [1, 2, 7, 64, 5000])
-def test_parallel_build_is_the_serial_tree(threads, split):
-    """bvh_parallel builds subtrees apart and copies them together: the
-    result must be the serial builder's arrays exactly, whatever the number
-    of subtrees (split) and threads, on a soup, on coincident centroids and
-    on a chain that reaches the depth cap."""
-    from raytrace.accel.bvh_parallel import build_bvh_parallel
-    chain = 3.0 ** np.arange(200)
-    chain_lo = np.stack([chain, np.zeros_like(chain), np.zeros_like(chain)], axis=1)
-    cases = [boxes_of(random_soup(np.random.default_rng(5), 3000, 0.02)),
-             (np.tile([[-1.0, -1, -1]], (300, 1)), np.tile([[1.0, 1, 1]], (300, 1))),
-             (chain_lo, chain_lo + 0.5)]
-    for lo, hi in cases:
-        serial = build_bvh_kernel(lo, hi, 4)
-        parallel = build_bvh_parallel(lo, hi, 4, threads=threads, split=split)
-        for a, b in zip(serial, parallel):
-            assert np.array_equal(a, b)
-
-
 # ---------------------------------------------------------------- traversal
 
 # Every structure and builder whose traversal prunes (brute force is the

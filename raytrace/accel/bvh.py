@@ -21,7 +21,6 @@ turns it into the 4-wide tree traversal uses (``BVH`` below).
 """
 from collections import namedtuple
 
-import numba
 import numpy as np
 from numba import njit
 
@@ -63,10 +62,6 @@ MAX_DEPTH = 60
 # distances).  1e-9 is ~4x10^6 ulps: it covers rounding for ray origins up
 # to ~10^5 times the node's coordinates away, and grows boxes negligibly.
 BOX_PAD = 1e-9
-# From this many primitives on, build_bvh builds on every thread
-# (bvh_parallel.py: the same tree); below, the parallel builder would gain
-# little and a small scene's first render should not compile it.
-PARALLEL_MIN = 100_000
 
 
 @njit(**BUILD_STEP)
@@ -92,26 +87,10 @@ def build_bvh_kernel(lo, hi, max_leaf):
     if n == 0:
         return node_lo, node_hi, node_start, node_count, prim_ids, 0
 
-    n_nodes, max_depth, _ = build_nodes(lo, hi, prim_ids, 0, n, 0, max_leaf, node_lo,
-                                        node_hi, node_start, node_count, 0, 0,
-                                        np.empty((0, 4), np.int64))
-    # Views, not copies: the rows past n_nodes were never touched, so they
-    # hold no memory, and a copy would double the rows that were.
-    return (node_lo[:n_nodes], node_hi[:n_nodes], node_start[:n_nodes], node_count[:n_nodes],
-            prim_ids, max_depth)
+    # A box's centre, 0.5 (lo + hi), is computed where it is needed: an
+    # array of them cost 24 bytes a primitive (100 MB at 4.2M triangles)
+    # and was no faster.
 
-
-@njit(**BUILD_STEP)
-def build_nodes(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, node_hi,
-                node_start, node_count, first, defer, tasks):
-    """The binned-SAH tree over prim_ids[start:end] (reordered in place), its
-    root at ``depth``, into node rows first, first + 1, ... depth-first.
-    A box's centre is 0.5 (lo + hi), computed where it is needed: an array
-    of them cost 24 bytes a primitive and was no faster.  With defer > 0, a node below the root
-    with at most defer primitives is not built but left as a task: a row
-    (node, start, end, depth) of ``tasks`` (n, 4) and a placeholder node of
-    count -1, for bvh_parallel.py to build apart.  Returns (the row after
-    the last node, the deepest level, the number of tasks)."""
     bin_count = np.empty((3, N_BINS), np.int64)
     bin_lo = np.empty((3, N_BINS, 3), np.float64)
     bin_hi = np.empty((3, N_BINS, 3), np.float64)
@@ -123,10 +102,9 @@ def build_nodes(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, node_hi,
     # At most one entry per level, and levels are capped at MAX_DEPTH.
     stack = np.empty((MAX_DEPTH + 2, 4), np.int64)
     sp = 0
-    n_nodes = first
-    max_depth = depth
-    n_tasks = 0
-    parent = -1
+    n_nodes = 0
+    max_depth = 0
+    start, end, depth, parent = 0, n, 0, -1
     while True:
         node = n_nodes
         n_nodes += 1
@@ -134,24 +112,6 @@ def build_nodes(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, node_hi,
             node_start[parent] = node  # this is parent's second child
         if depth > max_depth:
             max_depth = depth
-        count = end - start
-        if node > first and count <= defer:
-            # Left for build_bvh_parallel: a placeholder leaf here.
-            tasks[n_tasks, 0] = node
-            tasks[n_tasks, 1] = start
-            tasks[n_tasks, 2] = end
-            tasks[n_tasks, 3] = depth
-            n_tasks += 1
-            node_start[node] = start
-            node_count[node] = -1
-            if sp == 0:
-                break
-            sp -= 1
-            start = stack[sp, 0]
-            end = stack[sp, 1]
-            depth = stack[sp, 2]
-            parent = stack[sp, 3]
-            continue
 
         # Node box and centroid box.
         bx0 = by0 = bz0 = np.inf
@@ -185,6 +145,7 @@ def build_nodes(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, node_hi,
         node_hi[node, 1] = by1 + pad
         node_hi[node, 2] = bz1 + pad
 
+        count = end - start
         mid = -1
         if count > 1 and depth < MAX_DEPTH:
             cmin = (cx0, cy0, cz0)
@@ -312,7 +273,10 @@ def build_nodes(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, node_hi,
             depth = stack[sp, 2]
             parent = stack[sp, 3]
 
-    return n_nodes, max_depth, n_tasks
+    # Views, not copies: the rows past n_nodes were never touched, so they
+    # hold no memory, and a copy would double the rows that were.
+    return (node_lo[:n_nodes], node_hi[:n_nodes], node_start[:n_nodes], node_count[:n_nodes],
+            prim_ids, max_depth)
 
 
 def collapse_bvh4(node_lo, node_hi, node_start, node_count):
@@ -427,9 +391,6 @@ def build_bvh(lo, hi, max_leaf=MAX_LEAF):
     hi = np.ascontiguousarray(hi, dtype=np.float64).reshape(-1, 3)
     if lo.shape != hi.shape:
         raise ValueError(f"box arrays differ in shape: {lo.shape} vs {hi.shape}")
-    if lo.shape[0] >= PARALLEL_MIN and numba.get_num_threads() > 1:
-        from .bvh_parallel import build_bvh_parallel
-        return build_bvh_parallel(lo, hi, int(max_leaf))[:5]
     return build_bvh_kernel(lo, hi, int(max_leaf))[:5]
 
 
