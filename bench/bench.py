@@ -217,9 +217,9 @@ def run_scaling(cfg):
 
 
 def whole_command(detail, accel, w, h):
-    """(wall s, peak MB, its statistics' times and triangles) of one fresh
-    `raytrace teapot` process: a process's peak (VmHWM) only grows, so each
-    size's peak needs a process of its own."""
+    """(wall s, peak MB, its statistics' times, triangles and phase peaks)
+    of one fresh `raytrace teapot` process: a process's peak (VmHWM) only
+    grows, so each size's peak needs a process of its own."""
     import raytrace
     env = dict(os.environ)   # the child imports the raytrace this process measured
     env["PYTHONPATH"] = os.pathsep.join(
@@ -229,8 +229,11 @@ def whole_command(detail, accel, w, h):
         wall, stats, peak = common.run_cli(
             ["teapot", "--detail", detail, "--accel", accel, "--shadows", "hard", "--width", w,
              "--height", h, "-o", Path(tmp) / "scaling.png"], env=env, cwd=tmp)
+    # peak_memory_mb: the driver's VmHWM after each phase (load, flatten,
+    # build, render), which says which phase set the peak.
     return wall, peak, {"triangles": stats["triangles"], "time": stats["time"],
-                        "structure_bytes": stats["structure"]["memory_bytes"]}
+                        "structure_bytes": stats["structure"]["memory_bytes"],
+                        "peak_memory_mb": stats.get("peak_memory_mb")}
 
 
 def scaling_markdown(res):
