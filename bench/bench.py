@@ -9,7 +9,10 @@ workshop     rows Teapot / + hard shadows / + soft shadows (81 samples),
              columns none, bvol, bvh, grid: render time (median, compile and
              build excluded), speedup over none, rays, tests per ray, Mrays/s,
              and each image's largest difference from brute force (must be 0).
-scaling      BVH and grid build and render time over teapot tessellations.
+scaling      BVH, grid and k-d tree over teapot tessellations up to 4.2M
+             triangles: build and render time, Mrays/s, structure bytes per
+             triangle, and each size's peak memory and whole-command time
+             from a fresh `raytrace` process.
 structures   every structure and BVH builder on four scenes, as `raytrace
              compare` measures them (structures.py).
 peer         our batch ray casting against Embree (embreex) or Open3D, if
@@ -24,7 +27,9 @@ coldstart    each entry point's first run in a fresh process with an empty
              so that nothing else competes with it for the cores.
 """
 import json
+import os
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -46,11 +51,15 @@ HIERARCHICAL = tuple(n for n, s in STRUCTURES.items() if s.visit_metric)
 WORKSHOP_PAPER = {"none": (42, 64, 1800), "bvol": (6, 11, 407)}
 
 # Per-mode settings.  budget_s: a cell gets floor(budget / first run) runs
-# in all, at least 1 and at most max_runs (after its warm-up).
+# in all, at least 1 and at most max_runs (after its warm-up).  Scaling:
+# teapot details (2 * detail^2 * 32 triangles: 43 -> 117,992, 128 ->
+# 1,047,552, 256 -> 4,192,256); sizes above scaling_big get one timed
+# render and no untimed one, since each render there flattens and builds
+# for seconds.
 FULL = dict(width=640, height=480, budget_s=20.0, max_runs=5,
-            scaling_details=(4, 8, 16, 32, 43), scaling_runs=3)
+            scaling_details=(4, 8, 16, 32, 43, 128, 256), scaling_runs=3, scaling_big=43)
 QUICK = dict(width=160, height=120, budget_s=1.5, max_runs=5,
-             scaling_details=(4, 8, 16), scaling_runs=3)
+             scaling_details=(4, 8, 16), scaling_runs=3, scaling_big=43)
 
 ROWS = (
     ("teapot", "Teapot", dict(shadows="none")),
@@ -156,14 +165,6 @@ def workshop_markdown(res):
     return "\n".join(out)
 
 
-def structure_bytes(name, scene):
-    from raytrace.flatten import flatten
-    from raytrace.structures import build_structure
-    geo, obj_ranges, _ = flatten(scene)
-    acc, _ = build_structure(name, geo, obj_ranges)
-    return sum(a.nbytes for a in acc)
-
-
 def run_scaling(cfg):
     from raytrace.driver import render
     from raytrace.scenes.builtin import teapot
@@ -173,10 +174,13 @@ def run_scaling(cfg):
         warm_up(teapot(2), a, {}, w, h)
     rows = []
     for detail in cfg["scaling_details"]:
+        big = detail > cfg["scaling_big"]
+        runs = 1 if big else cfg["scaling_runs"]
+        log(f"scaling: teapot detail {detail}, {runs} run(s) each")
         scene = teapot(detail)
-        log(f"scaling: teapot detail {detail}")
-        for a in structures:   # untimed: first render of this mesh size
-            render(scene, accel=a, width=16, height=12, shadows="hard")
+        if not big:
+            for a in structures:   # untimed: first render of this mesh size
+                render(scene, accel=a, width=16, height=12, shadows="hard")
 
         def once(accel, scene=scene):
             r = render(scene, accel=accel, width=w, height=h, shadows="hard")
@@ -187,24 +191,55 @@ def run_scaling(cfg):
             t, r = once(accel)
             builds[accel].append(r.stats["time"]["build_s"])
             return t, r
-        times, first = interleaved(structures, once_logged, 0.0, cfg["scaling_runs"],
-                                   min_runs=cfg["scaling_runs"])
-        row = {"detail": detail, "triangles": None, "cells": {}}
+        times, first = interleaved(structures, once_logged, 0.0, runs, min_runs=runs)
+        row = {"detail": detail, "triangles": None, "runs": runs, "cells": {}}
         for a in structures:
             rec = cell_record(times[a], first[a])
             rec["build_s"] = median(builds[a])
             rec["build_times_s"] = builds[a]
-            rec["structure_bytes"] = structure_bytes(a, scene)
+            # The driver's statistics already measure the structure it built.
+            rec["structure_bytes"] = first[a].stats["structure"]["memory_bytes"]
             row["triangles"] = first[a].stats["triangles"]
+            rec["structure_bytes_per_triangle"] = rec["structure_bytes"] / row["triangles"]
             row["cells"][a] = rec
+        del first, scene, once, once_logged   # the scene and structures: GBs at 4.2M triangles
+        for a in structures:
+            rec = row["cells"][a]
+            rec["whole_s"], rec["peak_mb"], rec["process"] = whole_command(detail, a, w, h)
+            log(f"  {a:6s} build {fmt_s(rec['build_s'])} s, render {fmt_s(rec['render_s'])} s; "
+                f"whole command {fmt_s(rec['whole_s'])} s, peak {fmt_g(rec['peak_mb'])} MB")
+            if rec["process"]["triangles"] != row["triangles"]:
+                raise RuntimeError(f"raytrace teapot --detail {detail} made "
+                                   f"{rec['process']['triangles']:,} triangles, not {row['triangles']:,}")
         rows.append(row)
-    return {"width": w, "height": h, "shadows": "hard", "runs": cfg["scaling_runs"], "rows": rows}
+    return {"width": w, "height": h, "shadows": "hard", "runs": cfg["scaling_runs"],
+            "big_above_detail": cfg["scaling_big"], "rows": rows}
+
+
+def whole_command(detail, accel, w, h):
+    """(wall s, peak MB, its statistics' times, triangles and phase peaks)
+    of one fresh `raytrace teapot` process: a process's peak (VmHWM) only
+    grows, so each size's peak needs a process of its own."""
+    import raytrace
+    env = dict(os.environ)   # the child imports the raytrace this process measured
+    env["PYTHONPATH"] = os.pathsep.join(
+        [str(Path(raytrace.__file__).resolve().parent.parent)]
+        + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
+    with tempfile.TemporaryDirectory() as tmp:     # cwd too: not this checkout's tree by accident
+        wall, stats, peak = common.run_cli(
+            ["teapot", "--detail", detail, "--accel", accel, "--shadows", "hard", "--width", w,
+             "--height", h, "-o", Path(tmp) / "scaling.png"], env=env, cwd=tmp)
+    # peak_memory_mb: the driver's VmHWM after each phase (load, flatten,
+    # build, render), which says which phase set the peak.
+    return wall, peak, {"triangles": stats["triangles"], "time": stats["time"],
+                        "structure_bytes": stats["structure"]["memory_bytes"],
+                        "peak_memory_mb": stats.get("peak_memory_mb")}
 
 
 def scaling_markdown(res):
     out = [f"### Scaling: teapot tessellations, hard shadows, {res['width']}x{res['height']}", ""]
     header = ["Detail", "Triangles", "Accel", "Build ms", "Render s", "Mrays/s", "Prim tests/ray",
-              "Nodes or cells/ray", "Structure MB"]
+              "Nodes or cells/ray", "Structure MB", "Structure B/triangle", "Peak MB", "Whole s"]
     body = []
     for row in res["rows"]:
         for a in HIERARCHICAL:
@@ -212,11 +247,28 @@ def scaling_markdown(res):
             visits = c[STRUCTURES[a].visit_metric]
             body.append([row["detail"], f"{row['triangles']:,}", a, fmt_g(c["build_s"] * 1e3),
                          fmt_s(c["render_s"]), fmt_g(c["mrays_per_s"]), fmt_g(c["prim_tests_per_ray"]),
-                         fmt_g(visits), fmt_g(c["structure_bytes"] / 2**20)])
-    out.append(markdown_table(header, body, align="rrl" + "r" * 6))
-    out += ["", (f"Medians of {res['runs']} interleaved renders each (after an untimed one); the "
-                 f"build time is the driver's `time.build_s` of those renders (the builders are "
-                 f"compiled before timing). Structure MB: bytes of the structure's arrays.")]
+                         fmt_g(visits), fmt_g(c["structure_bytes"] / 2**20),
+                         f"{c['structure_bytes_per_triangle']:,.0f}",
+                         f"{c['peak_mb']:,.0f}" if c["peak_mb"] is not None else "n/a",
+                         fmt_s(c["whole_s"])])
+    out.append(markdown_table(header, body, align="rrl" + "r" * 9))
+    big = [r["detail"] for r in res["rows"] if r["detail"] > res["big_above_detail"]]
+    runs = (f"Build ms to Nodes or cells/ray: medians of {res['runs']} interleaved renders in this "
+            f"process (after an untimed one at that size)")
+    if big:
+        runs += (f"; details above {res['big_above_detail']} ({', '.join(map(str, big))}) one "
+                 f"render each and no untimed one, since there each render flattens and builds "
+                 f"for seconds")
+    out += ["", (f"{runs}. The build time is the driver's `time.build_s` of those renders (the "
+                 f"builders are compiled before timing). Structure MB: bytes of the structure's "
+                 f"arrays (`structure.memory_bytes` of the render's statistics); Structure "
+                 f"B/triangle: those bytes over the triangles. Peak MB and Whole s: a fresh process "
+                 f"per row, `raytrace teapot --detail N --accel A --shadows hard --width "
+                 f"{res['width']} --height {res['height']} --json -o FILE`: its own peak resident "
+                 f"memory (VmHWM: the scene, flattened arrays, structure and image, plus Python, "
+                 f"NumPy and Numba), and its wall time, what a user waits: imports, making the "
+                 f"teapot, flattening, the build, loading the cached kernel, the render and "
+                 f"writing the PNG.")]
     return "\n".join(out)
 
 

@@ -8,6 +8,7 @@ turn, so that load from other processes on a shared machine hits every
 cell alike; the figure reported is the median of a cell's runs.  A slow
 cell gets fewer runs: floor(budget / first run), clamped to [1, max_runs].
 """
+import json
 import math
 import os
 import platform
@@ -165,6 +166,42 @@ def machine_line(info):
     load = info["load_avg_1_5_15"]
     return (f"{info['cpu']}, {info['cores']} cores, {info['numba_threads']} Numba threads; "
             f"load average {load[0]:.1f} at start" if load else "")
+
+
+# `raytrace ARGS` as the console script runs it, then this process's peak
+# resident memory on stderr: VmHWM, its own (getrusage's ru_maxrss would
+# add the parent's at the fork); "-" where /proc/self/status has none.
+_CLI_WITH_PEAK = (
+    "import runpy, sys\n"
+    "sys.argv = ['raytrace'] + sys.argv[1:]\n"
+    "try:\n    runpy.run_module('raytrace', run_name='__main__')\n"
+    "finally:\n"
+    "    try:\n"
+    "        hwm = [ln.split()[1] for ln in open('/proc/self/status') if ln.startswith('VmHWM:')]\n"
+    "    except OSError:\n"
+    "        hwm = []\n"
+    "    sys.stderr.write(f\"peak {hwm[0] if hwm else '-'}\\n\")\n")
+
+
+def run_cli(args, env=None, cwd=None):
+    """Run `raytrace ARGS --json` in a fresh process: (wall s, its --json
+    statistics, its peak resident memory in MB or None where unknown).
+
+    The wall time is the whole command's, as a user waits: Python and
+    Numba's imports, loading or making the scene, flattening, the build,
+    the compile or cache load, the render and writing the image.  Raises
+    RuntimeError with the command's stderr if it fails."""
+    args = [str(a) for a in args] + ["--json"]
+    t0 = time.perf_counter()
+    p = subprocess.run([sys.executable, "-c", _CLI_WITH_PEAK, *args], capture_output=True,
+                       text=True, env=env, cwd=cwd)
+    wall = time.perf_counter() - t0
+    err = p.stderr.strip().splitlines()
+    peak = err.pop().split()[-1] if err and err[-1].startswith("peak ") else "-"
+    if p.returncode != 0:
+        msg = "\n".join(err).strip()
+        raise RuntimeError(f"raytrace {' '.join(args)} failed: {msg}")
+    return wall, json.loads(p.stdout), None if peak == "-" else int(peak) / 1024
 
 
 def log(msg):

@@ -13,41 +13,31 @@ and the mode records; time.build_s; time.compile_s; time.render_s) and
 the process's peak memory; and whether the two images are identical.
 Markdown on stdout.
 """
-import json
 import os
 import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import click
 
-ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from common import ROOT, run_cli  # noqa: E402
+
 SIZE = ["--width", "320", "--height", "240"]
 
 
 def run(tree, mesh, extra, out):
-    """(wall s, stats) of one command, with ``tree``'s raytrace (None: this one)."""
+    """(wall s, stats, peak MB) of one command, with ``tree``'s raytrace (None: this one)."""
     env = dict(os.environ)
     if tree is not None:
         env["PYTHONPATH"] = str(tree)
-    # VmHWM: this process's own peak (ru_maxrss would add the parent's at the fork).
-    code = ("import runpy, sys\n"
-            "sys.argv = ['raytrace'] + sys.argv[1:]\n"
-            "try:\n    runpy.run_module('raytrace', run_name='__main__')\n"
-            "finally:\n"
-            "    hwm = [ln for ln in open('/proc/self/status') if ln.startswith('VmHWM:')]\n"
-            "    sys.stderr.write(f\"peak {hwm[0].split()[1]}\\n\")\n")
-    t0 = time.perf_counter()
-    p = subprocess.run([sys.executable, "-c", code, str(mesh), *SIZE, *extra, "--json", "-o", out],
-                       capture_output=True, text=True, env=env, cwd=Path(out).parent)
-    wall = time.perf_counter() - t0
-    if p.returncode != 0:
-        sys.exit(f"raytrace {mesh} failed ({tree or 'this checkout'}): {p.stderr.strip()}")
-    peak_kib = int(p.stderr.strip().splitlines()[-1].split()[-1])
-    return wall, json.loads(p.stdout), peak_kib / 1024
+    try:
+        return run_cli([mesh, *SIZE, *extra, "-o", out], env=env, cwd=Path(out).parent)
+    except RuntimeError as e:
+        sys.exit(f"{e} ({tree or 'this checkout'})")
 
 
 @click.command(context_settings={"ignore_unknown_options": True})

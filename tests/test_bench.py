@@ -1,5 +1,7 @@
 """The benchmark scripts' arithmetic: error measures, slopes, the run
-policy and the regression check, on hand-computed cases (no rendering)."""
+policy and the regression check, on hand-computed cases (no rendering);
+and the scaling table's shape, from a tiny run of that section."""
+import json
 import math
 import sys
 from pathlib import Path
@@ -86,3 +88,33 @@ def test_baseline_file_matches_the_script():
                                       for a in regress.COUNTERS}
                                      | {regress.row_name(a, regress.MID_DETAIL)
                                         for a in regress.MID_COUNTERS})
+
+
+def test_scaling_table_reports_size_memory_and_whole_command():
+    """bench.sh's scaling section on two tiny sizes, the second past the
+    one-run threshold: each cell has its structure's bytes per triangle and
+    a fresh process's peak memory and wall time, and the table shows them."""
+    import bench
+    cfg = dict(bench.QUICK, width=32, height=24, scaling_details=(2, 3), scaling_runs=2, scaling_big=2)
+    res = bench.run_scaling(cfg)
+    assert [(r["detail"], r["runs"]) for r in res["rows"]] == [(2, 2), (3, 1)]
+    for row in res["rows"]:
+        for a in bench.HIERARCHICAL:
+            c = row["cells"][a]
+            assert len(c["times_s"]) == len(c["build_times_s"]) == row["runs"]
+            assert c["structure_bytes"] > 0
+            assert c["structure_bytes_per_triangle"] == pytest.approx(c["structure_bytes"] / row["triangles"])
+            # The fresh process built the same structure for the same mesh.
+            assert c["process"]["triangles"] == row["triangles"]
+            assert c["process"]["structure_bytes"] == c["structure_bytes"]
+            assert c["whole_s"] > c["process"]["time"]["render_s"] + c["process"]["time"]["build_s"]
+            if sys.platform.startswith("linux"):
+                assert c["peak_mb"] > 0
+    json.dumps(res, default=bench._json_default)
+    md = bench.scaling_markdown(res)
+    header = [h.strip() for h in md.splitlines()[2].strip("|").split("|")]
+    for col in ("Triangles", "Build ms", "Render s", "Mrays/s", "Structure B/triangle", "Peak MB",
+                "Whole s"):
+        assert col in header
+    assert len(md.splitlines()) == 4 + 2 * len(bench.HIERARCHICAL) + 2
+    assert "details above 2 (3) one render each" in md
