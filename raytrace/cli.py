@@ -450,7 +450,7 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
             opts = RenderOptions(aov=bool(aov or heatmap), progress=progress, **options)
             try:
                 if tiles is None and workers is None and scheduler is None:
-                    result = render(sc, opts)
+                    result = render(sc, opts, drop_meshes=True)
                 else:
                     from .batch import render_tiled
                     with _runner(workers, scheduler) as runner:

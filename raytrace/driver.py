@@ -273,8 +273,13 @@ def peak_memory_mb():
     return peak / 2**20 if sys.platform == "darwin" else peak / 2**10   # bytes / KiB
 
 
-def prepare(scene, opts):
-    """Validate, flatten and build: a Setup for any number of frames."""
+def prepare(scene, opts, drop_meshes=False):
+    """Validate, flatten and build: a Setup for any number of frames.
+    drop_meshes: the caller will not use the scene's meshes again (the
+    command's own scene, read from a file), so they leave the scene once
+    flattened, before the build, which is the peak: 192 MB less at 4.2M
+    triangles (their vertices and faces; the flattened scene holds what
+    the render needs)."""
     width, height = (int(n) for n in validate(opts, scene))
     peaks = {"load": peak_memory_mb()}
     t_start = time.perf_counter()
@@ -293,6 +298,9 @@ def prepare(scene, opts):
     bounces = bounce_record(scene, opts.max_depth)
     t_import = time.perf_counter() - t_start
     peaks["flatten"] = peak_memory_mb()
+    if drop_meshes:
+        from .scene import Mesh
+        scene.objects = [o for o in scene.objects if not isinstance(o, Mesh)]
 
     build_opts = dict(bvh_build=opts.bvh_build, leaf_size=opts.leaf_size,
                       grid_density=opts.grid_density)
@@ -340,16 +348,17 @@ def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows
     return image, stats_rows, t_compile, time.perf_counter() - t0
 
 
-def render(scene, opts=None, **kw):
+def render(scene, opts=None, *, drop_meshes=False, **kw):
     """Render a Scene; returns a RenderResult (image, linear, stats, aovs).
 
     Keyword arguments override fields of RenderOptions, e.g.
     ``render(scene, accel="bvol", shadows="soft", width=320, height=240)``.
+    drop_meshes: as for prepare (the command's scene only).
     """
     from .kernels.counters import N_COUNTERS
     from .stats import counters_from_rows, derive
     opts = options_with(opts, kw)
-    setup = prepare(scene, opts)
+    setup = prepare(scene, opts, drop_meshes)
     cam = camera_buffer(scene.camera, setup.width, setup.height)
     width, height = setup.width, setup.height
     image = np.zeros((height, width, 3), np.float32)

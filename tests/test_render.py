@@ -129,3 +129,18 @@ def test_spp_antialiases_edges():
     flips[:-1] |= one[1:] != one[:-1]
     assert flips[edge].all()
     assert np.array_equal(many[~flips], one[~flips])   # flat interior, flat background
+
+
+def test_drop_meshes_frees_the_meshes_and_renders_the_same():
+    """The command's render drops its scene's meshes once flattened (the
+    build's peak then does not hold them too): same image and statistics,
+    and the scene keeps only what is not a mesh."""
+    from raytrace.scene import Mesh
+    from raytrace.scenes.builtin import teapot
+    kept = render(teapot(4), accel="bvh", shadows="hard", width=W, height=H)
+    scene = teapot(4)
+    dropped = render(scene, accel="bvh", shadows="hard", width=W, height=H, drop_meshes=True)
+    assert np.array_equal(kept.image, dropped.image)
+    assert kept.stats["counters"] == dropped.stats["counters"]
+    assert kept.stats["triangles"] == dropped.stats["triangles"] > 0
+    assert scene.objects and not any(isinstance(o, Mesh) for o in scene.objects)
