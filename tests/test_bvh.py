@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from raytrace.accel.bvh import MAX_DEPTH, build_bvh, build_bvh_kernel, collapse_bvh4
+from raytrace.accel.bvh import BOX, MAX_DEPTH, build_bvh, build_bvh_kernel, collapse_bvh4
 from raytrace.buffers import INDEX, prim_bounds
 from raytrace.flatten import flatten
 from raytrace.kernels.cast import cast_closest, cast_occluded
@@ -139,7 +139,9 @@ def tree_check(lo, hi, tree):
 def wide_check(lo, hi, node_box, node_child, node_count, prim_ids):
     """Invariants of the 4-wide tree traversal uses (collapse_bvh4)."""
     n, m = len(lo), len(node_box)
-    assert node_box.dtype == np.float64 and node_box.shape == (m, 6, 4)
+    # float32, rounded outwards: the leaf and child checks below compare
+    # them with the float64 boxes exactly.
+    assert node_box.dtype == BOX and node_box.shape == (m, 6, 4)
     for a in (node_child, node_count):
         assert a.dtype == INDEX and a.shape == (m, 4) and a.flags.c_contiguous
     assert node_box.flags.c_contiguous and len(prim_ids) == n
@@ -209,7 +211,11 @@ def test_build_single():
     assert node_count.tolist() == [1] and node_start.tolist() == [0] and prim_ids.tolist() == [0]
     # one wide node whose first lane is the leaf
     assert count4.tolist() == [[1, 0, 0, 0]] and node_child.tolist() == [[0, -1, -1, -1]]
-    assert np.array_equal(node_box[0, :3, 0], node_lo[0]) and np.array_equal(node_box[0, 3:, 0], node_hi[0])
+    # The binary box rounded outwards to the next float32s, not to the nearest.
+    wide_lo, wide_hi = node_box[0, :3, 0].astype(np.float64), node_box[0, 3:, 0].astype(np.float64)
+    assert np.all(wide_lo <= node_lo[0]) and np.all(wide_hi >= node_hi[0])
+    assert np.array_equal(np.nextafter(node_box[0, :3, 0], np.float32(np.inf)) > node_lo[0], [True] * 3)
+    assert np.array_equal(np.nextafter(node_box[0, 3:, 0], np.float32(-np.inf)) < node_hi[0], [True] * 3)
     # Exact box, widened by the builder's tiny pad.
     assert np.all(node_lo <= lo) and np.allclose(node_lo, lo, rtol=0, atol=1e-8)
     assert np.all(node_hi >= hi) and np.allclose(node_hi, hi, rtol=0, atol=1e-8)
@@ -225,14 +231,18 @@ def test_build_invariants(seed, n, size):
 
 
 def test_collapse_keeps_boxes_and_shrinks_tree():
-    """Every box of the wide tree is a box of the binary tree (so it culls
-    exactly as the binary tree would), in about a third as many nodes."""
+    """Every box of the wide tree is a box of the binary tree rounded
+    outwards to float32 (so it culls no ray the binary tree keeps), in about
+    a third as many nodes."""
     lo, hi = boxes_of(random_soup(np.random.default_rng(12), 2000, 0.02))
     (node_lo, node_hi, node_start, node_count, _), (node_box, node_child, count4) = wide_of(lo, hi)
     used = ~np.isinf(node_box[:, 0, :])
     lanes = np.concatenate([node_box[:, :3, :].transpose(0, 2, 1)[used],
                             node_box[:, 3:, :].transpose(0, 2, 1)[used]], axis=1)
-    binary = np.concatenate([node_lo, node_hi], axis=1)[1:]   # every node but the root
+    lo32, hi32 = node_lo.astype(np.float32), node_hi.astype(np.float32)
+    lo32 = np.where(lo32 > node_lo, np.nextafter(lo32, np.float32(-np.inf)), lo32)
+    hi32 = np.where(hi32 < node_hi, np.nextafter(hi32, np.float32(np.inf)), hi32)
+    binary = np.concatenate([lo32, hi32], axis=1)[1:]   # every node but the root
     assert set(map(tuple, lanes)) <= set(map(tuple, binary))
     # a lane per wide node but the root, and one per binary leaf
     assert used.sum() == len(node_box) - 1 + (node_count > 0).sum()

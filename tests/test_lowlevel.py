@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from numba import njit
 
-from raytrace.accel.bvh import WIDTH
+from raytrace.accel.bvh import BOX, WIDTH
 from raytrace.kernels.bvh import near_rows
 from raytrace.kernels.intersect import ray_aabb
 from raytrace.kernels.lowlevel import frame_array, ray_aabb4
@@ -38,12 +38,16 @@ def entries_both(node_box, origins, dirs, t_max):
 
 
 def as_nodes(lo, hi):
-    """(k, 3) boxes -> (ceil(k/4), 6, 4) node_box, unused lanes +inf."""
+    """(k, 3) boxes -> (ceil(k/4), 6, 4) node_box, unused lanes +inf, in the
+    BVH's box type, rounded outwards as collapse_bvh4 rounds them."""
     m = -(-len(lo) // WIDTH)
-    box = np.full((m, 6, WIDTH), np.inf)
+    box = np.full((m, 6, WIDTH), np.inf, BOX)
+    lo32, hi32 = lo.astype(BOX), hi.astype(BOX)
+    lo32 = np.where(lo32 > lo, np.nextafter(lo32, BOX(-np.inf)), lo32)
+    hi32 = np.where(hi32 < hi, np.nextafter(hi32, BOX(np.inf)), hi32)
     for k in range(len(lo)):
-        box[k // WIDTH, :3, k % WIDTH] = lo[k]
-        box[k // WIDTH, 3:, k % WIDTH] = hi[k]
+        box[k // WIDTH, :3, k % WIDTH] = lo32[k]
+        box[k // WIDTH, 3:, k % WIDTH] = hi32[k]
     return box
 
 

@@ -3,13 +3,15 @@ an array in the caller's stack frame, and a 4-wide box test in SIMD.
 
 Both are Numba intrinsics that emit LLVM IR directly.
 """
+import numpy as np
 from llvmlite import ir
 from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 from numba.np.arrayobj import populate_array
+from numba.np.numpy_support import from_dtype
 
-from ..accel.bvh import WIDTH
+from ..accel.bvh import BOX, WIDTH
 from .intersect import BOX_FAR_SCALE
 
 
@@ -39,15 +41,16 @@ def frame_array(typingctx, size, dtype):
     return arrty(size, dtype), codegen
 
 
-_BOX_ARRAY = types.Array(types.float64, 3, "C")
+_BOX_ARRAY = types.Array(from_dtype(np.dtype(BOX)), 3, "C")
 
 
 @intrinsic
 def ray_aabb4(typingctx, node_box, node, nx, ny, nz, ox, oy, oz, ix, iy, iz, t_max):
     """Slab test of one ray against the 4 child boxes of BVH node ``node``.
 
-    ``node_box`` is (m, 6, 4) float64: rows lo x, y, z, hi x, y, z, one lane
-    per child.  ``nx, ny, nz`` are the rows of the planes the ray meets
+    ``node_box`` is (m, 6, 4) float32: rows lo x, y, z, hi x, y, z, one lane
+    per child, each row widened to <4 x double> as it is loaded (exactly),
+    so the arithmetic is float64's.  ``nx, ny, nz`` are the rows of the planes the ray meets
     first on each axis (0/3, 1/4, 2/5 by the sign of its inverse direction),
     so no swap is needed: pbrt's dirIsNeg trick, vectorised across children
     as in Dammertz et al. 2008 ("Shallow Bounding Volume Hierarchies for
@@ -77,6 +80,7 @@ def ray_aabb4(typingctx, node_box, node, nx, ny, nz, ox, oy, oz, ix, iy, iz, t_m
         data = context.make_array(sig.args[0])(context, builder, value=box).data
         f64 = ir.DoubleType()
         vec = ir.VectorType(f64, WIDTH)
+        stored = ir.VectorType(context.get_value_type(sig.args[0].dtype), WIDTH)
         i64 = ir.IntType(64)
         i32 = ir.IntType(32)
 
@@ -90,7 +94,8 @@ def ray_aabb4(typingctx, node_box, node, nx, ny, nz, ox, oy, oz, ix, iy, iz, t_m
 
         def plane(row):
             p = builder.gep(data, [builder.add(base, builder.mul(row, ir.Constant(i64, WIDTH)))])
-            return builder.load(builder.bitcast(p, vec.as_pointer()), align=8)
+            row = builder.load(builder.bitcast(p, stored.as_pointer()), align=4)
+            return builder.fpext(row, vec)
 
         widen = splat(ir.Constant(f64, BOX_FAR_SCALE))
         t0 = splat(ir.Constant(f64, 0.0))
