@@ -97,7 +97,7 @@ def tree_check(lo, hi, tree):
     for a in (node_start, node_count, prim_ids):
         assert a.dtype == INDEX and a.ndim == 1 and a.flags.c_contiguous
     for a in (node_lo, node_hi):
-        assert a.dtype == np.float64 and a.shape == (m, 3) and a.flags.c_contiguous
+        assert a.dtype == BOX and a.shape == (m, 3) and a.flags.c_contiguous
     assert len(node_count) == m and len(prim_ids) == n
     assert m <= max(2 * n - 1, 0)
     if n == 0:
@@ -216,9 +216,14 @@ def test_build_single():
     assert np.all(wide_lo <= node_lo[0]) and np.all(wide_hi >= node_hi[0])
     assert np.array_equal(np.nextafter(node_box[0, :3, 0], np.float32(np.inf)) > node_lo[0], [True] * 3)
     assert np.array_equal(np.nextafter(node_box[0, 3:, 0], np.float32(-np.inf)) < node_hi[0], [True] * 3)
-    # Exact box, widened by the builder's tiny pad.
-    assert np.all(node_lo <= lo) and np.allclose(node_lo, lo, rtol=0, atol=1e-8)
-    assert np.all(node_hi >= hi) and np.allclose(node_hi, hi, rtol=0, atol=1e-8)
+    # The box widened by the builder's tiny pad (1e-9 of 3), then out to the
+    # next float32s.
+    assert node_lo.dtype == node_hi.dtype == BOX
+    padded_lo, padded_hi = lo - 3e-9, hi + 3e-9
+    assert np.all(node_lo <= padded_lo)
+    assert np.all(node_lo >= padded_lo - np.spacing(np.abs(padded_lo).astype(BOX)))
+    assert np.all(node_hi >= padded_hi)
+    assert np.all(node_hi <= padded_hi + np.spacing(np.abs(padded_hi).astype(BOX)))
 
 
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 400),
@@ -261,13 +266,18 @@ def test_build_coincident_centroids():
 
 def test_build_depth_capped():
     """Boxes at exponentially growing distances make SAH trees a chain;
-    depth stays within the traversal stack, and traversal stays exact."""
-    x = 3.0 ** np.arange(200)
-    lo = np.stack([x, np.zeros_like(x), np.zeros_like(x)], axis=1)
-    hi = lo + 0.5
+    depth stays within the traversal stack, and traversal stays exact.
+    The chain's boxes lie within float32's range (3^-75 .. 3^75, each a
+    tenth of its distance long), so the float32 tree still tells them
+    apart; the triangles reach 3^199, beyond it, where the tree's boxes
+    run to infinity and culling weakens, and the hits stay exact."""
+    s = 3.0 ** np.arange(-75, 75)
+    lo = np.stack([s, np.zeros_like(s), np.zeros_like(s)], axis=1)
+    hi = lo + 0.1 * s[:, None]
     depth = tree_check(lo, hi, build_bvh(lo, hi))
     assert depth == MAX_DEPTH
     wide_of(lo, hi)
+    x = 3.0 ** np.arange(200)
     tri = np.array([[0.0, -1, -1], [0.0, 1, -1], [0.5, 0, 1]])
     geo, ranges = make_scene(x[:, None, None] * [1, 0, 0] + tri)
     rng = np.random.default_rng(9)

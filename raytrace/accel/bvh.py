@@ -79,8 +79,8 @@ def build_bvh_kernel(lo, hi, max_leaf):
     """Returns (node_lo, node_hi, node_start, node_count, prim_ids, depth)."""
     n = lo.shape[0]
     max_nodes = max(2 * n - 1, 0)
-    node_lo = np.empty((max_nodes, 3), np.float64)
-    node_hi = np.empty((max_nodes, 3), np.float64)
+    node_lo = np.empty((max_nodes, 3), BOX)
+    node_hi = np.empty((max_nodes, 3), BOX)
     node_start = np.empty(max_nodes, np.int64)
     node_count = np.empty(max_nodes, np.int64)
     prim_ids = np.empty(n, np.int64)
@@ -140,12 +140,12 @@ def build_bvh_kernel(lo, hi, max_leaf):
         # A parent's largest magnitude is at least its children's, so padded
         # children stay inside padded parents (rounding is monotonic).
         pad = BOX_PAD * max(abs(bx0), abs(by0), abs(bz0), abs(bx1), abs(by1), abs(bz1))
-        node_lo[node, 0] = bx0 - pad
-        node_lo[node, 1] = by0 - pad
-        node_lo[node, 2] = bz0 - pad
-        node_hi[node, 0] = bx1 + pad
-        node_hi[node, 1] = by1 + pad
-        node_hi[node, 2] = bz1 + pad
+        node_lo[node, 0] = _round_down(bx0 - pad)
+        node_lo[node, 1] = _round_down(by0 - pad)
+        node_lo[node, 2] = _round_down(bz0 - pad)
+        node_hi[node, 0] = _round_up(bx1 + pad)
+        node_hi[node, 1] = _round_up(by1 + pad)
+        node_hi[node, 2] = _round_up(bz1 + pad)
 
         count = end - start
         mid = -1
@@ -288,10 +288,11 @@ def collapse_bvh4(node_lo, node_hi, node_start, node_count):
     repeatedly replaces the interior child with the largest surface area by
     its own two children until it has 4 (Dammertz et al. 2008; the greedy
     choice keeps the boxes a ray most likely enters together in one node).
-    The children's boxes are stored as float32, rounded outwards (lo down,
-    hi up), so each still holds its primitives and culls only what the
-    float64 box culls: the same hits, with half the bytes a node (a ray
-    reads 96 of them a node, not 192).  Lane j of wide node i: node_box[i, :, j] is
+    The children's boxes are copied as BOX (float32), rounded outwards (lo
+    down, hi up) where a builder made them float64, so each still holds its
+    primitives and culls only what the float64 box culls: the same hits,
+    with half the bytes a node (a ray reads 96 of them a node, not 192).
+    Lane j of wide node i: node_box[i, :, j] is
     the box (rows lo x, y, z, hi x, y, z); node_count4[i, j] > 0 makes it a
     leaf over prim_ids[node_child[i, j] : + node_count4[i, j]], 0 an interior
     child, wide node node_child[i, j].  Unused lanes: box lo = hi = +inf,
@@ -401,16 +402,35 @@ def collapse_bvh4_kernel(node_lo, node_hi, node_start, node_count,
     return n_wide
 
 
+def outward(lo, hi):
+    """Boxes (lo, hi) as BOX (float32) arrays, rounded outwards, so each
+    holds the box it comes from.  The float64 arrays may go once this
+    returns: half the bytes through the build."""
+    out = []
+    for x, away in ((lo, -np.inf), (hi, np.inf)):
+        x = np.asarray(x, np.float64).reshape(-1, 3)
+        with np.errstate(over="ignore"):    # beyond float32's range: +-inf, still outwards
+            y = x.astype(BOX)
+        off = y > x if away < 0 else y < x
+        y[off] = np.nextafter(y[off], BOX(away))
+        out.append(y)
+    return out
+
+
 def build_bvh(lo, hi, max_leaf=MAX_LEAF):
-    """Binned-SAH BVH over (n, 3) float64 primitive boxes ``lo``, ``hi``.
+    """Binned-SAH BVH over (n, 3) primitive boxes ``lo``, ``hi`` (float64,
+    or BOX from ``outward``).
 
     Returns (node_lo, node_hi, node_start, node_count, prim_ids) as documented
     on ``Accel``; prim_ids are the row indices of ``lo``/``hi`` (unified
     primitive ids when the boxes come from ``prim_bounds``).  n == 0 gives
-    zero-length arrays, which traversal treats as "nothing to hit".
+    zero-length arrays, which traversal treats as "nothing to hit".  The
+    tree's boxes are BOX, rounded outwards from the padded float64 ones.
     """
-    lo = np.ascontiguousarray(lo, dtype=np.float64).reshape(-1, 3)
-    hi = np.ascontiguousarray(hi, dtype=np.float64).reshape(-1, 3)
+    if np.asarray(lo).dtype != BOX or np.asarray(hi).dtype != BOX:
+        lo, hi = outward(lo, hi)
+    lo = np.ascontiguousarray(lo).reshape(-1, 3)
+    hi = np.ascontiguousarray(hi).reshape(-1, 3)
     if lo.shape != hi.shape:
         raise ValueError(f"box arrays differ in shape: {lo.shape} vs {hi.shape}")
     return build_bvh_kernel(lo, hi, int(max_leaf))[:5]
@@ -425,14 +445,14 @@ def build(geo, obj_ranges, bvh_build="sah", leaf_size=MAX_LEAF, **_):
     """A BVH over every bounded primitive (planes have no box and are tested
     separately by every structure), built by ``bvh_build`` with leaves of at
     most ``leaf_size`` primitives, collapsed to 4 children per node."""
-    lo, hi = prim_bounds(geo)
+    lo, hi = outward(*prim_bounds(geo))   # the float64 boxes go at once
     if BUILDERS[bvh_build] is None:
         binary = build_bvh(lo, hi, leaf_size)
     else:
         import importlib
         binary = importlib.import_module(BUILDERS[bvh_build]).build_binary(lo, hi, int(leaf_size))
     node_lo, node_hi, node_start, node_count, prim_ids = binary
-    del lo, hi, binary        # the boxes go before the wide tree is made: 48 bytes a primitive
+    del lo, hi, binary        # the boxes go before the wide tree is made: 24 bytes a primitive
     node_box, node_child, node_count4 = collapse_bvh4(node_lo, node_hi, node_start, node_count)
     return BVH(node_box=node_box, node_child=node_child, node_count=node_count4, prim_ids=prim_ids)
 
