@@ -64,11 +64,19 @@ def _weld(verts, faces):
     return welded, inverse[faces]
 
 
+_CHUNK = 1 << 18
+
+
 def _vertex_normals(verts, faces):
     """Area-weighted average of face normals around each vertex."""
     corners = np.ascontiguousarray(faces.T)     # np.take on contiguous rows: fast gathers
-    p0, p1, p2 = (np.take(verts, corners[k], axis=0) for k in range(3))
-    fn = np.cross(p1 - p0, p2 - p0)
+    # Face normals a chunk of faces at a time: the corners and edges of all
+    # faces at once were 500 MB of temporaries at --detail 256 (4.2M faces),
+    # the tessellation's peak; the same products, so the same bits.
+    fn = np.empty((len(faces), 3))
+    for s in range(0, len(faces), _CHUNK):
+        p0, p1, p2 = (np.take(verts, corners[k, s:s + _CHUNK], axis=0) for k in range(3))
+        fn[s:s + _CHUNK] = np.cross(p1 - p0, p2 - p0)
     # One bincount per axis over the three corners in turn: the sums of
     # np.add.at corner by corner, term by term in the same order (so the
     # same bits), 10x faster.
