@@ -486,17 +486,22 @@ def statistics(bvh, n_prims):
     is_leaf = used & ~inner
     # Each lane's box edges, (m, 4) per axis: half_area's arithmetic on the
     # node array's own rows, without (m, 4, 3) copies (150 MB at 4.2M).
+    # Edges in float64 (the float32 boxes' products overflow from 1e19 on).
     box = bvh.node_box
     with np.errstate(invalid="ignore"):          # unused lanes: inf - inf
-        e = [np.maximum(box[:, 3 + a, :] - box[:, a, :], 0.0) for a in range(3)]
+        e = [np.maximum(box[:, 3 + a, :].astype(np.float64) - box[:, a, :], 0.0)
+             for a in range(3)]
         area = np.where(used, e[0] * e[1] + e[1] * e[2] + e[2] * e[0], 0.0)
     del e
-    lo = np.moveaxis(box[0, 0:3, :], 0, 1)       # the root's lanes, (4, 3)
-    hi = np.moveaxis(box[0, 3:6, :], 0, 1)
+    lo = np.moveaxis(box[0, 0:3, :], 0, 1).astype(np.float64)   # the root's lanes, (4, 3)
+    hi = np.moveaxis(box[0, 3:6, :], 0, 1).astype(np.float64)
     root = half_area(lo[used[0]].min(axis=0), hi[used[0]].max(axis=0))
-    visits = 1.0 + area[inner].sum() / root if root > 0 else float(m)
-    tests = (area[is_leaf] * bvh.node_count[is_leaf]).sum() / root if root > 0 else 0.0
-    out["sah_cost"] = float(TRAVERSAL_COST * visits + tests)
+    # A scene beyond float32's range (3.4e38) has boxes to infinity, whose
+    # areas say nothing: no SAH cost then.
+    if np.isfinite(root):
+        visits = 1.0 + area[inner].sum() / root if root > 0 else float(m)
+        tests = (area[is_leaf] * bvh.node_count[is_leaf]).sum() / root if root > 0 else 0.0
+        out["sah_cost"] = float(TRAVERSAL_COST * visits + tests)
     leaf_depth = np.repeat(depth, is_leaf.sum(axis=1)) + 1
     return out | leaves(bvh.node_count[is_leaf], leaf_depth) | memory(bvh, n_prims)
 
