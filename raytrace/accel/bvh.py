@@ -33,7 +33,8 @@ from ..kernels.jit import BUILD, BUILD_STEP
 # prim_ids[node_child : node_child + node_count], 0 an inner child, node
 # node_child (or an unused lane, whose box is +inf).  prim_ids: unified ids.
 BVH = namedtuple("BVH", ["node_box", "node_child", "node_count", "prim_ids"])
-# The wide nodes' box type: float32, rounded outwards (collapse_bvh4).
+# The nodes' box type, binary and wide: float32, each the padded float64
+# box rounded outwards (build_bvh_kernel, collapse_bvh4).
 BOX = np.float32
 # Children per node: one <4 x double> per box plane (kernels/lowlevel.py).
 WIDTH = 4

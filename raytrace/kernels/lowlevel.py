@@ -48,13 +48,14 @@ _BOX_ARRAY = types.Array(from_dtype(np.dtype(BOX)), 3, "C")
 def ray_aabb4(typingctx, node_box, node, nx, ny, nz, ox, oy, oz, ix, iy, iz, t_max):
     """Slab test of one ray against the 4 child boxes of BVH node ``node``.
 
-    ``node_box`` is (m, 6, 4) float32: rows lo x, y, z, hi x, y, z, one lane
-    per child, each row widened to <4 x double> as it is loaded (exactly),
-    so the arithmetic is float64's.  ``nx, ny, nz`` are the rows of the planes the ray meets
-    first on each axis (0/3, 1/4, 2/5 by the sign of its inverse direction),
-    so no swap is needed: pbrt's dirIsNeg trick, vectorised across children
-    as in Dammertz et al. 2008 ("Shallow Bounding Volume Hierarchies for
-    Fast SIMD Ray Tracing of Incoherent Rays").
+    ``node_box`` is (m, 6, 4) float32: rows lo x, y, z, hi x, y, z, one
+    lane per child, each row widened to <4 x double> as it is loaded
+    (exactly), so the arithmetic is float64's.  ``nx, ny, nz`` are the rows
+    of the planes the ray meets first on each axis (0/3, 1/4, 2/5 by the
+    sign of its inverse direction), so no swap is needed: pbrt's dirIsNeg
+    trick, vectorised across children as in Dammertz et al. 2008 ("Shallow
+    Bounding Volume Hierarchies for Fast SIMD Ray Tracing of Incoherent
+    Rays").
 
     Returns the 4 entry distances (clamped to 0), inf where the ray misses
     the box or enters beyond t_max.  The arithmetic is ray_aabb's operation
