@@ -8,7 +8,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from raytrace.accel.bvh import BOX, MAX_DEPTH, build_bvh, build_bvh_kernel, collapse_bvh4
+from raytrace.accel.bvh import (
+    BOX,
+    LINK,
+    MAX_DEPTH,
+    build_bvh,
+    build_bvh_kernel,
+    build_bvh_parallel,
+    collapse_bvh4,
+    outward,
+)
 from raytrace.buffers import INDEX, prim_bounds
 from raytrace.flatten import flatten
 from raytrace.kernels.cast import cast_closest, cast_occluded
@@ -94,8 +103,8 @@ def tree_check(lo, hi, tree):
     """Structural invariants of a flattened BVH over boxes lo, hi."""
     node_lo, node_hi, node_start, node_count, prim_ids = tree
     n, m = len(lo), len(node_start)
-    for a in (node_start, node_count, prim_ids):
-        assert a.dtype == INDEX and a.ndim == 1 and a.flags.c_contiguous
+    for a, dtype in ((node_start, LINK), (node_count, LINK), (prim_ids, INDEX)):
+        assert a.dtype == dtype and a.ndim == 1 and a.flags.c_contiguous
     for a in (node_lo, node_hi):
         assert a.dtype == BOX and a.shape == (m, 3) and a.flags.c_contiguous
     assert len(node_count) == m and len(prim_ids) == n
@@ -299,9 +308,35 @@ def test_build_accel_fields():
 
 
 def test_build_kernel_depth_reported():
-    lo, hi = boxes_of(random_soup(np.random.default_rng(2), 1000, 0.01))
-    *_, depth = build_bvh_kernel(lo, hi, 4)
-    assert 0 < depth <= MAX_DEPTH
+    lo, hi = outward(*boxes_of(random_soup(np.random.default_rng(2), 1000, 0.01)))
+    n = len(lo)
+    nodes = (np.empty((2 * n, 3), BOX), np.empty((2 * n, 3), BOX), np.empty(2 * n, LINK),
+             np.empty(2 * n, LINK))
+    rows, depth, tasks = build_bvh_kernel(lo, hi, np.arange(n), 0, n, 0, 4, *nodes, 0, 0,
+                                          np.empty((0, 4), np.int64))
+    assert 0 < depth <= MAX_DEPTH and 0 < rows < 2 * n and tasks == 0
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3])
+@pytest.mark.parametrize("split", [1, 2, 7, 64, 5000])
+def test_parallel_build_gives_the_serial_tree(threads, split):
+    """build_bvh_parallel builds subtrees apart, each into its own rows, and the
+    collapse follows the top's links: the 4-wide tree must be the serial
+    builder's, array for array, whatever the number of subtrees (split) and
+    threads, on a soup, on coincident centroids and on a depth-capped chain."""
+    s = 3.0 ** np.arange(-75, 75)
+    chain_lo = np.stack([s, np.zeros_like(s), np.zeros_like(s)], axis=1)
+    cases = [boxes_of(random_soup(np.random.default_rng(5), 3000, 0.02)),
+             (np.tile([[-1.0, -1, -1]], (300, 1)), np.tile([[1.0, 1, 1]], (300, 1))),
+             (chain_lo, chain_lo + 0.1 * s[:, None])]
+    for lo, hi in cases:
+        lo, hi = outward(lo, hi)
+        binary = build_bvh(lo, hi)
+        serial = collapse_bvh4(*binary[:4]) + (binary[4],)
+        *binary, links = build_bvh_parallel(lo, hi, 4, threads=threads, split=split)
+        parallel = collapse_bvh4(*binary[:4], links) + (binary[4],)
+        for a, b in zip(serial, parallel):
+            assert np.array_equal(a, b)
 
 
 # ---------------------------------------------------------------- traversal

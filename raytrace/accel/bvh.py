@@ -19,8 +19,10 @@ its ``node_count`` is 0.  A leaf covers
 ``prim_ids[node_start : node_start + node_count]``.  ``collapse_bvh4`` then
 turns it into the 4-wide tree traversal uses (``BVH`` below).
 """
+import threading
 from collections import namedtuple
 
+import numba
 import numpy as np
 from numba import njit
 
@@ -36,6 +38,10 @@ BVH = namedtuple("BVH", ["node_box", "node_child", "node_count", "prim_ids"])
 # The nodes' box type, binary and wide: float32, each the padded float64
 # box rounded outwards (build_bvh_kernel, collapse_bvh4).
 BOX = np.float32
+# The binary tree's node_start and node_count (rows and counts, below 2^31
+# for any mesh that fits in memory): half of int64's bytes while the
+# binary and the wide tree are both held, the build's peak.
+LINK = np.int32
 # Children per node: one <4 x double> per box plane (kernels/lowlevel.py).
 WIDTH = 4
 
@@ -65,6 +71,17 @@ MAX_DEPTH = 60
 # distances).  1e-9 is ~4x10^6 ulps: it covers rounding for ray origins up
 # to ~10^5 times the node's coordinates away, and grows boxes negligibly.
 BOX_PAD = 1e-9
+# From this many primitives on, build() builds on every thread
+# (build_bvh_parallel: the same tree); below, a small scene's first render
+# does not compile the parallel path's code for little gain.
+PARALLEL_MIN = 100_000
+# Subtrees of at most n / SPLIT primitives are built in parallel; the top
+# levels above them are serial passes over every primitive, and smaller
+# subtrees balance the threads better.  4, 8 and 16 built alike fast at 1M
+# and 4.2M triangles on 2 threads (32 and 128 slower), but each run of
+# rows wastes up to a huge page (2 MB) at its ends: at 4.2M the peak was
+# 1065 MB with 8, 1003 MB with 4.
+SPLIT = 4
 
 
 @njit(**BUILD_STEP)
@@ -75,25 +92,21 @@ def _half_area(x0, y0, z0, x1, y1, z1):
     return dx * dy + dy * dz + dz * dx
 
 
-@njit(**BUILD)
-def build_bvh_kernel(lo, hi, max_leaf):
-    """Returns (node_lo, node_hi, node_start, node_count, prim_ids, depth)."""
-    n = lo.shape[0]
-    max_nodes = max(2 * n - 1, 0)
-    node_lo = np.empty((max_nodes, 3), BOX)
-    node_hi = np.empty((max_nodes, 3), BOX)
-    node_start = np.empty(max_nodes, np.int64)
-    node_count = np.empty(max_nodes, np.int64)
-    prim_ids = np.empty(n, np.int64)
-    for i in range(n):
-        prim_ids[i] = i
-    if n == 0:
-        return node_lo, node_hi, node_start, node_count, prim_ids, 0
+@njit(**dict(BUILD, nogil=True))
+def build_bvh_kernel(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, node_hi,
+                     node_start, node_count, first, defer, tasks):
+    """The binned-SAH tree over prim_ids[start:end] (reordered in place),
+    its root at ``depth``, into node rows first, first + 1, ...
+    depth-first.  With defer > 0, a node below the root with at most defer
+    primitives is not built but left as a task: a row (node, start, end,
+    depth) of ``tasks`` (n, 4), and node_count -1 at its row, for
+    build_bvh_parallel to build apart.  Returns (the row after the last node,
+    the deepest level, the number of tasks).  nogil: threads may build
+    disjoint ranges into disjoint rows at once.
 
-    # A box's centre, 0.5 (lo + hi), is computed where it is needed: an
-    # array of them cost 24 bytes a primitive (100 MB at 4.2M triangles)
-    # and was no faster.
-
+    A box's centre, 0.5 (lo + hi), is computed where it is needed: an
+    array of them cost 24 bytes a primitive (100 MB at 4.2M triangles)
+    and was no faster."""
     bin_count = np.empty((3, N_BINS), np.int64)
     bin_lo = np.empty((3, N_BINS, 3), np.float64)
     bin_hi = np.empty((3, N_BINS, 3), np.float64)
@@ -105,9 +118,10 @@ def build_bvh_kernel(lo, hi, max_leaf):
     # At most one entry per level, and levels are capped at MAX_DEPTH.
     stack = np.empty((MAX_DEPTH + 2, 4), np.int64)
     sp = 0
-    n_nodes = 0
-    max_depth = 0
-    start, end, depth, parent = 0, n, 0, -1
+    n_nodes = first
+    max_depth = depth
+    n_tasks = 0
+    parent = -1
     while True:
         node = n_nodes
         n_nodes += 1
@@ -115,6 +129,23 @@ def build_bvh_kernel(lo, hi, max_leaf):
             node_start[parent] = node  # this is parent's second child
         if depth > max_depth:
             max_depth = depth
+        count = end - start
+        if node > first and count <= defer:
+            # Left for another thread (build_bvh_parallel): a placeholder here.
+            tasks[n_tasks, 0] = node
+            tasks[n_tasks, 1] = start
+            tasks[n_tasks, 2] = end
+            tasks[n_tasks, 3] = depth
+            n_tasks += 1
+            node_count[node] = -1
+            if sp == 0:
+                break
+            sp -= 1
+            start = stack[sp, 0]
+            end = stack[sp, 1]
+            depth = stack[sp, 2]
+            parent = stack[sp, 3]
+            continue
 
         # Node box and centroid box.
         bx0 = by0 = bz0 = np.inf
@@ -148,7 +179,6 @@ def build_bvh_kernel(lo, hi, max_leaf):
         node_hi[node, 1] = _round_up(by1 + pad)
         node_hi[node, 2] = _round_up(bz1 + pad)
 
-        count = end - start
         mid = -1
         if count > 1 and depth < MAX_DEPTH:
             cmin = (cx0, cy0, cz0)
@@ -276,13 +306,10 @@ def build_bvh_kernel(lo, hi, max_leaf):
             depth = stack[sp, 2]
             parent = stack[sp, 3]
 
-    # Views, not copies: the rows past n_nodes were never touched, so they
-    # hold no memory, and a copy would double the rows that were.
-    return (node_lo[:n_nodes], node_hi[:n_nodes], node_start[:n_nodes], node_count[:n_nodes],
-            prim_ids, max_depth)
+    return n_nodes, max_depth, n_tasks
 
 
-def collapse_bvh4(node_lo, node_hi, node_start, node_count):
+def collapse_bvh4(node_lo, node_hi, node_start, node_count, links=None):
     """The binary tree as a 4-wide one: (node_box, node_child, node_count4).
 
     Each wide node takes a binary interior node's two children, then
@@ -299,6 +326,11 @@ def collapse_bvh4(node_lo, node_hi, node_start, node_count):
     child, wide node node_child[i, j].  Unused lanes: box lo = hi = +inf,
     which no ray enters, and count 0.  Wide nodes are numbered depth-first.
     A single-leaf tree becomes one wide node with one leaf lane.
+
+    ``links``: for a tree not in one depth-first run of rows (build_bvh_parallel):
+    (root, top, top_first, n_inner): the root's row, the first row from
+    which a node's first child is top_first[row - top] instead of row + 1,
+    and the number of interior nodes.
     """
     m = len(node_start)
     # Every wide node is made of a binary interior node (a lone leaf: the
@@ -306,7 +338,10 @@ def collapse_bvh4(node_lo, node_hi, node_start, node_count):
     # third.  np.empty: the kernel fills the rows it uses, and the pages of
     # the rest are never touched, so they cost no memory (np.full of this
     # bound and a trimmed copy took 1.8 s and 900 MB at 4.2M triangles).
-    cap = max(int(np.count_nonzero(node_count == 0)), 1)
+    if links is None:
+        links = (0, m, _NO_FIRST, int(np.count_nonzero(node_count == 0)))
+    root, top, top_first, n_inner = links
+    cap = max(n_inner, 1)
     node_box = np.empty((cap, 6, WIDTH), BOX)
     node_child = np.empty((cap, WIDTH), np.int64)
     count4 = np.empty((cap, WIDTH), np.int64)
@@ -316,7 +351,7 @@ def collapse_bvh4(node_lo, node_hi, node_start, node_count):
     # Pending interior children: (binary node, slot of the wide lane that
     # will point at it).  A wide node pushes at most WIDTH.
     stack = np.empty(((MAX_DEPTH + 2) * WIDTH, 2), np.int64)
-    n_wide = collapse_bvh4_kernel(node_lo, node_hi, node_start, node_count,
+    n_wide = collapse_bvh4_kernel(node_lo, node_hi, node_start, node_count, root, top, top_first,
                                   node_box, node_child, count4, kids, stack)
     # Views of the rows used: the rest of each allocation stays untouched.
     return node_box[:n_wide], node_child[:n_wide], count4[:n_wide]
@@ -341,13 +376,13 @@ def _round_up(x):
 
 
 @njit(**BUILD)
-def collapse_bvh4_kernel(node_lo, node_hi, node_start, node_count,
+def collapse_bvh4_kernel(node_lo, node_hi, node_start, node_count, root, top, top_first,
                          node_box, node_child, count4, kids, stack):
     """collapse_bvh4's loop, into the arrays its caller allocates; returns
     the number of wide nodes."""
     sp = 0
     n_wide = 1
-    src = 0   # binary node the current wide node is made of
+    src = root   # binary node the current wide node is made of
     wide = 0
     while True:
         if node_count[src] > 0:
@@ -355,7 +390,7 @@ def collapse_bvh4_kernel(node_lo, node_hi, node_start, node_count,
             kids[0] = src
         else:
             n_kids = 2
-            kids[0] = src + 1
+            kids[0] = src + 1 if src < top else top_first[src - top]
             kids[1] = node_start[src]
             while n_kids < WIDTH:
                 best = -1
@@ -371,7 +406,7 @@ def collapse_bvh4_kernel(node_lo, node_hi, node_start, node_count,
                 if best < 0:
                     break
                 k = kids[best]
-                kids[best] = k + 1
+                kids[best] = k + 1 if k < top else top_first[k - top]
                 kids[n_kids] = node_start[k]
                 n_kids += 1
         for j in range(n_kids, WIDTH):          # unused lanes: a box no ray enters
@@ -434,7 +469,95 @@ def build_bvh(lo, hi, max_leaf=MAX_LEAF):
     hi = np.ascontiguousarray(hi).reshape(-1, 3)
     if lo.shape != hi.shape:
         raise ValueError(f"box arrays differ in shape: {lo.shape} vs {hi.shape}")
-    return build_bvh_kernel(lo, hi, int(max_leaf))[:5]
+    n = len(lo)
+    # np.empty at the bound (a binary tree over n primitives in non-empty
+    # leaves has at most 2n - 1 nodes): the rows never written cost no
+    # memory, and views of those written are returned, not copies.
+    rows = max(2 * n - 1, 0)
+    nodes = (np.empty((rows, 3), BOX), np.empty((rows, 3), BOX), np.empty(rows, LINK),
+             np.empty(rows, LINK))
+    prim_ids = np.arange(n)
+    if n == 0:
+        return (*nodes, prim_ids)
+    n_nodes, _, _ = build_bvh_kernel(lo, hi, prim_ids, 0, n, 0, int(max_leaf), *nodes, 0, 0,
+                                     _NO_TASKS)
+    return tuple(a[:n_nodes] for a in nodes) + (prim_ids,)
+
+
+_NO_TASKS = np.empty((0, 4), np.int64)
+_NO_FIRST = np.empty(0, np.int64)
+
+
+# ---------------------------------------------------------------- parallel build
+#
+# The binned-SAH BVH built on every thread: the serial builder's tree, so
+# the same 4-wide tree, statistics and images.
+#
+# The top of the tree is built first, by the serial loop, until nodes hold
+# at most n / SPLIT primitives; those are left as tasks.  A task's subtree
+# owns its range [s, e) of prim_ids, so the tasks are built at once on
+# Python threads (the builder releases the GIL), each by the same loop,
+# each into its own run of rows starting at row 2 s: a subtree over e - s
+# primitives has at most 2 (e - s) - 1 nodes, so the runs never meet.  The
+# top's nodes follow, from row 2 n.  Nothing is copied afterwards (a copy
+# into depth-first order touched fresh pages, which cost more here than a
+# second thread gained, docs/design.md): the collapse into the 4-wide tree
+# follows the top's first-child links explicitly (``links``), and every
+# subtree is depth-first within its run.  Rows between the runs are never
+# written, so they cost no memory.
+#
+# Tasks go to threads largest first, each to the least loaded (LPT
+# scheduling).
+
+
+def build_bvh_parallel(lo, hi, max_leaf, threads=None, split=SPLIT):
+    """(node_lo, node_hi, node_start, node_count, prim_ids, links) of the
+    serial builder's tree over BOX boxes lo, hi, built on ``threads``
+    threads (default: Numba's); ``links`` is collapse_bvh4's (root, top,
+    top_first, n_inner) for rows laid out as above."""
+    threads = threads or numba.get_num_threads()
+    n = len(lo)
+    top = 2 * n
+    rows = top + max(2 * n - 1, 1)
+    nodes = (np.empty((rows, 3), BOX), np.empty((rows, 3), BOX), np.empty(rows, LINK),
+             np.empty(rows, LINK))
+    node_count = nodes[3]
+    prim_ids = np.arange(n)
+    tasks = np.empty((n, 4), np.int64)
+    top_end, _, n_tasks = build_bvh_kernel(lo, hi, prim_ids, 0, n, 0, max_leaf, *nodes, top,
+                                           max(n // split, 1), tasks)
+    tasks = tasks[:n_tasks].copy()
+    queues = [[] for _ in range(threads)]
+    load = [0] * threads
+    for k in sorted(range(n_tasks), key=lambda k: tasks[k, 1] - tasks[k, 2]):
+        th = load.index(min(load))
+        queues[th].append(k)
+        load[th] += int(tasks[k, 2] - tasks[k, 1])
+    ends = np.empty(n_tasks, np.int64)
+    no_tasks = tasks[:0]
+
+    def work(queue):
+        for k in queue:
+            s, e, depth = (int(x) for x in tasks[k, 1:])
+            ends[k] = build_bvh_kernel(lo, hi, prim_ids, s, e, depth, max_leaf, *nodes, 2 * s, 0,
+                                       no_tasks)[0]
+    workers = [threading.Thread(target=work, args=(q,)) for q in queues[1:]]
+    for w in workers:
+        w.start()
+    work(queues[0])
+    for w in workers:
+        w.join()
+    # A top node's children are rows of the top, or placeholders (count -1)
+    # whose subtrees' roots are at row 2 s: link past the placeholders.
+    root_of = dict(zip(tasks[:, 0].tolist(), (2 * tasks[:, 1]).tolist()))
+    top_first = np.arange(top + 1, top_end + 1)
+    inner = np.flatnonzero(node_count[top:top_end] == 0) + top
+    for r in inner.tolist():
+        top_first[r - top] = root_of.get(r + 1, r + 1)
+        nodes[2][r] = root_of.get(int(nodes[2][r]), int(nodes[2][r]))
+    n_inner = len(inner) + sum(int(np.count_nonzero(node_count[2 * s:end] == 0))
+                               for s, end in zip(tasks[:, 1].tolist(), ends.tolist()))
+    return (*nodes, prim_ids, (top, top, top_first, n_inner))
 
 
 # The binary tree's builders: name -> module with build_binary(lo, hi,
@@ -447,14 +570,18 @@ def build(geo, obj_ranges, bvh_build="sah", leaf_size=MAX_LEAF, **_):
     separately by every structure), built by ``bvh_build`` with leaves of at
     most ``leaf_size`` primitives, collapsed to 4 children per node."""
     lo, hi = outward(*prim_bounds(geo))   # the float64 boxes go at once
-    if BUILDERS[bvh_build] is None:
-        binary = build_bvh(lo, hi, leaf_size)
-    else:
+    links = None
+    if BUILDERS[bvh_build] is not None:
         import importlib
         binary = importlib.import_module(BUILDERS[bvh_build]).build_binary(lo, hi, int(leaf_size))
+    elif len(lo) >= PARALLEL_MIN and numba.get_num_threads() > 1:
+        *binary, links = build_bvh_parallel(lo, hi, int(leaf_size))
+    else:
+        binary = build_bvh(lo, hi, leaf_size)
     node_lo, node_hi, node_start, node_count, prim_ids = binary
     del lo, hi, binary        # the boxes go before the wide tree is made: 24 bytes a primitive
-    node_box, node_child, node_count4 = collapse_bvh4(node_lo, node_hi, node_start, node_count)
+    node_box, node_child, node_count4 = collapse_bvh4(node_lo, node_hi, node_start, node_count,
+                                                      links)
     return BVH(node_box=node_box, node_child=node_child, node_count=node_count4, prim_ids=prim_ids)
 
 

@@ -7,7 +7,7 @@ import numpy as np
 from numba import njit
 
 from ..kernels.jit import BUILD, BUILD_STEP
-from .bvh import BOX_PAD, MAX_DEPTH
+from .bvh import BOX_PAD, LINK, MAX_DEPTH
 
 RULE_MEDIAN, RULE_MORTON = 0, 1
 
@@ -81,8 +81,8 @@ def build_topdown(lo, hi, prim_ids, codes, rule, leaf_size):
     The topology comes first; boxes then bottom-up, in O(n)."""
     n = prim_ids.shape[0]
     cap = max(2 * n - 1, 1)
-    node_start = np.empty(cap, np.int64)
-    node_count = np.empty(cap, np.int64)
+    node_start = np.empty(cap, LINK)
+    node_count = np.empty(cap, LINK)
     cen = np.empty((3, lo.shape[0]))
     if rule == RULE_MEDIAN:
         for i in range(lo.shape[0]):
