@@ -535,18 +535,24 @@ def build_bvh_parallel(lo, hi, max_leaf, threads=None, split=SPLIT):
         load[th] += int(tasks[k, 2] - tasks[k, 1])
     ends = np.empty(n_tasks, np.int64)
     no_tasks = tasks[:0]
+    failed = []
 
     def work(queue):
-        for k in queue:
-            s, e, depth = (int(x) for x in tasks[k, 1:])
-            ends[k] = build_bvh_kernel(lo, hi, prim_ids, s, e, depth, max_leaf, *nodes, 2 * s, 0,
-                                       no_tasks)[0]
+        try:
+            for k in queue:
+                s, e, depth = (int(x) for x in tasks[k, 1:])
+                ends[k] = build_bvh_kernel(lo, hi, prim_ids, s, e, depth, max_leaf, *nodes, 2 * s,
+                                           0, no_tasks)[0]
+        except BaseException as exc:   # a thread's error (MemoryError, say) is the build's
+            failed.append(exc)
     workers = [threading.Thread(target=work, args=(q,)) for q in queues[1:]]
     for w in workers:
         w.start()
     work(queues[0])
     for w in workers:
         w.join()
+    if failed:
+        raise failed[0]
     # A top node's children are rows of the top, or placeholders (count -1)
     # whose subtrees' roots are at row 2 s: link past the placeholders.
     root_of = dict(zip(tasks[:, 0].tolist(), (2 * tasks[:, 1]).tolist()))
