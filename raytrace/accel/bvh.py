@@ -138,173 +138,165 @@ def build_bvh_kernel(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, nod
             tasks[n_tasks, 3] = depth
             n_tasks += 1
             node_count[node] = -1
-            if sp == 0:
-                break
-            sp -= 1
-            start = stack[sp, 0]
-            end = stack[sp, 1]
-            depth = stack[sp, 2]
-            parent = stack[sp, 3]
-            continue
+        else:
+            # Node box and centroid box.
+            bx0 = by0 = bz0 = np.inf
+            bx1 = by1 = bz1 = -np.inf
+            cx0 = cy0 = cz0 = np.inf
+            cx1 = cy1 = cz1 = -np.inf
+            for k in range(start, end):
+                p = prim_ids[k]
+                bx0 = min(bx0, lo[p, 0])
+                by0 = min(by0, lo[p, 1])
+                bz0 = min(bz0, lo[p, 2])
+                bx1 = max(bx1, hi[p, 0])
+                by1 = max(by1, hi[p, 1])
+                bz1 = max(bz1, hi[p, 2])
+                x = 0.5 * (lo[p, 0] + hi[p, 0])
+                y = 0.5 * (lo[p, 1] + hi[p, 1])
+                z = 0.5 * (lo[p, 2] + hi[p, 2])
+                cx0 = min(cx0, x)
+                cy0 = min(cy0, y)
+                cz0 = min(cz0, z)
+                cx1 = max(cx1, x)
+                cy1 = max(cy1, y)
+                cz1 = max(cz1, z)
+            # A parent's largest magnitude is at least its children's, so padded
+            # children stay inside padded parents (rounding is monotonic).
+            pad = BOX_PAD * max(abs(bx0), abs(by0), abs(bz0), abs(bx1), abs(by1), abs(bz1))
+            node_lo[node, 0] = _round_down(bx0 - pad)
+            node_lo[node, 1] = _round_down(by0 - pad)
+            node_lo[node, 2] = _round_down(bz0 - pad)
+            node_hi[node, 0] = _round_up(bx1 + pad)
+            node_hi[node, 1] = _round_up(by1 + pad)
+            node_hi[node, 2] = _round_up(bz1 + pad)
 
-        # Node box and centroid box.
-        bx0 = by0 = bz0 = np.inf
-        bx1 = by1 = bz1 = -np.inf
-        cx0 = cy0 = cz0 = np.inf
-        cx1 = cy1 = cz1 = -np.inf
-        for k in range(start, end):
-            p = prim_ids[k]
-            bx0 = min(bx0, lo[p, 0])
-            by0 = min(by0, lo[p, 1])
-            bz0 = min(bz0, lo[p, 2])
-            bx1 = max(bx1, hi[p, 0])
-            by1 = max(by1, hi[p, 1])
-            bz1 = max(bz1, hi[p, 2])
-            x = 0.5 * (lo[p, 0] + hi[p, 0])
-            y = 0.5 * (lo[p, 1] + hi[p, 1])
-            z = 0.5 * (lo[p, 2] + hi[p, 2])
-            cx0 = min(cx0, x)
-            cy0 = min(cy0, y)
-            cz0 = min(cz0, z)
-            cx1 = max(cx1, x)
-            cy1 = max(cy1, y)
-            cz1 = max(cz1, z)
-        # A parent's largest magnitude is at least its children's, so padded
-        # children stay inside padded parents (rounding is monotonic).
-        pad = BOX_PAD * max(abs(bx0), abs(by0), abs(bz0), abs(bx1), abs(by1), abs(bz1))
-        node_lo[node, 0] = _round_down(bx0 - pad)
-        node_lo[node, 1] = _round_down(by0 - pad)
-        node_lo[node, 2] = _round_down(bz0 - pad)
-        node_hi[node, 0] = _round_up(bx1 + pad)
-        node_hi[node, 1] = _round_up(by1 + pad)
-        node_hi[node, 2] = _round_up(bz1 + pad)
+            mid = -1
+            if count > 1 and depth < MAX_DEPTH:
+                cmin = (cx0, cy0, cz0)
+                cext = (cx1 - cx0, cy1 - cy0, cz1 - cz0)
+                # Bin width as a scale; an axis whose centroids coincide (or whose
+                # extent is so small the scale overflows) cannot be split.
+                bin_scale[:] = 0.0
+                for a in range(3):
+                    if cext[a] > 0.0:
+                        s = N_BINS / cext[a]
+                        if s < np.inf:
+                            bin_scale[a] = s
+                if bin_scale[0] > 0.0 or bin_scale[1] > 0.0 or bin_scale[2] > 0.0:
+                    # Bin every primitive on all three axes in one pass.
+                    bin_count[:, :] = 0
+                    bin_lo[:, :, :] = np.inf
+                    bin_hi[:, :, :] = -np.inf
+                    for k in range(start, end):
+                        p = prim_ids[k]
+                        l0, l1, l2 = lo[p, 0], lo[p, 1], lo[p, 2]
+                        h0, h1, h2 = hi[p, 0], hi[p, 1], hi[p, 2]
+                        for a in range(3):
+                            if bin_scale[a] == 0.0:
+                                continue
+                            b = int((0.5 * (lo[p, a] + hi[p, a]) - cmin[a]) * bin_scale[a])
+                            if b > N_BINS - 1:
+                                b = N_BINS - 1
+                            bin_count[a, b] += 1
+                            bin_lo[a, b, 0] = min(bin_lo[a, b, 0], l0)
+                            bin_lo[a, b, 1] = min(bin_lo[a, b, 1], l1)
+                            bin_lo[a, b, 2] = min(bin_lo[a, b, 2], l2)
+                            bin_hi[a, b, 0] = max(bin_hi[a, b, 0], h0)
+                            bin_hi[a, b, 1] = max(bin_hi[a, b, 1], h1)
+                            bin_hi[a, b, 2] = max(bin_hi[a, b, 2], h2)
 
-        mid = -1
-        if count > 1 and depth < MAX_DEPTH:
-            cmin = (cx0, cy0, cz0)
-            cext = (cx1 - cx0, cy1 - cy0, cz1 - cz0)
-            # Bin width as a scale; an axis whose centroids coincide (or whose
-            # extent is so small the scale overflows) cannot be split.
-            bin_scale[:] = 0.0
-            for a in range(3):
-                if cext[a] > 0.0:
-                    s = N_BINS / cext[a]
-                    if s < np.inf:
-                        bin_scale[a] = s
-            if bin_scale[0] > 0.0 or bin_scale[1] > 0.0 or bin_scale[2] > 0.0:
-                # Bin every primitive on all three axes in one pass.
-                bin_count[:, :] = 0
-                bin_lo[:, :, :] = np.inf
-                bin_hi[:, :, :] = -np.inf
-                for k in range(start, end):
-                    p = prim_ids[k]
-                    l0, l1, l2 = lo[p, 0], lo[p, 1], lo[p, 2]
-                    h0, h1, h2 = hi[p, 0], hi[p, 1], hi[p, 2]
+                    # Sweep: SAH sum A_L N_L + A_R N_R at each bin boundary.
+                    best_cost = np.inf
+                    best_axis = -1
+                    best_bin = -1
                     for a in range(3):
                         if bin_scale[a] == 0.0:
                             continue
-                        b = int((0.5 * (lo[p, a] + hi[p, a]) - cmin[a]) * bin_scale[a])
-                        if b > N_BINS - 1:
-                            b = N_BINS - 1
-                        bin_count[a, b] += 1
-                        bin_lo[a, b, 0] = min(bin_lo[a, b, 0], l0)
-                        bin_lo[a, b, 1] = min(bin_lo[a, b, 1], l1)
-                        bin_lo[a, b, 2] = min(bin_lo[a, b, 2], l2)
-                        bin_hi[a, b, 0] = max(bin_hi[a, b, 0], h0)
-                        bin_hi[a, b, 1] = max(bin_hi[a, b, 1], h1)
-                        bin_hi[a, b, 2] = max(bin_hi[a, b, 2], h2)
+                        x0 = y0 = z0 = np.inf
+                        x1 = y1 = z1 = -np.inf
+                        m = 0
+                        for b in range(N_BINS - 1, 0, -1):
+                            m += bin_count[a, b]
+                            x0 = min(x0, bin_lo[a, b, 0])
+                            y0 = min(y0, bin_lo[a, b, 1])
+                            z0 = min(z0, bin_lo[a, b, 2])
+                            x1 = max(x1, bin_hi[a, b, 0])
+                            y1 = max(y1, bin_hi[a, b, 1])
+                            z1 = max(z1, bin_hi[a, b, 2])
+                            right_cost[b] = m * _half_area(x0, y0, z0, x1, y1, z1) if m else 0.0
+                        x0 = y0 = z0 = np.inf
+                        x1 = y1 = z1 = -np.inf
+                        m = 0
+                        for b in range(1, N_BINS):
+                            # split between bins b-1 and b
+                            c = bin_count[a, b - 1]
+                            if c:
+                                m += c
+                                x0 = min(x0, bin_lo[a, b - 1, 0])
+                                y0 = min(y0, bin_lo[a, b - 1, 1])
+                                z0 = min(z0, bin_lo[a, b - 1, 2])
+                                x1 = max(x1, bin_hi[a, b - 1, 0])
+                                y1 = max(y1, bin_hi[a, b - 1, 1])
+                                z1 = max(z1, bin_hi[a, b - 1, 2])
+                            if m == 0 or m == count:
+                                continue
+                            cost = m * _half_area(x0, y0, z0, x1, y1, z1) + right_cost[b]
+                            if cost < best_cost:
+                                best_cost = cost
+                                best_axis = a
+                                best_bin = b
 
-                # Sweep: SAH sum A_L N_L + A_R N_R at each bin boundary.
-                best_cost = np.inf
-                best_axis = -1
-                best_bin = -1
-                for a in range(3):
-                    if bin_scale[a] == 0.0:
-                        continue
-                    x0 = y0 = z0 = np.inf
-                    x1 = y1 = z1 = -np.inf
-                    m = 0
-                    for b in range(N_BINS - 1, 0, -1):
-                        m += bin_count[a, b]
-                        x0 = min(x0, bin_lo[a, b, 0])
-                        y0 = min(y0, bin_lo[a, b, 1])
-                        z0 = min(z0, bin_lo[a, b, 2])
-                        x1 = max(x1, bin_hi[a, b, 0])
-                        y1 = max(y1, bin_hi[a, b, 1])
-                        z1 = max(z1, bin_hi[a, b, 2])
-                        right_cost[b] = m * _half_area(x0, y0, z0, x1, y1, z1) if m else 0.0
-                    x0 = y0 = z0 = np.inf
-                    x1 = y1 = z1 = -np.inf
-                    m = 0
-                    for b in range(1, N_BINS):
-                        # split between bins b-1 and b
-                        c = bin_count[a, b - 1]
-                        if c:
-                            m += c
-                            x0 = min(x0, bin_lo[a, b - 1, 0])
-                            y0 = min(y0, bin_lo[a, b - 1, 1])
-                            z0 = min(z0, bin_lo[a, b - 1, 2])
-                            x1 = max(x1, bin_hi[a, b - 1, 0])
-                            y1 = max(y1, bin_hi[a, b - 1, 1])
-                            z1 = max(z1, bin_hi[a, b - 1, 2])
-                        if m == 0 or m == count:
-                            continue
-                        cost = m * _half_area(x0, y0, z0, x1, y1, z1) + right_cost[b]
-                        if cost < best_cost:
-                            best_cost = cost
-                            best_axis = a
-                            best_bin = b
+                    # Leaf or split (costs scaled by the node's half area, so a
+                    # zero-area node compares without dividing by zero).
+                    area = _half_area(bx0, by0, bz0, bx1, by1, bz1)
+                    leaf_cost = count * area
+                    split_cost = TRAVERSAL_COST * area + best_cost
+                    if best_axis >= 0 and (count > max_leaf or split_cost < leaf_cost):
+                        # Partition prim_ids[start:end] by bin; the same
+                        # expression as the binning, so the sides match the counts.
+                        a = best_axis
+                        ca = cmin[a]
+                        sa = bin_scale[a]
+                        i = start
+                        j = end - 1
+                        while i <= j:
+                            p = prim_ids[i]
+                            b = int((0.5 * (lo[p, a] + hi[p, a]) - ca) * sa)
+                            if b < best_bin:
+                                i += 1
+                            else:
+                                prim_ids[i] = prim_ids[j]
+                                prim_ids[j] = p
+                                j -= 1
+                        mid = i
+                elif count > max_leaf:
+                    # All centroids coincide: no plane separates them, so halve
+                    # the list (any order is as good as another).
+                    mid = start + count // 2
 
-                # Leaf or split (costs scaled by the node's half area, so a
-                # zero-area node compares without dividing by zero).
-                area = _half_area(bx0, by0, bz0, bx1, by1, bz1)
-                leaf_cost = count * area
-                split_cost = TRAVERSAL_COST * area + best_cost
-                if best_axis >= 0 and (count > max_leaf or split_cost < leaf_cost):
-                    # Partition prim_ids[start:end] by bin; the same
-                    # expression as the binning, so the sides match the counts.
-                    a = best_axis
-                    ca = cmin[a]
-                    sa = bin_scale[a]
-                    i = start
-                    j = end - 1
-                    while i <= j:
-                        p = prim_ids[i]
-                        b = int((0.5 * (lo[p, a] + hi[p, a]) - ca) * sa)
-                        if b < best_bin:
-                            i += 1
-                        else:
-                            prim_ids[i] = prim_ids[j]
-                            prim_ids[j] = p
-                            j -= 1
-                    mid = i
-            elif count > max_leaf:
-                # All centroids coincide: no plane separates them, so halve
-                # the list (any order is as good as another).
-                mid = start + count // 2
-
-        if mid > start and mid < end:
-            node_count[node] = 0
-            # Right half waits on the stack; the left child is built next, so
-            # it becomes node + 1 and its whole subtree precedes the right.
-            stack[sp, 0] = mid
-            stack[sp, 1] = end
-            stack[sp, 2] = depth + 1
-            stack[sp, 3] = node
-            sp += 1
-            end = mid
-            depth += 1
-            parent = -1
-        else:
+            if mid > start and mid < end:
+                node_count[node] = 0
+                # Right half waits on the stack; the left child is built next, so
+                # it becomes node + 1 and its whole subtree precedes the right.
+                stack[sp, 0] = mid
+                stack[sp, 1] = end
+                stack[sp, 2] = depth + 1
+                stack[sp, 3] = node
+                sp += 1
+                end = mid
+                depth += 1
+                parent = -1
+                continue
             node_start[node] = start
             node_count[node] = count
-            if sp == 0:
-                break
-            sp -= 1
-            start = stack[sp, 0]
-            end = stack[sp, 1]
-            depth = stack[sp, 2]
-            parent = stack[sp, 3]
+        if sp == 0:
+            break
+        sp -= 1
+        start = stack[sp, 0]
+        end = stack[sp, 1]
+        depth = stack[sp, 2]
+        parent = stack[sp, 3]
 
     return n_nodes, max_depth, n_tasks
 
