@@ -30,3 +30,16 @@ def render_small():
             cache[key] = render(scene, **kw)
         return cache[key]
     return go
+
+
+def scene_file_error(path):
+    """The message of the RaytraceError read_scene_file(path) raises,
+    checked to be one line that starts with the file's name."""
+    from raytrace.errors import RaytraceError
+    from raytrace.io.scenefile import read_scene_file
+    with pytest.raises(RaytraceError) as info:
+        read_scene_file(path)
+    msg = str(info.value)
+    assert msg.startswith(f"{path}: "), msg
+    assert "\n" not in msg
+    return msg

@@ -8,9 +8,10 @@ import pytest
 
 from raytrace.animation import Animation, Key, camera_path, keyframe_path, turntable
 from raytrace.errors import RaytraceError
-from raytrace.io.scenefile import read_scene_file
 from raytrace.load import load_scene
 from raytrace.scene import Camera, Scene
+
+from .conftest import scene_file_error
 
 CAMERA = '[camera]\nposition = [0, 2, 6]\nlook_at = [0, 1, 0]\nfov = 50\n'
 KEYS = ('[animation]\nframes = 11\n'
@@ -152,9 +153,5 @@ BAD = [
 def test_bad_animation_tables_name_the_file_and_key(tmp_path, text, message):
     path = tmp_path / "scene.toml"
     path.write_text(text + CAMERA)
-    with pytest.raises(RaytraceError) as info:
-        read_scene_file(path)
-    msg = str(info.value)
-    assert msg.startswith(f"{path}: "), msg
+    msg = scene_file_error(path)
     assert message in msg, msg
-    assert "\n" not in msg

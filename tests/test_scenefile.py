@@ -14,6 +14,8 @@ from raytrace.scenes.builtin import spheres, teapot
 from raytrace.scenes.examples import example_files
 from raytrace.transform import rotation, transform_mesh
 
+from .conftest import scene_file_error
+
 
 def same_scene(a, b):
     ga, ra, ia = flatten(a)
@@ -157,12 +159,8 @@ def scene_dir(tmp_path):
 def test_bad_scene_files_name_the_file_and_key(scene_dir, text, message):
     path = scene_dir / "scene.toml"
     path.write_text(text)
-    with pytest.raises(RaytraceError) as info:
-        read_scene_file(path)
-    msg = str(info.value)
-    assert msg.startswith(f"{path}: "), msg
+    msg = scene_file_error(path)
     assert message in msg, msg
-    assert "\n" not in msg
 
 
 def test_unreadable_scene_files(tmp_path):
