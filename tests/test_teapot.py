@@ -2,7 +2,7 @@ import numpy as np
 
 from raytrace.flatten import degenerate_mask, flatten
 from raytrace.scenes.builtin import teapot
-from raytrace.scenes.teapot import tessellate
+from raytrace.scenes.teapot import _ROWS, _bernstein, _surface_points, load_patches, tessellate
 
 
 def test_default_tessellation_is_the_workshop_size():
@@ -27,3 +27,29 @@ def test_normals_point_outwards():
     ok = np.linalg.norm(fn, axis=1) > 0
     agree = np.einsum("ij,ij->i", fn[ok], n[f[ok, 0]]) > 0
     assert agree.mean() > 0.99
+
+
+def test_surface_points_are_einsums_sum_bit_for_bit():
+    # detail 100: 10,201 (u, v) pairs, so more than one block of _ROWS.
+    patches, cps = load_patches()
+    b = _bernstein(np.linspace(0.0, 1.0, 101))
+    ctrl = cps[patches].reshape(-1, 4, 4, 3)
+    assert 101 * 101 > _ROWS
+    assert np.array_equal(_surface_points(b, ctrl), np.einsum("ui,vj,pijk->puvk", b, b, ctrl))
+
+
+def test_welding_the_seams_leaves_no_two_vertices_coincident():
+    for detail in (1, 2, 4, 7):
+        v, f, n = tessellate(detail)
+        assert len(np.unique(np.round(v, 9) + 0.0, axis=0)) == len(v)
+        assert np.array_equal(np.unique(f), np.arange(len(v)))   # every vertex used
+
+
+def test_vertex_normals_are_the_corner_sums_bit_for_bit():
+    v, f, n = tessellate(7)
+    fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    vn = np.zeros_like(v)
+    for k in range(3):
+        np.add.at(vn, f[:, k], fn)
+    ln = np.linalg.norm(vn, axis=1, keepdims=True)
+    assert np.array_equal(n, np.divide(vn, ln, out=np.zeros_like(vn), where=ln > 0))
