@@ -15,10 +15,11 @@ from raytrace.kernels.ray import make_ray
 @njit(error_model="numpy")
 def entries_both(node_box, origins, dirs, t_max):
     """(n, m, 4) entry distances from ray_aabb4 and from ray_aabb, for every
-    ray against every node's 4 lanes."""
+    ray against every node's 4 lanes, and ray_aabb4's mask bits."""
     n, m = origins.shape[0], node_box.shape[0]
     simd = np.empty((n, m, WIDTH))
     scalar = np.empty((n, m, WIDTH))
+    bits = np.empty((n, m, WIDTH), np.bool_)
     lo = np.empty((WIDTH, 3))
     hi = np.empty((WIDTH, 3))
     for i in range(n):
@@ -26,15 +27,16 @@ def entries_both(node_box, origins, dirs, t_max):
                        dirs[i, 0], dirs[i, 1], dirs[i, 2])
         nx, ny, nz = near_rows(ray)
         for node in range(m):
-            d = ray_aabb4(node_box, node, nx, ny, nz, ray.ox, ray.oy, ray.oz,
-                          ray.inv_x, ray.inv_y, ray.inv_z, t_max[i])
+            mask, d = ray_aabb4(node_box, node, nx, ny, nz, ray.ox, ray.oy, ray.oz,
+                                ray.inv_x, ray.inv_y, ray.inv_z, t_max[i])
             for j in range(WIDTH):
                 simd[i, node, j] = d[j]
+                bits[i, node, j] = (mask >> j) & 1
                 for a in range(3):
                     lo[j, a] = node_box[node, a, j]
                     hi[j, a] = node_box[node, 3 + a, j]
                 scalar[i, node, j] = ray_aabb(ray, lo, hi, j, t_max[i])
-    return simd, scalar
+    return simd, scalar, bits
 
 
 def as_nodes(lo, hi):
@@ -53,11 +55,12 @@ def as_nodes(lo, hi):
 
 def check(lo, hi, o, d, t_max):
     box = as_nodes(np.asarray(lo, float), np.asarray(hi, float))
-    simd, scalar = entries_both(box, np.asarray(o, float), np.asarray(d, float),
+    simd, scalar, bits = entries_both(box, np.asarray(o, float), np.asarray(d, float),
                                 np.asarray(t_max, float))
     used = ~np.isinf(box[:, 0, :])
     assert np.array_equal(simd[:, used], scalar[:, used])   # same floats, inf alike
     assert np.all(simd[:, ~used] == np.inf)                 # unused lanes never entered
+    assert np.array_equal(bits, simd < np.inf)              # the mask names the lanes entered
     return simd[:, used]
 
 

@@ -56,13 +56,17 @@ def _push_children(node_box, node_child, node_count, node, ray, nx, ny, nz, t_bo
                    stack, stack_t, sp):
     """Test node's 4 child boxes; push the ones the ray enters, nearest on
     top (insertion into the entries pushed here, usually 1 or 2).  Returns
-    the new stack pointer."""
-    d = ray_aabb4(node_box, node, nx, ny, nz, ray.ox, ray.oy, ray.oz,
-                  ray.inv_x, ray.inv_y, ray.inv_z, t_box)
+    the new stack pointer.  Lanes are chosen by the mask's bits rather than
+    by their distances (and a node whose children all miss skips the
+    loop): 5% faster on the 1k and 118k teapots (docs/design.md)."""
+    mask, d = ray_aabb4(node_box, node, nx, ny, nz, ray.ox, ray.oy, ray.oz,
+                        ray.inv_x, ray.inv_y, ray.inv_z, t_box)
+    if mask == 0:
+        return sp
     base = sp
     for lane in range(WIDTH):
         dl = d[lane]
-        if dl < np.inf:
+        if mask & (1 << lane):
             entry = node_child[node, lane]
             if node_count[node, lane] > 0:
                 entry = ~((node << _LANE_BITS) | lane)

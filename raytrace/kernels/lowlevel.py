@@ -57,8 +57,9 @@ def ray_aabb4(typingctx, node_box, node, nx, ny, nz, ox, oy, oz, ix, iy, iz, t_m
     Bounding Volume Hierarchies for Fast SIMD Ray Tracing of Incoherent
     Rays").
 
-    Returns the 4 entry distances (clamped to 0), inf where the ray misses
-    the box or enters beyond t_max.  The arithmetic is ray_aabb's operation
+    Returns (mask, the 4 entry distances): bit k of mask set where the ray
+    enters child k (one vmovmskpd), its distance clamped to 0, inf where the
+    ray misses the box or enters beyond t_max.  The arithmetic is ray_aabb's operation
     for operation (the same products, the same Ize far-bound widening), so
     every lane gives ray_aabb's answer: a NaN slab distance (the ray lies in
     a face plane, 0 * inf) fails both comparisons and constrains nothing,
@@ -72,7 +73,7 @@ def ray_aabb4(typingctx, node_box, node, nx, ny, nz, ox, oy, oz, ix, iy, iz, t_m
     if node_box != _BOX_ARRAY or not all(isinstance(a, types.Integer) for a in args[1:5]) \
             or not all(isinstance(a, types.Float) for a in args[5:]):
         return None
-    sig = types.UniTuple(types.float64, WIDTH)(*args)
+    sig = types.Tuple((types.int64, types.UniTuple(types.float64, WIDTH)))(*args)
 
     def codegen(context, builder, sig, llargs):
         box, node, nx, ny, nz, ox, oy, oz, ix, iy, iz, t_max = [
@@ -109,9 +110,14 @@ def ray_aabb4(typingctx, node_box, node, nx, ny, nz, ox, oy, oz, ix, iy, iz, t_m
             tf = builder.fmul(builder.fmul(builder.fsub(plane(far), o), inv), widen)
             t0 = builder.select(builder.fcmp_ordered(">", tn, t0), tn, t0)
             t1 = builder.select(builder.fcmp_ordered("<", tf, t1), tf, t1)
-        entry = builder.select(builder.fcmp_ordered("<=", t0, t1), t0,
-                               splat(ir.Constant(f64, float("inf"))))
+        inf = splat(ir.Constant(f64, float("inf")))
+        # An unused lane (lo = hi = +inf) passes t0 <= t1 at t0 = inf when
+        # t_max is inf: only a finite entry is a hit.
+        hit = builder.and_(builder.fcmp_ordered("<=", t0, t1), builder.fcmp_ordered("<", t0, inf))
+        entry = builder.select(hit, t0, inf)
         lanes = [builder.extract_element(entry, ir.Constant(i32, k)) for k in range(WIDTH)]
-        return context.make_tuple(builder, sig.return_type, lanes)
+        mask = builder.zext(builder.bitcast(hit, ir.IntType(WIDTH)), i64)
+        return context.make_tuple(builder, sig.return_type, [
+            mask, context.make_tuple(builder, sig.return_type[1], lanes)])
 
     return sig, codegen
