@@ -224,18 +224,18 @@ class RayScene:
         t_min < t < t_max: a RayHits.  origins, directions: (n, 3) (one (3,)
         origin serves every direction, one direction every origin); t_min,
         t_max: numbers or (n,) arrays, 0 <= t_min < t_max (inf allowed)."""
-        o, d, tmin, tmax = _rays(origins, directions, t_min, t_max)
+        rays = _rays(origins, directions, t_min, t_max)
+        o, d, tmin, tmax = rays
         p = self._built()
-        (t, prim, u, v), cnt = _closest(p.geo, p.acc, o, d, tmin, tmax)
+        (t, prim, u, v), cnt = _closest(p.geo, p.acc, *rays)
         return RayHits(t, prim, u, v, o, d, p, _counters(cnt, len(d)))
 
     def occluded(self, origins, directions, t_min=0.0, t_max=np.inf):
         """Whether anything is hit along each ray with t_min < t < t_max: a
         boolean (n,) array.  For a shadow ray, pass the unnormalised
         direction to the light and t_max = 1."""
-        o, d, tmin, tmax = _rays(origins, directions, t_min, t_max)
         p = self._built()
-        return _any_hit(p.geo, p.acc, o, d, tmin, tmax)[0]
+        return _any_hit(p.geo, p.acc, *_rays(origins, directions, t_min, t_max))[0]
 
     def count_intersections(self, origins, directions, t_min=0.0, t_max=np.inf, max_hits=None):
         """How many times each ray meets the surfaces with t_min < t < t_max:
@@ -246,14 +246,14 @@ class RayScene:
         counting there (default: no limit).  One traversal per ray, which
         never narrows its interval (the grid scans every primitive: it
         cannot tell a primitive met in two cells from two crossings)."""
-        o, d, tmin, tmax = _rays(origins, directions, t_min, t_max)
+        rays = _rays(origins, directions, t_min, t_max)
         limit = _max_hits(max_hits, self._built())
         from .kernels.cast import cast_counts
-        from .kernels.counters import N_COUNTERS
         p = self._prepared
-        counts = np.empty(len(d), np.int64)
-        cnt = np.zeros((_blocks(len(d)), N_COUNTERS), np.int64)
-        cast_counts(p.geo, p.acc, o, d, tmin, tmax, counts, cnt)
+        counts = np.empty(len(rays[0]), np.int64)
+        cnt = _counter_rows(len(counts))
+        cast_counts(p.geo, p.acc, *rays, counts, cnt)
+        _check_rays(cnt, rays)
         return np.minimum(counts, limit)
 
     def list_intersections(self, origins, directions, t_min=0.0, t_max=np.inf, max_hits=None):
@@ -262,10 +262,11 @@ class RayScene:
         ray.  Flat arrays, Open3D's layout: the hits of ray i are rows
         ray_splits[i]:ray_splits[i + 1] of t, geometry_id, prim_id, u, v,
         normal, point (as in RayHits) and ray_id."""
-        o, d, tmin, tmax = _rays(origins, directions, t_min, t_max)
+        rays = _rays(origins, directions, t_min, t_max)
+        o, d = rays[:2]
         p = self._built()
-        counts, (t, prim, u, v) = _crossings(p.geo, p.acc, o, d, tmin, tmax,
-                                             _max_hits(max_hits, p), fill=True)
+        counts, (t, prim, u, v) = _crossings(p.geo, p.acc, *rays, _max_hits(max_hits, p),
+                                             fill=True)
         splits = np.zeros(len(d) + 1, np.int64)
         np.cumsum(counts, out=splits[1:])
         ray_id = np.repeat(np.arange(len(d)), counts)
@@ -350,13 +351,13 @@ def _max_hits(max_hits, prepared):
 def _crossings(geo, acc, origins, dirs, t_min, t_max, max_hits, fill):
     """(counts, (t, prim, u, v) flat, or None) of every hit along each ray."""
     from .kernels.cast import cast_crossings
-    from .kernels.counters import N_COUNTERS
     n = len(origins)
     counts = np.zeros(n, np.int64)
     empty_f, empty_i = np.zeros(0), np.zeros(0, np.int64)
-    cnt = np.zeros((_blocks(n), N_COUNTERS), np.int64)
+    cnt = _counter_rows(n)
     args = (geo, acc, origins, dirs, t_min, t_max, max_hits)
     cast_crossings(*args, empty_i, empty_f, empty_i, empty_f, empty_f, counts, cnt)
+    _check_rays(cnt, (origins, dirs, t_min, t_max))
     if not fill:
         return counts, None
     offsets = np.zeros(n, np.int64)
@@ -409,10 +410,16 @@ def _rays(origins, directions, t_min, t_max):
     n = len(d)
     tmin = _interval_end("t_min", t_min, n)
     tmax = _interval_end("t_max", t_max, n)
-    from .kernels.validate import rays_ok
-    if not rays_ok(o, d, tmin, tmax, MAX_COORD):
-        _name_the_problem(o, d, tmin, tmax)
     return o, d, tmin, tmax
+
+
+def _check_rays(cnt, rays):
+    """After a query kernel: raise RaytraceError naming the first bad ray
+    if the kernel found any (kernels/cast.py checks each ray as it reads
+    it, instead of a pass of its own before the call)."""
+    from .kernels.cast import BAD_RAYS
+    if cnt[..., BAD_RAYS].any():
+        _name_the_problem(*rays)
 
 
 def _check_coordinates(name, arr):
@@ -461,25 +468,32 @@ def _blocks(n):
     return max(1, min(numba.get_num_threads(), -(-n // CHUNK)))
 
 
+def _counter_rows(n):
+    """Zeroed counter rows for a query kernel over n rays (kernels/cast.py)."""
+    from .kernels.cast import COLUMNS
+    return np.zeros((_blocks(n), COLUMNS), np.int64)
+
+
 def _closest(geo, acc, origins, dirs, t_min, t_max):
-    """((t, prim, b1, b2), counters) for validated (n, 3) rays and (n,) bounds."""
+    """((t, prim, b1, b2), counters) for (n, 3) rays and (n,) bounds;
+    RaytraceError if a ray is bad."""
     from .kernels.cast import cast_closest
-    from .kernels.counters import N_COUNTERS
     n = len(origins)
     out = (np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n))
-    cnt = np.zeros((_blocks(n), N_COUNTERS), np.int64)
+    cnt = _counter_rows(n)
     cast_closest(geo, acc, origins, dirs, t_min, t_max, *out, cnt)
+    _check_rays(cnt, (origins, dirs, t_min, t_max))
     return out, cnt.sum(axis=0)
 
 
 def _any_hit(geo, acc, origins, dirs, t_min, t_max):
-    """(occluded bool array, counters)."""
+    """(occluded bool array, counters); RaytraceError if a ray is bad."""
     from .kernels.cast import cast_occluded
-    from .kernels.counters import N_COUNTERS
     n = len(origins)
     hit = np.empty(n, np.bool_)
-    cnt = np.zeros((_blocks(n), N_COUNTERS), np.int64)
+    cnt = _counter_rows(n)
     cast_occluded(geo, acc, origins, dirs, t_min, t_max, hit, cnt)
+    _check_rays(cnt, (origins, dirs, t_min, t_max))
     return hit, cnt.sum(axis=0)
 
 

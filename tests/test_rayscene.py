@@ -121,6 +121,31 @@ def test_bad_bounds_name_the_argument(kw, message):
         two_squares().cast_rays([[0.5, 0.5, 1.0]], DOWN, **kw)
 
 
+@pytest.mark.parametrize("accel", STRUCTURES)
+@pytest.mark.parametrize("query", ["cast_rays", "occluded", "count_intersections",
+                                   "list_intersections"])
+@pytest.mark.parametrize("row, change, message", [
+    (700, ("o", [np.nan, 0, 0]), r"origins\[700\]: NaN or infinite value \(1 such rows\)"),
+    (3, ("d", [0.0, -0.0, 0.0]), r"directions\[3\]: zero vector"),
+    (999, ("d", [0, 0, 2e100]), r"directions\[999\]: a value beyond 1e\+100"),
+    (64, ("t_min", 3.0), r"t_min\[64\]: .* below t_max"),
+])
+def test_a_bad_ray_among_good_ones_is_named_by_every_query(accel, query, row, change, message):
+    # The kernels check each ray as they read it (kernels/cast.py): a bad
+    # ray anywhere in a batch, in any thread's chunk, is found and named.
+    rng = np.random.default_rng(row)
+    o = np.column_stack([rng.uniform(0, 2, 1000), rng.uniform(0, 1, 1000), np.ones(1000)])
+    d = np.tile(DOWN, (1000, 1))
+    t_min, t_max = np.zeros(1000), np.full(1000, 2.0)
+    arrays = {"o": o, "d": d, "t_min": t_min}
+    arrays[change[0]][row] = change[1]
+    scene = two_squares(accel)
+    with pytest.raises(RaytraceError, match=message):
+        getattr(scene, query)(o, d, t_min=t_min, t_max=t_max)
+    arrays[change[0]][row] = {"o": o[row - 1], "d": DOWN, "t_min": 0.0}[change[0]]
+    getattr(scene, query)(o, d, t_min=t_min, t_max=t_max)     # fixed, it runs
+
+
 def test_bad_meshes_and_structures():
     with pytest.raises(RaytraceError, match=r"mesh 0: face 0 indexes a vertex out of range"):
         RayScene().add_mesh(SQUARE_V, [[0, 1, 9]])

@@ -12,16 +12,39 @@ blocks would balance too, but then a thread sweeps the rays once per block
 and loses the cache reuse between neighbouring rays: 12% slower at 118k
 triangles.)
 
+Rays are checked as they are read (``ray_ok``): a bad one is not traced,
+its output is a miss, and it is counted in column BAD_RAYS of the counter
+rows, after the declared counters, so the Python layer names the problem
+after the call.  A separate pass over the rays cost 0.57 ms of a 4.0 ms
+call (211,731 shadow rays, 1k teapot): 14% of the call.
+
 Each kernel is compiled once per structure (query.py), on first use.
 """
 from numba import njit, prange
 
+from ..io.mesh import MAX_COORD
+from .counters import N_COUNTERS
 from .jit import JIT, PARALLEL
 from .query import closest_hit, count_hits, occluded
-from .ray import make_crossing_ray, make_ray
+from .ray import make_crossing_ray, make_ray, no_hit
 
 CHUNK = 64
 _ALL_PEELED = 1 << 62   # above every primitive id
+BAD_RAYS = N_COUNTERS   # counter rows have N_COUNTERS + 1 columns
+COLUMNS = N_COUNTERS + 1
+
+
+@njit(**JIT)
+def ray_ok(origins, dirs, t_min, t_max, i):
+    """Whether ray i's origin and direction components are finite and within
+    MAX_COORD, its direction is not zero, and 0 <= t_min < t_max (t_max may
+    be inf).  Comparisons are written so that NaN fails them."""
+    ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
+    dx, dy, dz = dirs[i, 0], dirs[i, 1], dirs[i, 2]
+    return ((abs(ox) <= MAX_COORD) & (abs(oy) <= MAX_COORD) & (abs(oz) <= MAX_COORD)
+            & (abs(dx) <= MAX_COORD) & (abs(dy) <= MAX_COORD) & (abs(dz) <= MAX_COORD)
+            & ((dx != 0.0) | (dy != 0.0) | (dz != 0.0))
+            & (t_min[i] >= 0.0) & (t_min[i] < t_max[i]))
 
 
 @njit(**JIT)
@@ -37,7 +60,11 @@ def _closest_block(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u
     n_chunks = (n + CHUNK - 1) // CHUNK
     for c in range(b, n_chunks, n_blocks):
         for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
-            hit = closest_hit(geo, acc, _ray(origins, dirs, t_min, i), t_max[i], cnt)
+            if ray_ok(origins, dirs, t_min, t_max, i):
+                hit = closest_hit(geo, acc, _ray(origins, dirs, t_min, i), t_max[i], cnt)
+            else:
+                cnt[BAD_RAYS] += 1
+                hit = no_hit()
             out_t[i] = hit.t
             out_prim[i] = hit.prim
             out_u[i] = hit.u
@@ -50,7 +77,11 @@ def _occluded_block(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt, b, n_bl
     n_chunks = (n + CHUNK - 1) // CHUNK
     for c in range(b, n_chunks, n_blocks):
         for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
-            out_hit[i] = occluded(geo, acc, _ray(origins, dirs, t_min, i), t_max[i], cnt)
+            if ray_ok(origins, dirs, t_min, t_max, i):
+                out_hit[i] = occluded(geo, acc, _ray(origins, dirs, t_min, i), t_max[i], cnt)
+            else:
+                cnt[BAD_RAYS] += 1
+                out_hit[i] = False
 
 
 @njit(**PARALLEL)
@@ -82,7 +113,9 @@ def _crossings_block(geo, acc, origins, dirs, t_min, t_max, max_hits, offsets, o
             t_lo = t_min[i]
             after = _ALL_PEELED   # t_min itself is excluded, as for every query
             k = 0
-            more = True
+            more = ray_ok(origins, dirs, t_min, t_max, i)
+            if not more:
+                cnt[BAD_RAYS] += 1
             while more and k < max_hits:
                 ray = make_crossing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
                                         dirs[i, 0], dirs[i, 1], dirs[i, 2], t_lo, after)
@@ -121,6 +154,10 @@ def _counts_block(geo, acc, origins, dirs, t_min, t_max, out_count, cnt, b, n_bl
     n_chunks = (n + CHUNK - 1) // CHUNK
     for c in range(b, n_chunks, n_blocks):
         for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
+            if not ray_ok(origins, dirs, t_min, t_max, i):
+                cnt[BAD_RAYS] += 1
+                out_count[i] = 0
+                continue
             ray = make_crossing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
                                     dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i], _ALL_PEELED)
             out_count[i] = count_hits(geo, acc, ray, t_max[i], cnt)
