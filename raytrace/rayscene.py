@@ -289,8 +289,10 @@ class RayScene:
         either way."""
         if votes not in (1, 3):
             raise RaytraceError(f"votes: must be 1 or 3, got {votes!r}")
-        q = _as_rows("points", points)
-        _check_coordinates("points", q)
+        q, order = _query_points(points)
+        return _unsorted(self._contains(q, votes), order)
+
+    def _contains(self, q, votes):
         odd = np.zeros(len(q), np.int64)
         for direction in _VOTE_DIRECTIONS[:votes]:
             odd += self.count_intersections(q, direction) & 1
@@ -304,8 +306,10 @@ class RayScene:
         Ties between primitives at one distance go to the smaller id.  Point
         queries use a BVH whatever ``accel`` is, so every RayScene answers
         alike."""
-        q = _as_rows("points", points)
-        _check_coordinates("points", q)
+        q, order = _query_points(points)
+        return {k: _unsorted(a, order) for k, a in self._closest_points(q).items()}
+
+    def _closest_points(self, q):
         p = self._built()
         from .kernels.points import closest_points
         n = len(q)
@@ -319,12 +323,14 @@ class RayScene:
 
     def distance(self, points):
         """Distance from each point to the nearest surface (inf if none)."""
-        return self.closest_points(points)["distance"]
+        q, order = _query_points(points)
+        return _unsorted(self._closest_points(q)["distance"], order)
 
     def signed_distance(self, points):
         """distance(), negative inside the closed surfaces (contains())."""
-        d = self.distance(points)
-        return np.where(self.contains(points), -d, d)
+        q, order = _query_points(points)
+        d = self._closest_points(q)["distance"]
+        return _unsorted(np.where(self._contains(q, 1), -d, d), order)
 
     def __repr__(self):
         return f"RayScene({len(self._objects)} geometries, accel={self.accel!r})"
@@ -420,6 +426,45 @@ def _check_rays(cnt, rays):
     from .kernels.cast import BAD_RAYS
     if cnt[..., BAD_RAYS].any():
         _name_the_problem(*rays)
+
+
+# Point queries run in Morton order of a 32^3 grid over the points' bounds
+# (a 15-bit key: NumPy's stable argsort of 16-bit keys is a radix sort), so
+# neighbouring queries visit the same BVH nodes while they are in cache.
+# 200,000 random points in a 82k-triangle sphere's box: distance 273 -> 137
+# ms, contains 208 -> 152 ms, for 3-5 ms of ordering.  Smaller batches gain
+# too little to pay for it.
+_ORDER_MIN = 20_000
+_MORTON_BITS = 5
+_SPREAD = np.array([sum(((v >> b) & 1) << (3 * b) for b in range(_MORTON_BITS))
+                    for v in range(1 << _MORTON_BITS)], np.uint16)
+
+
+def _query_points(points):
+    """(validated (n, 3) points in the order the kernels take them, the
+    permutation that made that order or None)."""
+    q = _as_rows("points", points)
+    _check_coordinates("points", q)
+    if len(q) < _ORDER_MIN:
+        return q, None
+    # Column by column: NumPy's reductions along axis 0 of an (n, 3) array
+    # are ~10x slower.
+    lo = np.array([q[:, a].min() for a in range(3)])
+    hi = np.array([q[:, a].max() for a in range(3)])
+    scale = ((1 << _MORTON_BITS) - 1) / np.maximum(hi - lo, np.finfo(float).tiny)
+    cell = ((q - lo) * scale).astype(np.intp)
+    key = _SPREAD[cell[:, 0]] | (_SPREAD[cell[:, 1]] << 1) | (_SPREAD[cell[:, 2]] << 2)
+    order = np.argsort(key, kind="stable")
+    return np.take(q, order, axis=0), order
+
+
+def _unsorted(a, order):
+    """Results for points in _query_points' order, back in the caller's."""
+    if order is None:
+        return a
+    out = np.empty_like(a)
+    out[order] = a
+    return out
 
 
 def _check_coordinates(name, arr):

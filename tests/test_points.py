@@ -92,3 +92,23 @@ def test_bad_points():
         RayScene().distance([[0, 0, 0], [0, np.nan, 0]])
     with pytest.raises(RaytraceError, match=r"points\[0\]: a value beyond"):
         RayScene().contains([[0, 1e200, 0]])
+
+
+def test_a_big_batch_answers_as_small_ones_do():
+    # From _ORDER_MIN points on, the queries run in Morton order and are put
+    # back: each point's answers must be those of a batch too small to sort.
+    from raytrace.rayscene import _ORDER_MIN
+    v, f = box(3)
+    rs = RayScene((v, f))
+    rng = np.random.default_rng(9)
+    q = rng.uniform(-2, 2, (_ORDER_MIN + 1000, 3))
+    q[::7] = np.round(q[::7] * 4) / 4                          # on faces, edges and corners too
+    chunks = [q[s:s + 10_000] for s in range(0, len(q), 10_000)]
+    big = rs.closest_points(q)
+    for k, a in big.items():
+        assert np.array_equal(a, np.concatenate([rs.closest_points(c)[k] for c in chunks]),
+                              equal_nan=True), k
+    for name in ("distance", "contains", "signed_distance"):
+        assert np.array_equal(getattr(rs, name)(q),
+                              np.concatenate([getattr(rs, name)(c) for c in chunks])), name
+    assert rs.contains(q).any() and not rs.contains(q).all()
