@@ -431,9 +431,9 @@ def _check_rays(cnt, rays):
 # Point queries run in Morton order of a 32^3 grid over the points' bounds
 # (a 15-bit key: NumPy's stable argsort of 16-bit keys is a radix sort), so
 # neighbouring queries visit the same BVH nodes while they are in cache.
-# 200,000 random points in a 82k-triangle sphere's box: distance 273 -> 137
-# ms, contains 208 -> 152 ms, for 3-5 ms of ordering.  Smaller batches gain
-# too little to pay for it.
+# 200,000 random points in a 20k-triangle sphere's box: distance 273 -> 154
+# ms, contains 208 -> 155 ms, signed_distance 476 -> 302 ms, with the 3-5 ms
+# of ordering.  Smaller batches gain too little to pay for it.
 _ORDER_MIN = 20_000
 _MORTON_BITS = 5
 _SPREAD = np.array([sum(((v >> b) & 1) << (3 * b) for b in range(_MORTON_BITS))
