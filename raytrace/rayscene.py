@@ -451,8 +451,10 @@ def _query_points(points):
     # are ~10x slower.
     lo = np.array([q[:, a].min() for a in range(3)])
     hi = np.array([q[:, a].max() for a in range(3)])
-    scale = ((1 << _MORTON_BITS) - 1) / np.maximum(hi - lo, np.finfo(float).tiny)
-    cell = ((q - lo) * scale).astype(np.intp)
+    # (q - lo) / span is in [0, 1] for any span > 0, subnormal too (a scale
+    # factor 31 / span would overflow there); a flat axis gets span 1.
+    span = np.where(hi > lo, hi - lo, 1.0)
+    cell = ((q - lo) / span * ((1 << _MORTON_BITS) - 1)).astype(np.intp)
     key = _SPREAD[cell[:, 0]] | (_SPREAD[cell[:, 1]] << 1) | (_SPREAD[cell[:, 2]] << 2)
     order = np.argsort(key, kind="stable")
     return np.take(q, order, axis=0), order

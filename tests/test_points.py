@@ -112,3 +112,19 @@ def test_a_big_batch_answers_as_small_ones_do():
         assert np.array_equal(getattr(rs, name)(q),
                               np.concatenate([getattr(rs, name)(c) for c in chunks])), name
     assert rs.contains(q).any() and not rs.contains(q).all()
+
+
+@pytest.mark.parametrize("spread", [0.0, 1e-310, 1e-9, 1e90])
+def test_a_big_batch_in_a_flat_or_tiny_or_huge_box(spread):
+    # The Morton order's grid spans the points' box: one point repeated, a
+    # subnormal extent, a huge one.
+    from raytrace.rayscene import _ORDER_MIN
+    v, f = box(2)
+    rs = RayScene((v, f))
+    rng = np.random.default_rng(2)
+    q = np.array([0.25, -0.5, 3.0]) + rng.uniform(0, 1, (_ORDER_MIN + 10, 3)) * [spread, 0, spread]
+    got = rs.closest_points(q)
+    small = rs.closest_points(q[:100])
+    for k in got:
+        assert np.array_equal(got[k][:100], small[k], equal_nan=True), k
+    assert np.array_equal(rs.contains(q)[:100], rs.contains(q[:100]))
