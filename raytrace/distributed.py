@@ -7,6 +7,7 @@ depends only on its arguments, so a rerun changes nothing in the image.
 """
 import contextlib
 import os
+import time
 
 import numpy as np
 
@@ -78,7 +79,6 @@ class DaskRunner:
         except TimeoutError:
             raise RaytraceError(f"no Dask workers joined the scheduler in "
                                 f"{WAIT_FOR_WORKERS_S} s") from None
-        import time
         t0 = time.perf_counter()
         try:
             shared = self.client.scatter(payload, broadcast=True, hash=False)
