@@ -20,8 +20,8 @@ from raytrace.accel.bvh import (
 )
 from raytrace.buffers import INDEX, prim_bounds
 from raytrace.flatten import flatten
-from raytrace.kernels.cast import cast_closest, cast_occluded
-from raytrace.kernels.counters import BOX_TESTS, N_COUNTERS, NODES_VISITED, PRIM_TESTS
+from raytrace.kernels.cast import COLUMNS, cast_closest, cast_counts, cast_occluded
+from raytrace.kernels.counters import BOX_TESTS, N_COUNTERS, NODES_VISITED, PRIM_HITS, PRIM_TESTS
 from raytrace.scene import Camera, Mesh, Plane, Scene, Sphere
 from raytrace.structures import build_structure as build_accel
 
@@ -61,6 +61,16 @@ def occluded(geo, acc, o, d, t_max):
     return hit, cnt.sum(axis=0)
 
 
+def counts(geo, acc, o, d, t_max):
+    """Every crossing along each ray (count_intersections' kernel)."""
+    n = len(o)
+    out = np.empty(n, np.int64)
+    cnt = np.zeros((4, COLUMNS), np.int64)
+    cast_counts(geo, acc, np.ascontiguousarray(o, float), np.ascontiguousarray(d, float),
+                np.zeros(n), np.ascontiguousarray(t_max, float), out, cnt)
+    return out, cnt.sum(axis=0)
+
+
 def assert_same_as_brute(geo, ranges, o, d, t_max_occ, name="bvh", **build_opts):
     brute, _ = build_accel("none", geo, ranges)
     bvh, _ = build_accel(name, geo, ranges, **build_opts)
@@ -78,6 +88,11 @@ def assert_same_as_brute(geo, ranges, o, d, t_max_occ, name="bvh", **build_opts)
     h0, _ = occluded(geo, brute, o, d, t_max_occ)
     h1, _ = occluded(geo, bvh, o, d, t_max_occ)
     assert np.array_equal(h0, h1), f"{(h0 != h1).sum()} shadow rays differ"
+    # Every hit counted (the BVH's leaves reject triangles 4 at a time there).
+    for t_max in (np.full(len(o), np.inf), t_max_occ):
+        (c0, k0), (c1, k1) = counts(geo, brute, o, d, t_max), counts(geo, bvh, o, d, t_max)
+        assert np.array_equal(c0, c1), f"{(c0 != c1).sum()} counts differ"
+        assert k0[PRIM_HITS] == k1[PRIM_HITS]
 
 
 def random_dirs(rng, n):
@@ -344,8 +359,8 @@ def test_parallel_build_gives_the_serial_tree(threads, split):
 # Every structure and builder whose traversal prunes (brute force is the
 # reference; per-object boxes of one soup are brute force with a box test).
 PRUNING = [("bvh", {}), ("bvh", {"bvh_build": "median"}), ("bvh", {"bvh_build": "lbvh"}),
-           ("bvh", {"leaf_size": 1}), ("grid", {}), ("grid", {"grid_density": 0.3}),
-           ("kdtree", {})]
+           ("bvh", {"leaf_size": 1}), ("bvh", {"leaf_size": 9}), ("grid", {}),
+           ("grid", {"grid_density": 0.3}), ("kdtree", {})]
 
 
 @pytest.mark.parametrize("name, build_opts", PRUNING)

@@ -1,15 +1,16 @@
 """The LLVM-level pieces: ray_aabb4 must answer exactly as ray_aabb does,
-lane by lane, since the BVH's bit-identical images rest on it; and the
-frame stack array must behave as an ordinary array."""
+lane by lane, since the BVH's bit-identical images rest on it; edge_mask4
+must reject exactly the triangles the scalar triangle test rejects first;
+and the frame stack array must behave as an ordinary array."""
 import numpy as np
 import pytest
 from numba import njit
 
 from raytrace.accel.bvh import BOX, WIDTH
 from raytrace.kernels.bvh import near_rows
-from raytrace.kernels.intersect import ray_aabb
-from raytrace.kernels.lowlevel import frame_array, ray_aabb4
-from raytrace.kernels.ray import make_ray
+from raytrace.kernels.intersect import ray_aabb, ray_triangle, ray_triangle_crossing
+from raytrace.kernels.lowlevel import edge_mask4, frame_array, ray_aabb4
+from raytrace.kernels.ray import make_crossing_ray, make_ray
 
 
 @njit(error_model="numpy")
@@ -129,6 +130,86 @@ def test_t_max_and_behind():
     assert e.tolist() == [1.0, np.inf, np.inf, 0.0, np.inf]
     e = check(lo, hi, o[:1], d[:1], np.array([1.0]))[:, 0]
     assert e.tolist() == [1.0]
+
+
+@njit(error_model="numpy")
+def edge_masks(v0, v1, v2, origins, dirs):
+    """For every ray and every group of 4 triangles (rows 4g..4g+3): the
+    edge_mask4 bits, as (n_rays, n_tris) booleans; the ray's watertight
+    constants (kx, ky, kz, sx, sy, okx, oky, okz); and whether the scalar
+    tests, plain and crossing, hit each triangle."""
+    n, m = origins.shape[0], v0.shape[0]
+    bits = np.empty((n, m), np.bool_)
+    consts = np.empty((n, 8))
+    hit = np.empty((n, m), np.bool_)
+    hit_crossing = np.empty((n, m), np.bool_)
+    for i in range(n):
+        ray = make_ray(origins[i, 0], origins[i, 1], origins[i, 2],
+                       dirs[i, 0], dirs[i, 1], dirs[i, 2])
+        crossing = make_crossing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
+                                     dirs[i, 0], dirs[i, 1], dirs[i, 2], 0.0, 1 << 62)
+        consts[i, 0], consts[i, 1], consts[i, 2] = ray.kx, ray.ky, ray.kz
+        consts[i, 3], consts[i, 4] = ray.sx, ray.sy
+        consts[i, 5], consts[i, 6], consts[i, 7] = ray.okx, ray.oky, ray.okz
+        for g in range(0, m, 4):
+            mask = edge_mask4(v0, v1, v2, g, g + 1, g + 2, g + 3, ray.kx, ray.ky, ray.kz,
+                              ray.okx, ray.oky, ray.okz, ray.sx, ray.sy)
+            for j in range(4):
+                bits[i, g + j] = (mask >> j) & 1
+        for p in range(m):
+            hit[i, p] = ray_triangle(ray, v0, v1, v2, p, np.inf)[0] < np.inf
+            hit_crossing[i, p] = ray_triangle_crossing(crossing, v0, v1, v2, p, np.inf)[0] < np.inf
+    return bits, consts, hit, hit_crossing
+
+
+def first_rejection(v0, v1, v2, consts):
+    """The scalar test's first rejection written out in NumPy (the same
+    operations in the same order; NumPy fuses no multiply-adds): (n_rays,
+    n_tris) True where the edge functions have mixed signs."""
+    kx, ky, kz = (consts[:, k, None].astype(int) for k in range(3))
+    sx, sy, okx, oky, okz = (consts[:, k, None] for k in range(3, 8))
+    rows = np.arange(len(v0))[None, :]
+    corners = []
+    for v in (v0, v1, v2):
+        x, y, z = v[rows, kx] - okx, v[rows, ky] - oky, v[rows, kz] - okz
+        corners.append((x - sx * z, y - sy * z))
+    (ax, ay), (bx, by), (cx, cy) = corners
+    e = (bx * cy - by * cx, cx * ay - cy * ax, ax * by - ay * bx)
+    return (((e[0] < 0) | (e[1] < 0) | (e[2] < 0))
+            & ((e[0] > 0) | (e[1] > 0) | (e[2] > 0)))
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e-6, 1e8])
+def test_edge_mask4_rejects_as_the_scalar_test(scale):
+    """Rays aimed exactly at vertices and edge midpoints of a grid of
+    triangles (edge functions exactly 0), near them, and at random; axis
+    directions; degenerate triangles (a point, a segment): every lane
+    agrees with the scalar first rejection, and no triangle the scalar
+    tests hit is rejected."""
+    rng = np.random.default_rng(5)
+    g = np.arange(4.0)
+    x, y = np.meshgrid(g, g)
+    a = np.column_stack([x.ravel(), y.ravel(), np.zeros(16)])
+    quads = [(i, i + 1, i + 5, i + 4) for i in range(11) if i % 4 != 3]
+    tris = [(a[p], a[q], a[r]) for p, q, r, s in quads] + [(a[p], a[r], a[s]) for p, q, r, s in quads]
+    tris += [(a[0], a[0], a[0]), (a[0], a[5], a[10]), tuple(rng.standard_normal((3, 3)))]
+    tris += [tuple(rng.standard_normal((3, 3))) for _ in range(-len(tris) % 4)]
+    t = np.array(tris) * scale
+    v0, v1, v2 = (np.ascontiguousarray(t[:, k]) for k in range(3))
+    targets = np.concatenate([a, 0.5 * (a[:-1] + a[1:]), 0.5 * (a[:-4] + a[4:])]) * scale
+    n = len(targets)
+    o = targets + rng.integers(-4, 5, (n, 3)) * scale + np.array([0.0, 0.0, 3.0]) * scale
+    d = targets - o
+    o2 = rng.standard_normal((200, 3)) * 3 * scale
+    d2 = rng.standard_normal((200, 3))
+    d2[:60] = np.eye(3)[rng.integers(0, 3, 60)] * rng.choice([-1.0, 1.0], (60, 1))
+    d3 = targets * (1 + 1e-12) + 1e-13 * scale - o    # just beside them
+    origins = np.concatenate([o, o2, o])
+    dirs = np.concatenate([d, d2, d3])
+    bits, consts, hit, hit_crossing = edge_masks(v0, v1, v2, origins, dirs)
+    assert np.array_equal(bits, ~first_rejection(v0, v1, v2, consts))
+    assert not (hit & ~bits).any() and not (hit_crossing & ~bits).any()
+    assert hit[:n].any() and (~bits).any() and bits[:n].sum() > hit[:n].sum()
 
 
 @njit

@@ -11,7 +11,9 @@ has been found since.  Leaves are children too: a stack entry below zero is
 stopped at the first hit (tinybvh's and madmann91/bvh's IsAnyHit flag, here
 the compile-time mode of ``_traversal``): until then its best distance is
 inf, so it tests boxes against t_max.  Every hit (counting) is the loop
-that never keeps a hit, so it never narrows the interval nor stops.
+that never keeps a hit, so it never narrows the interval nor stops; its
+leaves first reject triangles 4 at a time (``edge_mask4``): a count tests
+many triangles and hits few.
 
 The stack lives in the function's frame (``frame_array``, an alloca), not
 in ``np.empty``: that would need the reference-counted runtime and a heap
@@ -31,7 +33,7 @@ from numba import njit
 from ..accel.bvh import BVH, MAX_DEPTH, WIDTH
 from .counters import BOX_TESTS, NODES_VISITED, PRIM_HITS, PRIM_TESTS
 from .jit import JIT
-from .lowlevel import frame_array, ray_aabb4
+from .lowlevel import edge_mask4, frame_array, ray_aabb4
 from .prims import test_prim
 from .query import ALL_HITS, ANY_HIT, CLOSEST, register
 from .ray import Hit, closer, no_hit
@@ -93,6 +95,33 @@ def _leaf_range(node_child, node_count, entry):
     return start, start + node_count[node, lane]
 
 
+@njit(**JIT)
+def _leaf_lanes(geo, ray, prim_ids, k, end):
+    """Bits of the primitives prim_ids[k : min(k + 4, end)] that need the
+    full test: the triangles whose edge functions do not reject the ray
+    (edge_mask4), and spheres.  Counting every hit tests 35 triangles a
+    ray and hits 2.7 (random rays through a bumpy 20k-triangle sphere):
+    rejecting 4 at once makes count_intersections 1.5x and contains 1.4x
+    faster.  Closest and any hit test ~2 triangles a ray, many of them
+    hits, and measured 3-22% slower with it: they keep the scalar loop."""
+    n_tris = geo.tri_v0.shape[0]
+    last = end - 1
+    r0 = prim_ids[k]
+    r1 = prim_ids[min(k + 1, last)]
+    r2 = prim_ids[min(k + 2, last)]
+    r3 = prim_ids[min(k + 3, last)]
+    inside = (1 << min(end - k, 4)) - 1
+    spheres = ((r0 >= n_tris) | ((r1 >= n_tris) << 1) | ((r2 >= n_tris) << 2)
+               | ((r3 >= n_tris) << 3))
+    if spheres == 15:      # no triangle to load
+        return inside
+    # A sphere's lane loads triangle 0's vertices (its bit is set anyway).
+    m = edge_mask4(geo.tri_v0, geo.tri_v1, geo.tri_v2, r0 if r0 < n_tris else 0,
+                   r1 if r1 < n_tris else 0, r2 if r2 < n_tris else 0, r3 if r3 < n_tris else 0,
+                   ray.kx, ray.ky, ray.kz, ray.okx, ray.oky, ray.okz, ray.sx, ray.sy)
+    return (m | spheres) & inside
+
+
 def _traversal(mode):
     @njit(**JIT)
     def traverse(geo, acc, ray, t_max, cnt):
@@ -125,6 +154,18 @@ def _traversal(mode):
             else:
                 n_leaves += 1
                 k, end = _leaf_range(node_child, node_count, entry)
+                while mode == ALL_HITS and k < end:
+                    todo = _leaf_lanes(geo, ray, prim_ids, k, end)
+                    n_tests += min(end - k, 4)
+                    j = k
+                    while todo:    # not range(4): unrolled, it inlines test_prim 4 times
+                        if todo & 1:
+                            t, _, _ = test_prim(geo, ray, prim_ids[j], t_max)
+                            if t < np.inf:
+                                n_hits += 1
+                        todo >>= 1
+                        j += 1
+                    k += 4
                 while k < end and not (mode == ANY_HIT and best.prim >= 0):
                     p = prim_ids[k]
                     n_tests += 1

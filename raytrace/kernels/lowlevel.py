@@ -1,5 +1,6 @@
-"""Two things the BVH traversal needs that Numba cannot say in Python:
-an array in the caller's stack frame, and a 4-wide box test in SIMD.
+"""Three things the BVH traversal needs that Numba cannot say in Python:
+an array in the caller's stack frame, a 4-wide box test in SIMD, and the
+first step of the triangle test for 4 triangles at once.
 
 Both are Numba intrinsics that emit LLVM IR directly.
 """
@@ -119,5 +120,78 @@ def ray_aabb4(typingctx, node_box, node, nx, ny, nz, ox, oy, oz, ix, iy, iz, t_m
         mask = builder.zext(builder.bitcast(hit, ir.IntType(WIDTH)), i64)
         return context.make_tuple(builder, sig.return_type, [
             mask, context.make_tuple(builder, sig.return_type[1], lanes)])
+
+    return sig, codegen
+
+
+_VERTICES = types.Array(types.float64, 2, "C")
+
+
+@intrinsic
+def edge_mask4(typingctx, v0, v1, v2, r0, r1, r2, r3, kx, ky, kz, okx, oky, okz, sx, sy):
+    """The watertight triangle test's first step (intersect._triangle: the
+    vertices moved to the ray's origin, permuted by kx, ky, kz and sheared,
+    then the three 2D edge functions) for the triangles in rows r0..r3 of
+    the (n, 3) vertex arrays v0, v1, v2 at once, in <4 x double>.
+
+    Returns a 4-bit mask: bit j is clear where triangle rj's edge functions
+    have mixed signs, the test's first rejection (the ray's line passes
+    outside the triangle), and set otherwise.  Each lane's arithmetic is
+    the scalar test's, operation for operation (no fused multiply-adds), so
+    a lane is rejected exactly where the scalar test rejects it; a set bit
+    still needs the full test.
+    """
+    arrays, ints, floats = (v0, v1, v2), (r0, r1, r2, r3, kx, ky, kz), (okx, oky, okz, sx, sy)
+    if any(a != _VERTICES for a in arrays) or not all(isinstance(a, types.Integer) for a in ints) \
+            or not all(isinstance(a, types.Float) for a in floats):
+        return None
+    sig = types.int64(*arrays, *ints, *floats)
+
+    def codegen(context, builder, sig, llargs):
+        i64 = ir.IntType(64)
+        i32 = ir.IntType(32)
+        vec = ir.VectorType(ir.DoubleType(), 4)
+        data = [context.make_array(sig.args[k])(context, builder, value=llargs[k]).data
+                for k in range(3)]
+        rows = [builder.mul(context.cast(builder, llargs[3 + j], sig.args[3 + j], types.int64),
+                            ir.Constant(i64, 3)) for j in range(4)]
+        axes = [context.cast(builder, llargs[7 + a], sig.args[7 + a], types.int64)
+                for a in range(3)]
+        okx, oky, okz, sx, sy = [context.cast(builder, llargs[10 + k], sig.args[10 + k],
+                                              types.float64) for k in range(5)]
+
+        def splat(x):
+            v = ir.Constant(vec, ir.Undefined)
+            for j in range(4):
+                v = builder.insert_element(v, x, ir.Constant(i32, j))
+            return v
+
+        def coordinate(vertices, axis):
+            """Component ``axis`` of the 4 triangles' vertex, one per lane."""
+            v = ir.Constant(vec, ir.Undefined)
+            for j in range(4):
+                p = builder.gep(vertices, [builder.add(rows[j], axis)])
+                v = builder.insert_element(v, builder.load(p), ir.Constant(i32, j))
+            return v
+
+        origin = [splat(okx), splat(oky), splat(okz)]
+        shear_x, shear_y = splat(sx), splat(sy)
+        corners = []
+        for vertices in data:
+            x, y, z = [builder.fsub(coordinate(vertices, axes[a]), origin[a]) for a in range(3)]
+            corners.append((builder.fsub(x, builder.fmul(shear_x, z)),
+                            builder.fsub(y, builder.fmul(shear_y, z))))
+        (ax, ay), (bx, by), (cx, cy) = corners
+        edges = (builder.fsub(builder.fmul(bx, cy), builder.fmul(by, cx)),
+                 builder.fsub(builder.fmul(cx, ay), builder.fmul(cy, ax)),
+                 builder.fsub(builder.fmul(ax, by), builder.fmul(ay, bx)))
+        zero = ir.Constant(vec, [0.0] * 4)
+
+        def any_edge(op):
+            e0, e1, e2 = [builder.fcmp_ordered(op, e, zero) for e in edges]
+            return builder.or_(builder.or_(e0, e1), e2)
+
+        keep = builder.not_(builder.and_(any_edge("<"), any_edge(">")))
+        return builder.zext(builder.bitcast(keep, ir.IntType(4)), i64)
 
     return sig, codegen
