@@ -1,4 +1,5 @@
-"""BVH traversal, one loop for closest hit and any hit.
+"""BVH traversal: one loop for closest hit and any hit, another for
+counting every hit.
 
 The tree is the 4-wide layout of ``raytrace.accel.bvh.BVH``: the binned-SAH
 binary tree collapsed so each node holds the boxes of up to 4 children.  At
@@ -10,10 +11,11 @@ has been found since.  Leaves are children too: a stack entry below zero is
 ``~(node * 4 + lane)``, the leaf in that lane.  Any hit is the same loop
 stopped at the first hit (tinybvh's and madmann91/bvh's IsAnyHit flag, here
 the compile-time mode of ``_traversal``): until then its best distance is
-inf, so it tests boxes against t_max.  Every hit (counting) is the loop
-that never keeps a hit, so it never narrows the interval nor stops; its
-leaves first reject triangles 4 at a time (``edge_mask4``): a count tests
-many triangles and hits few.
+inf, so it tests boxes against t_max.  Counting every hit never narrows
+the interval nor stops, so the order of visits does not matter: its loop
+(``_count_traverse``) pushes without sorting or branching, tests leaves
+where it meets them, and rejects their triangles 4 at a time
+(``edge_mask4``): a count tests many triangles and hits few.
 
 The stack lives in the function's frame (``frame_array``, an alloca), not
 in ``np.empty``: that would need the reference-counted runtime and a heap
@@ -35,7 +37,7 @@ from .counters import BOX_TESTS, NODES_VISITED, PRIM_HITS, PRIM_TESTS
 from .jit import JIT
 from .lowlevel import edge_mask4, frame_array, ray_aabb4
 from .prims import test_prim
-from .query import ALL_HITS, ANY_HIT, CLOSEST, register
+from .query import ANY_HIT, CLOSEST, register
 from .ray import Hit, closer, no_hit
 
 STACK_SIZE = 3 * MAX_DEPTH + 4
@@ -55,11 +57,9 @@ def near_rows(ray):
 
 @njit(**JIT)
 def _push_children(node_box, node_child, node_count, node, ray, nx, ny, nz, t_box,
-                   stack, stack_t, sp, ordered):
+                   stack, stack_t, sp):
     """Test node's 4 child boxes; push the ones the ray enters, nearest on
-    top (insertion into the entries pushed here, usually 1 or 2) if
-    ``ordered``, else in lane order (counting every hit visits every node
-    the ray enters whatever the order: 12-15% faster).  Returns
+    top (insertion into the entries pushed here, usually 1 or 2).  Returns
     the new stack pointer.  Lanes are chosen by the mask's bits rather than
     by their distances (and a node whose children all miss skips the
     loop): 5% faster on the 1k and 118k teapots (docs/design.md)."""
@@ -75,7 +75,7 @@ def _push_children(node_box, node_child, node_count, node, ray, nx, ny, nz, t_bo
             if node_count[node, lane] > 0:
                 entry = ~((node << _LANE_BITS) | lane)
             k = sp
-            while ordered and k > base and stack_t[k - 1] < dl:
+            while k > base and stack_t[k - 1] < dl:
                 stack[k] = stack[k - 1]
                 stack_t[k] = stack_t[k - 1]
                 k -= 1
@@ -144,7 +144,7 @@ def _traversal(mode):
                 n_inner += 1
                 base = sp
                 sp = _push_children(node_box, node_child, node_count, entry, ray, nx, ny, nz,
-                                    min(best.t, t_max), stack, stack_t, sp, mode != ALL_HITS)
+                                    min(best.t, t_max), stack, stack_t, sp)
                 if sp > base:
                     # The nearest child was just pushed: its entry is within
                     # best.t, so it is taken without the check below.
@@ -154,25 +154,13 @@ def _traversal(mode):
             else:
                 n_leaves += 1
                 k, end = _leaf_range(node_child, node_count, entry)
-                while mode == ALL_HITS and k < end:
-                    todo = _leaf_lanes(geo, ray, prim_ids, k, end)
-                    n_tests += min(end - k, 4)
-                    j = k
-                    while todo:    # not range(4): unrolled, it inlines test_prim 4 times
-                        if todo & 1:
-                            t, _, _ = test_prim(geo, ray, prim_ids[j], t_max)
-                            if t < np.inf:
-                                n_hits += 1
-                        todo >>= 1
-                        j += 1
-                    k += 4
                 while k < end and not (mode == ANY_HIT and best.prim >= 0):
                     p = prim_ids[k]
                     n_tests += 1
                     t, u, v = test_prim(geo, ray, p, t_max)
                     if t < np.inf:
                         n_hits += 1
-                        if mode != ALL_HITS and closer(t, p, best):
+                        if closer(t, p, best):
                             best = Hit(t, p, u, v)
                     k += 1
             # Pop the nearest pending entry that may still hold a closer hit.
@@ -190,4 +178,73 @@ def _traversal(mode):
     return traverse
 
 
-register(BVH, *(_traversal(mode) for mode in (CLOSEST, ANY_HIT, ALL_HITS)))
+@njit(**JIT)
+def _count_leaf(geo, ray, prim_ids, k, end, t_max):
+    """Hits of the ray among prim_ids[k:end]: tested 4 at a time by their
+    edge functions first, then in full where kept."""
+    n_hits = 0
+    while k < end:
+        todo = _leaf_lanes(geo, ray, prim_ids, k, end)
+        j = k
+        while todo:    # not range(4): unrolled, it inlines test_prim 4 times
+            if todo & 1:
+                t, _, _ = test_prim(geo, ray, prim_ids[j], t_max)
+                if t < np.inf:
+                    n_hits += 1
+            todo >>= 1
+            j += 1
+        k += 4
+    return n_hits
+
+
+@njit(**JIT)
+def _count_traverse(geo, acc, ray, t_max, cnt):
+    """Every hit (counting): nothing narrows the ray, so the order of visits
+    does not matter.  A node's entered inner children are pushed without a
+    branch (each lane written, the stack pointer advanced by its bit) and
+    its entered leaves tested at once, never pushed."""
+    node_box, node_child, node_count, prim_ids = (acc.node_box, acc.node_child,
+                                                  acc.node_count, acc.prim_ids)
+    if node_box.shape[0] == 0:
+        return no_hit()
+    stack = frame_array(STACK_SIZE, np.int64)
+    nx, ny, nz = near_rows(ray)
+    n_inner = 0
+    n_leaves = 0
+    n_tests = 0
+    n_hits = 0
+    node = 0
+    sp = 0
+    while node >= 0:
+        n_inner += 1
+        mask, _ = ray_aabb4(node_box, node, nx, ny, nz, ray.ox, ray.oy, ray.oz,
+                            ray.inv_x, ray.inv_y, ray.inv_z, t_max)
+        leaves = 0
+        for lane in range(WIDTH):
+            is_leaf = node_count[node, lane] > 0
+            leaves |= is_leaf << lane
+            stack[sp] = node_child[node, lane]
+            sp += ((mask >> lane) & 1) & (not is_leaf)
+        leaves &= mask
+        lane = 0
+        while leaves:
+            if leaves & 1:
+                n_leaves += 1
+                start = node_child[node, lane]
+                end = start + node_count[node, lane]
+                n_tests += end - start
+                n_hits += _count_leaf(geo, ray, prim_ids, start, end, t_max)
+            leaves >>= 1
+            lane += 1
+        node = -1
+        if sp > 0:
+            sp -= 1
+            node = stack[sp]
+    cnt[BOX_TESTS] += WIDTH * n_inner
+    cnt[NODES_VISITED] += n_inner + n_leaves
+    cnt[PRIM_TESTS] += n_tests
+    cnt[PRIM_HITS] += n_hits
+    return no_hit()
+
+
+register(BVH, _traversal(CLOSEST), _traversal(ANY_HIT), _count_traverse)
