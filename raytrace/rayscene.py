@@ -116,6 +116,22 @@ class _Prepared:
         self.acc, self.build_s = build_structure(accel, self.geo, self.obj_ranges)
         self.n_tris = self.geo.tri_v0.shape[0]
         self._bvh = None
+        self._bounds = None
+
+    def bounds(self):
+        """(lo, hi) of the bounded primitives (triangles, spheres); None if
+        there are none."""
+        if self._bounds is None:
+            g = self.geo
+            lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+            for k in range(3):    # by column: reductions along axis 0 of (n, 3) are slow
+                cols = [a[:, k] for a in (g.tri_v0, g.tri_v1, g.tri_v2)]
+                cols += [g.sph_center[:, k] - g.sph_radius, g.sph_center[:, k] + g.sph_radius]
+                for c in cols:
+                    if len(c):
+                        lo[k], hi[k] = min(lo[k], c.min()), max(hi[k], c.max())
+            self._bounds = (lo, hi) if lo[0] <= hi[0] else ()
+        return self._bounds or None
 
     def bvh(self):
         """The BVH that point queries use, whatever structure casts rays."""
@@ -279,14 +295,15 @@ class RayScene:
 
     def contains(self, points, votes=1):
         """Whether each point is inside the closed surfaces: a boolean (n,)
-        array, by the parity of crossings along a ray from the point (a
-        fixed direction far from any axis).  One ray is exact on a closed
-        mesh, since each crossing counts once even through edges and
-        vertices.  ``votes=3`` casts three rays and takes the majority, so a
-        small hole or a stray face cannot decide alone (three times the
-        cost).  On an open mesh the answer is that parity, meaningful only
-        where the mesh encloses the point; a point on the surface may go
-        either way."""
+        array, by the parity of crossings along a ray from the point out of
+        the scene's bounding box the short way (toward the box's nearest
+        face, a little off the axis).  One ray is exact on a closed mesh,
+        since each crossing counts once even through edges and vertices.
+        ``votes=3`` casts three rays, one along each axis toward its nearer
+        side, and takes the majority, so a small hole or a stray face cannot
+        decide alone (three times the cost).  On an open mesh the answer is
+        that parity, meaningful only where the mesh encloses the point; a
+        point on the surface may go either way."""
         if votes not in (1, 3):
             raise RaytraceError(f"votes: must be 1 or 3, got {votes!r}")
         q, order = _query_points(points)
@@ -294,8 +311,8 @@ class RayScene:
 
     def _contains(self, q, votes):
         odd = np.zeros(len(q), np.int64)
-        for direction in _VOTE_DIRECTIONS[:votes]:
-            odd += self.count_intersections(q, direction) & 1
+        for d in _exit_directions(q, self._built().bounds(), votes):
+            odd += self.count_intersections(q, d) & 1
         return 2 * odd > votes
 
     def closest_points(self, points):
@@ -336,11 +353,34 @@ class RayScene:
         return f"RayScene({len(self._objects)} geometries, accel={self.accel!r})"
 
 
-# Directions of contains()'s rays: unit vectors with no zero or equal
-# components, so an axis-aligned mesh's edges and faces are never met
-# edge-on by construction.
-_VOTE_DIRECTIONS = np.array([[0.5773, 0.6133, 0.5392], [-0.7071, 0.2588, 0.6580],
-                             [0.3090, -0.8090, 0.5000]])
+# contains' rays leave the scene's box the short way: a ray crosses fewer
+# nodes on a shorter way out (200,000 random points in the box of the peer
+# bench's bumpy 20k-triangle sphere, one thread: 145 ms along one fixed
+# direction, 30 ms toward the nearest face; the same answers).  Row a
+# (axis a, -), row 3 + a (axis a, +): tilted off the axis, with no zero
+# and no two equal components, so an axis-aligned mesh's faces and edges
+# (or one at 45 degrees) are never met edge-on by construction.
+_EXITS = np.array([[-1.0, 0.0311, 0.0457], [0.0123, -1.0, 0.0457], [0.0123, 0.0311, -1.0],
+                   [1.0, 0.0311, 0.0457], [0.0123, 1.0, 0.0457], [0.0123, 0.0311, 1.0]])
+
+
+def _exit_directions(q, bounds, votes):
+    """The directions of contains' rays from points q (n, 3): one array
+    toward the nearest face of the box ``bounds`` (votes=1), or three,
+    along x, y and z toward each axis' nearer side (votes=3)."""
+    if bounds is None:     # nothing bounded: any direction does
+        return [_EXITS[3 + a] for a in range(votes)]
+    lo, hi = bounds
+    # Per axis: the distance to the nearer side and whether that is + (a
+    # point outside the box has a negative distance on its side: out it goes).
+    near = [np.minimum(q[:, a] - lo[a], hi[a] - q[:, a]) for a in range(3)]
+    plus = [hi[a] - q[:, a] < q[:, a] - lo[a] for a in range(3)]
+    rows = [a + 3 * plus[a] for a in range(3)]
+    if votes == 3:
+        return [_EXITS[r] for r in rows]
+    axis = np.where(near[0] <= near[1], np.where(near[0] <= near[2], 0, 2),
+                    np.where(near[1] <= near[2], 1, 2))
+    return [_EXITS[np.choose(axis, rows)]]
 
 
 def _max_hits(max_hits, prepared):

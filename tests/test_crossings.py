@@ -169,14 +169,31 @@ def test_a_vote_outweighs_a_hole():
     leaves through the hole says outside, the three-ray vote says inside."""
     v, f = box(1)
     rs_full = RayScene((v, f))
-    p = np.array([[0.0, 0.0, 0.0]])
-    from raytrace.rayscene import _VOTE_DIRECTIONS
-    d = _VOTE_DIRECTIONS[0]
-    exit_tri = RayScene((v, f)).cast_rays(p, d).prim_id[0]
+    p = np.array([[0.25, -0.125, 0.75]])     # nearest face: z = 1
+    from raytrace.rayscene import _exit_directions
+    (d,) = _exit_directions(p, rs_full._built().bounds(), 1)
+    assert d[0, 2] > 0.99
+    exit_tri = rs_full.cast_rays(p, d).prim_id[0]
     holed = RayScene((v, np.delete(f, exit_tri, axis=0)))
     assert rs_full.contains(p)[0]
     assert not holed.contains(p)[0]
     assert holed.contains(p, votes=3)[0]
+
+
+def test_contains_leaves_the_box_the_short_way():
+    """Each point's ray heads for the nearest face of the scene's box
+    (votes=3: along each axis, to the nearer side), also from outside it."""
+    from raytrace.rayscene import _exit_directions
+    bounds = (np.array([-1.0, -2.0, -3.0]), np.array([1.0, 2.0, 3.0]))
+    q = np.array([[0.9, 0.0, 0.0], [0.0, -1.9, 0.0], [0.0, 0.0, 2.5], [-5.0, 0.0, 0.0],
+                  [0.0, 0.0, -0.5]])
+    (d,) = _exit_directions(q, bounds, 1)
+    main = np.argmax(np.abs(d), axis=1)
+    assert main.tolist() == [0, 1, 2, 0, 0]
+    assert np.sign(d[np.arange(5), main]).tolist() == [1, -1, 1, -1, -1]
+    three = _exit_directions(q, bounds, 3)
+    assert [np.sign(x[0, a]) for a, x in enumerate(three)] == [1, -1, -1]   # a tie goes -
+    assert all(np.all(x != 0) for x in three) and np.all(d != 0)
 
 
 @pytest.mark.parametrize("seed", range(6))
