@@ -21,7 +21,7 @@ from raytrace.accel.bvh import (
 from raytrace.buffers import INDEX, prim_bounds
 from raytrace.flatten import flatten
 from raytrace.kernels.cast import COLUMNS, cast_closest, cast_counts, cast_occluded
-from raytrace.kernels.counters import BOX_TESTS, N_COUNTERS, NODES_VISITED, PRIM_HITS, PRIM_TESTS
+from raytrace.kernels.counters import BOX_TESTS, NODES_VISITED, PRIM_HITS, PRIM_TESTS
 from raytrace.scene import Camera, Mesh, Plane, Scene, Sphere
 from raytrace.structures import build_structure as build_accel
 
@@ -46,7 +46,7 @@ def closest(geo, acc, o, d, t_max=None):
     n = len(o)
     t_max = np.full(n, np.inf) if t_max is None else t_max
     out = (np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n))
-    cnt = np.zeros((4, N_COUNTERS), np.int64)
+    cnt = np.zeros((4, COLUMNS), np.int64)
     cast_closest(geo, acc, np.ascontiguousarray(o, float), np.ascontiguousarray(d, float),
                  np.zeros(n), np.ascontiguousarray(t_max, float), *out, cnt)
     return out, cnt.sum(axis=0)
@@ -55,7 +55,7 @@ def closest(geo, acc, o, d, t_max=None):
 def occluded(geo, acc, o, d, t_max):
     n = len(o)
     hit = np.empty(n, np.bool_)
-    cnt = np.zeros((4, N_COUNTERS), np.int64)
+    cnt = np.zeros((4, COLUMNS), np.int64)
     cast_occluded(geo, acc, np.ascontiguousarray(o, float), np.ascontiguousarray(d, float),
                   np.zeros(n), np.ascontiguousarray(t_max, float), hit, cnt)
     return hit, cnt.sum(axis=0)
