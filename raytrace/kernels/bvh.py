@@ -31,7 +31,7 @@ bit-identical to brute force.  Counters are kept in locals and added to
 """
 import numpy as np
 from numba import njit
-from numba.cpython.unsafe.numbers import trailing_zeros  # llvm.cttz, as ray_aabb4's mask needs
+from numba.cpython.unsafe.numbers import trailing_zeros  # llvm.cttz: a mask's lowest set bit
 
 from ..accel.bvh import BVH, MAX_DEPTH, WIDTH
 from .counters import BOX_TESTS, NODES_VISITED, PRIM_HITS, PRIM_TESTS
