@@ -268,7 +268,7 @@ class RayScene:
         p = self._prepared
         counts = np.empty(len(rays[0]), np.int64)
         cnt = _counter_rows(len(counts))
-        cast_counts(p.geo, p.acc, *rays, counts, cnt)
+        cast_counts(p.geo, p.acc, *rays, counts, cnt, _clock())
         _check_rays(cnt, rays)
         return np.minimum(counts, limit)
 
@@ -402,7 +402,7 @@ def _crossings(geo, acc, origins, dirs, t_min, t_max, max_hits, fill):
     empty_f, empty_i = np.zeros(0), np.zeros(0, np.int64)
     cnt = _counter_rows(n)
     args = (geo, acc, origins, dirs, t_min, t_max, max_hits)
-    cast_crossings(*args, empty_i, empty_f, empty_i, empty_f, empty_f, counts, cnt)
+    cast_crossings(*args, empty_i, empty_f, empty_i, empty_f, empty_f, counts, cnt, _clock())
     _check_rays(cnt, (origins, dirs, t_min, t_max))
     if not fill:
         return counts, None
@@ -410,7 +410,7 @@ def _crossings(geo, acc, origins, dirs, t_min, t_max, max_hits, fill):
     np.cumsum(counts[:-1], out=offsets[1:])
     m = int(counts.sum())
     out = (np.empty(m), np.empty(m, np.int64), np.empty(m), np.empty(m))
-    cast_crossings(*args, offsets, *out, counts, cnt)
+    cast_crossings(*args, offsets, *out, counts, cnt, _clock())
     return counts, out
 
 
@@ -561,6 +561,11 @@ def _counter_rows(n):
     return np.zeros((_blocks(n), COLUMNS), np.int64)
 
 
+def _clock():
+    """A query kernel's chunk clock (kernels/cast.py): the first ticket is 0."""
+    return np.zeros(1, np.int64)
+
+
 def _closest(geo, acc, origins, dirs, t_min, t_max):
     """((t, prim, b1, b2), counters) for (n, 3) rays and (n,) bounds;
     RaytraceError if a ray is bad."""
@@ -568,7 +573,7 @@ def _closest(geo, acc, origins, dirs, t_min, t_max):
     n = len(origins)
     out = (np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n))
     cnt = _counter_rows(n)
-    cast_closest(geo, acc, origins, dirs, t_min, t_max, *out, cnt)
+    cast_closest(geo, acc, origins, dirs, t_min, t_max, *out, cnt, _clock())
     _check_rays(cnt, (origins, dirs, t_min, t_max))
     return out, cnt.sum(axis=0)
 
@@ -579,7 +584,7 @@ def _any_hit(geo, acc, origins, dirs, t_min, t_max):
     n = len(origins)
     hit = np.empty(n, np.bool_)
     cnt = _counter_rows(n)
-    cast_occluded(geo, acc, origins, dirs, t_min, t_max, hit, cnt)
+    cast_occluded(geo, acc, origins, dirs, t_min, t_max, hit, cnt, _clock())
     _check_rays(cnt, (origins, dirs, t_min, t_max))
     return hit, cnt.sum(axis=0)
 

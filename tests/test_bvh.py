@@ -48,7 +48,7 @@ def closest(geo, acc, o, d, t_max=None):
     out = (np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n))
     cnt = np.zeros((4, COLUMNS), np.int64)
     cast_closest(geo, acc, np.ascontiguousarray(o, float), np.ascontiguousarray(d, float),
-                 np.zeros(n), np.ascontiguousarray(t_max, float), *out, cnt)
+                 np.zeros(n), np.ascontiguousarray(t_max, float), *out, cnt, np.zeros(1, np.int64))
     return out, cnt.sum(axis=0)
 
 
@@ -57,7 +57,7 @@ def occluded(geo, acc, o, d, t_max):
     hit = np.empty(n, np.bool_)
     cnt = np.zeros((4, COLUMNS), np.int64)
     cast_occluded(geo, acc, np.ascontiguousarray(o, float), np.ascontiguousarray(d, float),
-                  np.zeros(n), np.ascontiguousarray(t_max, float), hit, cnt)
+                  np.zeros(n), np.ascontiguousarray(t_max, float), hit, cnt, np.zeros(1, np.int64))
     return hit, cnt.sum(axis=0)
 
 
@@ -67,7 +67,7 @@ def counts(geo, acc, o, d, t_max):
     out = np.empty(n, np.int64)
     cnt = np.zeros((4, COLUMNS), np.int64)
     cast_counts(geo, acc, np.ascontiguousarray(o, float), np.ascontiguousarray(d, float),
-                np.zeros(n), np.ascontiguousarray(t_max, float), out, cnt)
+                np.zeros(n), np.ascontiguousarray(t_max, float), out, cnt, np.zeros(1, np.int64))
     return out, cnt.sum(axis=0)
 
 

@@ -4,12 +4,12 @@ must reject exactly the triangles the scalar triangle test rejects first;
 and the frame stack array must behave as an ordinary array."""
 import numpy as np
 import pytest
-from numba import njit
+from numba import njit, prange
 
 from raytrace.accel.bvh import BOX, WIDTH
 from raytrace.kernels.bvh import near_rows
 from raytrace.kernels.intersect import ray_aabb, ray_triangle, ray_triangle_crossing
-from raytrace.kernels.lowlevel import edge_mask4, frame_array, ray_aabb4
+from raytrace.kernels.lowlevel import edge_mask4, frame_array, ray_aabb4, take_ticket
 from raytrace.kernels.ray import make_crossing_ray, make_ray
 
 
@@ -227,3 +227,28 @@ def stack_roundtrip(n):
 
 def test_frame_array():
     assert stack_roundtrip(64) == (sum(i * i + 0.5 * i for i in range(64)), 64, 64)
+
+
+@njit(parallel=True)
+def tickets(n_threads, n, clock, taken, by):
+    for b in prange(n_threads):
+        c = take_ticket(clock)
+        while c < n:
+            taken[c] += 1
+            by[c] = b
+            c = take_ticket(clock)
+
+
+def test_take_ticket_hands_out_each_number_once():
+    """Threads racing for tickets: each number below n is taken exactly
+    once (a lost update would repeat one), by more than one thread."""
+    n = 2_000_000
+    clock = np.zeros(1, np.int64)
+    taken = np.zeros(n, np.int64)
+    by = np.full(n, -1)
+    tickets(4, n, clock, taken, by)
+    assert np.all(taken == 1)
+    assert clock[0] == n + 4       # every thread's last ticket was n or more
+    import numba
+    if numba.get_num_threads() > 1:
+        assert len(np.unique(by)) > 1

@@ -1,16 +1,18 @@
 """Batch ray casting for arbitrary rays: the Python API's kernels and the
 reference the tests compare structures with.
 
-Rays go out in chunks of CHUNK consecutive rays; counter block b (a row of
-cnt_rows, so threads never share a counter and the kernels, compiled without
-the NRT, allocate nothing) takes chunks b, b + n_blocks, b + 2 n_blocks, ...
-in order.  With one block per thread (rayscene.py) each thread sweeps the
-rays once, a chunk at a time: rays in pixel order cost unevenly (sky,
-object, ground), and prange's one contiguous range per thread would leave a
-thread idle, while neighbouring chunks cost about the same.  (Many smaller
-blocks would balance too, but then a thread sweeps the rays once per block
-and loses the cache reuse between neighbouring rays: 12% slower at 118k
-triangles.)
+Rays go out in chunks of CHUNK consecutive rays.  Each counter block b (a
+row of cnt_rows, so threads never share a counter and the kernels, compiled
+without the NRT, allocate nothing; one per thread, rayscene.py) takes the
+next chunk nobody has taken, by a ticket from ``clock`` (a one-element
+array, 0 at the call: lowlevel.take_ticket), until none is left.  So the
+threads sweep the rays once, together, neighbouring chunks at about the
+same time (the cache reuse between neighbouring rays: separate sweeps were
+12% slower at 118k triangles), and a thread slowed by another process on
+its core takes fewer chunks instead of holding up the call.  A fixed share
+each (chunks b, b + n_blocks, ...) measured the same on a quiet machine
+and 7-10% slower with a process spinning 4 ms in 8 on one core (1k teapot,
+camera and shadow rays through RayScene).
 
 Rays are checked as they are read (``ray_ok``): a bad one is not traced,
 its output is a miss, and it is counted in column BAD_RAYS of the counter
@@ -25,6 +27,7 @@ from numba import njit, prange
 from ..io.mesh import MAX_COORD
 from .counters import N_COUNTERS
 from .jit import JIT, PARALLEL
+from .lowlevel import take_ticket
 from .query import closest_hit, count_hits, occluded
 from .ray import make_crossing_ray, make_ray, no_hit
 
@@ -55,10 +58,11 @@ def _ray(origins, dirs, t_min, i):
 
 @njit(**JIT)
 def _closest_block(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v, cnt,
-                   b, n_blocks):
+                   clock):
     n = origins.shape[0]
     n_chunks = (n + CHUNK - 1) // CHUNK
-    for c in range(b, n_chunks, n_blocks):
+    c = take_ticket(clock)
+    while c < n_chunks:
         for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             if ray_ok(origins, dirs, t_min, t_max, i):
                 hit = closest_hit(geo, acc, _ray(origins, dirs, t_min, i), t_max[i], cnt)
@@ -69,46 +73,50 @@ def _closest_block(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u
             out_prim[i] = hit.prim
             out_u[i] = hit.u
             out_v[i] = hit.v
+        c = take_ticket(clock)
 
 
 @njit(**JIT)
-def _occluded_block(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt, b, n_blocks):
+def _occluded_block(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt, clock):
     n = origins.shape[0]
     n_chunks = (n + CHUNK - 1) // CHUNK
-    for c in range(b, n_chunks, n_blocks):
+    c = take_ticket(clock)
+    while c < n_chunks:
         for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             if ray_ok(origins, dirs, t_min, t_max, i):
                 out_hit[i] = occluded(geo, acc, _ray(origins, dirs, t_min, i), t_max[i], cnt)
             else:
                 cnt[BAD_RAYS] += 1
                 out_hit[i] = False
+        c = take_ticket(clock)
 
 
 @njit(**PARALLEL)
 def cast_closest(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v,
-                 cnt_rows):
+                 cnt_rows, clock):
     """Closest hit of ray i = (origins[i], dirs[i]) with t_min[i] < t < t_max[i]."""
     n_blocks = cnt_rows.shape[0]
     for b in prange(n_blocks):
         _closest_block(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v,
-                       cnt_rows[b], b, n_blocks)
+                       cnt_rows[b], clock)
 
 
 @njit(**PARALLEL)
-def cast_occluded(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows):
+def cast_occluded(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows, clock):
     """Whether anything is hit with t_min[i] < t < t_max[i] (stops at the first)."""
     n_blocks = cnt_rows.shape[0]
     for b in prange(n_blocks):
-        _occluded_block(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows[b], b, n_blocks)
+        _occluded_block(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows[b], clock)
 
 
 @njit(**JIT)
 def _crossings_block(geo, acc, origins, dirs, t_min, t_max, max_hits, offsets, out_t,
-                     out_prim, out_u, out_v, counts, cnt, b, n_blocks):
+                     out_prim, out_u, out_v, counts, cnt, clock):
     n = origins.shape[0]
     n_chunks = (n + CHUNK - 1) // CHUNK
     fill = offsets.shape[0] > 0
-    for c in range(b, n_chunks, n_blocks):
+    c = take_ticket(clock)
+    while c < n_chunks:
         for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             t_lo = t_min[i]
             after = _ALL_PEELED   # t_min itself is excluded, as for every query
@@ -132,11 +140,12 @@ def _crossings_block(geo, acc, origins, dirs, t_min, t_max, max_hits, offsets, o
                     after = hit.prim
                     k += 1
             counts[i] = k
+        c = take_ticket(clock)
 
 
 @njit(**PARALLEL)
 def cast_crossings(geo, acc, origins, dirs, t_min, t_max, max_hits, offsets, out_t, out_prim,
-                   out_u, out_v, counts, cnt_rows):
+                   out_u, out_v, counts, cnt_rows, clock):
     """Every hit of ray i with t_min[i] < t < t_max[i], at most max_hits, in
     order of (t, primitive id), each crossing of a closed surface once: the
     closest hit, then the closest past it, and so on (CrossingRay).  counts
@@ -145,14 +154,15 @@ def cast_crossings(geo, acc, origins, dirs, t_min, t_max, max_hits, offsets, out
     n_blocks = cnt_rows.shape[0]
     for b in prange(n_blocks):
         _crossings_block(geo, acc, origins, dirs, t_min, t_max, max_hits, offsets, out_t,
-                         out_prim, out_u, out_v, counts, cnt_rows[b], b, n_blocks)
+                         out_prim, out_u, out_v, counts, cnt_rows[b], clock)
 
 
 @njit(**JIT)
-def _counts_block(geo, acc, origins, dirs, t_min, t_max, out_count, cnt, b, n_blocks):
+def _counts_block(geo, acc, origins, dirs, t_min, t_max, out_count, cnt, clock):
     n = origins.shape[0]
     n_chunks = (n + CHUNK - 1) // CHUNK
-    for c in range(b, n_chunks, n_blocks):
+    c = take_ticket(clock)
+    while c < n_chunks:
         for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             if not ray_ok(origins, dirs, t_min, t_max, i):
                 cnt[BAD_RAYS] += 1
@@ -161,13 +171,14 @@ def _counts_block(geo, acc, origins, dirs, t_min, t_max, out_count, cnt, b, n_bl
             ray = make_crossing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
                                     dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i], _ALL_PEELED)
             out_count[i] = count_hits(geo, acc, ray, t_max[i], cnt)
+        c = take_ticket(clock)
 
 
 @njit(**PARALLEL)
-def cast_counts(geo, acc, origins, dirs, t_min, t_max, out_count, cnt_rows):
+def cast_counts(geo, acc, origins, dirs, t_min, t_max, out_count, cnt_rows, clock):
     """How many times ray i meets the surfaces with t_min[i] < t < t_max[i],
     each crossing of a closed surface once: one traversal that never
     narrows the interval, with the crossing triangle test (CrossingRay)."""
     n_blocks = cnt_rows.shape[0]
     for b in prange(n_blocks):
-        _counts_block(geo, acc, origins, dirs, t_min, t_max, out_count, cnt_rows[b], b, n_blocks)
+        _counts_block(geo, acc, origins, dirs, t_min, t_max, out_count, cnt_rows[b], clock)

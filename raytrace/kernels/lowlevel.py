@@ -1,6 +1,6 @@
-"""Three things the BVH traversal needs that Numba cannot say in Python:
-an array in the caller's stack frame, a 4-wide box test in SIMD, and the
-first step of the triangle test for 4 triangles at once.
+"""What the kernels need that Numba cannot say in Python: an array in the
+caller's stack frame, a 4-wide box test in SIMD, the first step of the
+triangle test for 4 triangles at once, and an atomic counter.
 
 Both are Numba intrinsics that emit LLVM IR directly.
 """
@@ -195,3 +195,22 @@ def edge_mask4(typingctx, v0, v1, v2, r0, r1, r2, r3, kx, ky, kz, okx, oky, okz,
         return builder.zext(builder.bitcast(keep, ir.IntType(4)), i64)
 
     return sig, codegen
+
+
+_CLOCK = types.Array(types.int64, 1, "C")
+
+
+@intrinsic
+def take_ticket(typingctx, clock):
+    """Atomically add 1 to clock[0] and return its value before: threads
+    taking tickets from one clock each get a different number, 0, 1, 2, ...
+    (LLVM's atomicrmw add, monotonic: only the count must be exact, and the
+    end of the parallel region orders everything the threads wrote)."""
+    if clock != _CLOCK:
+        return None
+
+    def codegen(context, builder, sig, args):
+        data = context.make_array(sig.args[0])(context, builder, value=args[0]).data
+        return builder.atomic_rmw("add", data, ir.Constant(ir.IntType(64), 1), "monotonic")
+
+    return types.int64(clock), codegen
