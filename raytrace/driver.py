@@ -336,15 +336,17 @@ def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows
     args = (geo, acc, cam, lights, shadows, textures, bounces, aovs, background, int(width),
             int(height))
     tail = (int(threads), int(spp), int(seed), image, stats_rows)
+    clock = np.zeros(1, np.int64)    # the kernel's band tickets (kernels/render.py)
     # An empty band compiles the kernel (or loads it from Numba's cache)
     # without rendering anything, so that time is reported apart.
     t_compile = 0.0
     if load:
         t0 = time.perf_counter()
-        render_rows(*args, 0, 0, int(row0), *tail)
+        render_rows(*args, 0, 0, int(row0), *tail, clock)
         t_compile = time.perf_counter() - t0
     t0 = time.perf_counter()
-    render_rows(*args, int(y0), int(y1), int(row0), *tail)
+    clock[0] = 0
+    render_rows(*args, int(y0), int(y1), int(row0), *tail, clock)
     return image, stats_rows, t_compile, time.perf_counter() - t0
 
 

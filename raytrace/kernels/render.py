@@ -36,7 +36,7 @@ from .counters import (
     SHADOW_RAYS,
 )
 from .jit import JIT, OVERLOAD, PARALLEL
-from .lowlevel import frame_array
+from .lowlevel import frame_array, take_ticket
 from .optics import bounce_weights, reflect, refract
 from .query import closest_hit, occluded
 from .ray import make_ray
@@ -430,17 +430,22 @@ TILE = 8
 
 @njit(**JIT)
 def render_part(geo, acc, cam, lights, shadows, textures, bounces, aovs, background, width, height,
-                y_first, y_end, y_step, row0, spp, seed, image, stats_rows):
-    """The bands of TILE rows starting at y_first, y_first + y_step * TILE,
-    ... below y_end into image (rows, width, 3) float32, linear, at row y -
-    row0, square by square.  Each row counts into its own stats_rows[y -
-    row0]."""
-    for band in range(y_first, y_end, y_step * TILE):
+                y0, y_end, row0, spp, seed, image, stats_rows, clock):
+    """Bands of TILE rows from y0 (band k: rows y0 + k TILE ...) below y_end
+    into image (rows, width, 3) float32, linear, at row y - row0, square by
+    square, each band the next nobody has taken (a ticket from clock, as
+    the query kernels take chunks: kernels/cast.py).  Each row counts into
+    its own stats_rows[y - row0]."""
+    n_bands = (y_end - y0 + TILE - 1) // TILE
+    band = take_ticket(clock)
+    while band < n_bands:
+        top = y0 + band * TILE
         for x0 in range(0, width, TILE):
-            for y in range(band, min(band + TILE, y_end)):
+            for y in range(top, min(top + TILE, y_end)):
                 _render_span(geo, acc, cam, lights, shadows, textures, bounces, aovs, background,
                              width, height, y, x0, min(x0 + TILE, width), row0, spp, seed, image,
                              stats_rows)
+        band = take_ticket(clock)
 
 
 @njit(**JIT)
@@ -475,20 +480,22 @@ def _render_span(geo, acc, cam, lights, shadows, textures, bounces, aovs, backgr
 
 @njit(**PARALLEL)
 def render_rows(geo, acc, cam, lights, shadows, textures, bounces, aovs, background, width, height,
-                y0, y1, row0, n_threads, spp, seed, image, stats_rows):
+                y0, y1, row0, n_threads, spp, seed, image, stats_rows, clock):
     """Render rows y0 .. y1-1 into a band: image row y is image[y - row0]
     (row0 = 0 for a whole-image buffer; a tile's own buffer starts at its
-    first row), likewise stats_rows and the AOVs.
+    first row), likewise stats_rows and the AOVs.  clock: a one-element
+    int64 array, 0 at the call.
 
-    Part k of n_threads renders the bands of TILE rows k, k + n_threads,
-    ...: prange gives each thread one contiguous range, and the bottom of
+    Each of n_threads parts takes the next band of TILE rows until none is
+    left: prange gives each thread one contiguous range, and the bottom of
     a picture (ground, with its shadow rays) costs more than the top
     (sky): contiguous halves of the hard-shadowed teapot split its ray-box
-    and ray-primitive tests 43.5/56.5, interleaved rows 50.0/50.0.
-    (Numba's get_num_threads() inside the kernel would stop it being
-    cached.)
+    and ray-primitive tests 43.5/56.5.  Bands taken in turn by ticket keep
+    the threads together (a fixed share each was slower whenever another
+    process slowed one thread's core).  (Numba's get_num_threads() inside
+    the kernel would stop it being cached.)
     """
     n_parts = max(1, min(n_threads, -(-(y1 - y0) // TILE)))
-    for k in prange(n_parts):
+    for _part in prange(n_parts):
         render_part(geo, acc, cam, lights, shadows, textures, bounces, aovs, background, width,
-                    height, y0 + k * TILE, y1, n_parts, row0, spp, seed, image, stats_rows)
+                    height, y0, y1, row0, spp, seed, image, stats_rows, clock)
