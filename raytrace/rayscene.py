@@ -332,7 +332,7 @@ class RayScene:
         n = len(q)
         point, prim = np.empty((n, 3)), np.empty(n, np.int64)
         u, v, d2 = np.empty(n), np.empty(n), np.empty(n)
-        closest_points(p.geo, p.bvh(), q, point, prim, u, v, d2, _blocks(n))
+        closest_points(p.geo, p.bvh(), q, point, prim, u, v, d2, _blocks(n), _clock())
         gid, face = p.ids(prim)
         tri = (prim >= 0) & (prim < p.n_tris)
         return {"point": point, "distance": np.sqrt(d2), "geometry_id": gid, "prim_id": face,

@@ -12,7 +12,7 @@ from numba import njit, prange
 
 from ..accel.bvh import MAX_DEPTH, WIDTH
 from .jit import JIT, PARALLEL
-from .lowlevel import frame_array
+from .lowlevel import frame_array, take_ticket
 
 STACK_SIZE = 3 * MAX_DEPTH + 4
 CHUNK = 64
@@ -148,10 +148,11 @@ def closest_point(geo, bvh, qx, qy, qz):
 
 
 @njit(**JIT)
-def _points_block(geo, bvh, points, out_point, out_prim, out_u, out_v, out_d2, b, n_blocks):
+def _points_block(geo, bvh, points, out_point, out_prim, out_u, out_v, out_d2, clock):
     n = points.shape[0]
     n_chunks = (n + CHUNK - 1) // CHUNK
-    for c in range(b, n_chunks, n_blocks):
+    c = take_ticket(clock)     # the next chunk nobody has taken, as in kernels/cast.py
+    while c < n_chunks:
         for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             d2, p, x, y, z, u, v = closest_point(geo, bvh, points[i, 0], points[i, 1],
                                                  points[i, 2])
@@ -162,11 +163,13 @@ def _points_block(geo, bvh, points, out_point, out_prim, out_u, out_v, out_d2, b
             out_point[i, 2] = z
             out_u[i] = u
             out_v[i] = v
+        c = take_ticket(clock)
 
 
 @njit(**PARALLEL)
-def closest_points(geo, bvh, points, out_point, out_prim, out_u, out_v, out_d2, n_blocks):
+def closest_points(geo, bvh, points, out_point, out_prim, out_u, out_v, out_d2, n_blocks, clock):
     """The surfaces' closest point to each query point, its primitive, its
-    barycentric weights (triangles) and the squared distance."""
-    for b in prange(n_blocks):
-        _points_block(geo, bvh, points, out_point, out_prim, out_u, out_v, out_d2, b, n_blocks)
+    barycentric weights (triangles) and the squared distance; n_blocks
+    threads take chunks of points by ticket from clock (0 at the call)."""
+    for _block in prange(n_blocks):
+        _points_block(geo, bvh, points, out_point, out_prim, out_u, out_v, out_d2, clock)
