@@ -547,8 +547,8 @@ def kernel_array(a, dtype=np.float64):
 
 
 def _blocks(n):
-    """Counter rows: one per thread (kernels/cast.py interleaves chunks of
-    rays between them), fewer when there are fewer chunks than threads."""
+    """Counter rows: one per thread (kernels/cast.py: each takes chunks of
+    rays by ticket), fewer when there are fewer chunks than threads."""
     import numba
 
     from .kernels.cast import CHUNK
