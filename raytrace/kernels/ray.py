@@ -54,7 +54,9 @@ def make_ray(ox, oy, oz, dx, dy, dz, t_min=0.0):
         kx, ky = ky, kx
     sx = d[kx] / dkz
     sy = d[ky] / dkz
-    sz = 1.0 / dkz
+    # 1.0 / dkz is the inverse already computed for that axis (the same
+    # division, so the same bits): one division a ray fewer.
+    sz = idx if kz == 0 else idy if kz == 1 else idz
     o = (ox, oy, oz)
     return Ray(ox, oy, oz, dx, dy, dz, idx, idy, idz, kx, ky, kz, sx, sy, sz, o[kx], o[ky], o[kz],
                t_min)
