@@ -286,13 +286,11 @@ def prepare(scene, opts, drop_meshes=False):
     import numba  # deferred: `raytrace scenes` and --help never pay for it
 
     from .flatten import flatten
-    from .pages import small_pages
     from .structures import build_structure, get
 
     threads = int(opts.threads or numba.config.NUMBA_NUM_THREADS)
     numba.set_num_threads(threads)
-    with small_pages():
-        geo, obj_ranges, info = flatten(scene)
+    geo, obj_ranges, info = flatten(scene)
     lights = light_buffers(scene, opts.shadows, opts.light_samples)
     background = f64(scene.background)
     shadows = shadow_record(opts.shadows, opts.pattern)

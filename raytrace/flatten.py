@@ -3,6 +3,7 @@ import numpy as np
 
 from .buffers import N_MAT_PARAMS, Geometry, f64, i64
 from .errors import RaytraceError
+from .pages import small_pages
 from .scene import Mesh, Plane, Sphere
 
 # A triangle whose doubled area is below this fraction of its longest edge
@@ -127,6 +128,7 @@ def _kept_corners(v, f):
     return out[0][:m], out[1][:m], out[2][:m], keep
 
 
+@small_pages()    # write-once arrays: no huge-page advice (pages.py)
 def flatten(scene, with_sources=False):
     """Returns (Geometry, obj_ranges, info), and with ``with_sources`` also
     (prim_object, prim_index).
