@@ -42,33 +42,31 @@ def make_scene(tris=None, spheres=(), planes=()):
     return geo, ranges
 
 
+def run_kernel(kernel, geo, acc, o, d, t_max, *out):
+    """Call a query kernel (kernels/cast.py) on rays o, d with t_min 0;
+    returns the summed counters."""
+    cnt = np.zeros((4, COLUMNS), np.int64)
+    kernel(geo, acc, np.ascontiguousarray(o, float), np.ascontiguousarray(d, float),
+           np.zeros(len(o)), np.ascontiguousarray(t_max, float), *out, cnt, np.zeros(1, np.int64))
+    return cnt.sum(axis=0)
+
+
 def closest(geo, acc, o, d, t_max=None):
     n = len(o)
-    t_max = np.full(n, np.inf) if t_max is None else t_max
     out = (np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n))
-    cnt = np.zeros((4, COLUMNS), np.int64)
-    cast_closest(geo, acc, np.ascontiguousarray(o, float), np.ascontiguousarray(d, float),
-                 np.zeros(n), np.ascontiguousarray(t_max, float), *out, cnt, np.zeros(1, np.int64))
-    return out, cnt.sum(axis=0)
+    return out, run_kernel(cast_closest, geo, acc, o, d,
+                           np.full(n, np.inf) if t_max is None else t_max, *out)
 
 
 def occluded(geo, acc, o, d, t_max):
-    n = len(o)
-    hit = np.empty(n, np.bool_)
-    cnt = np.zeros((4, COLUMNS), np.int64)
-    cast_occluded(geo, acc, np.ascontiguousarray(o, float), np.ascontiguousarray(d, float),
-                  np.zeros(n), np.ascontiguousarray(t_max, float), hit, cnt, np.zeros(1, np.int64))
-    return hit, cnt.sum(axis=0)
+    hit = np.empty(len(o), np.bool_)
+    return hit, run_kernel(cast_occluded, geo, acc, o, d, t_max, hit)
 
 
 def counts(geo, acc, o, d, t_max):
     """Every crossing along each ray (count_intersections' kernel)."""
-    n = len(o)
-    out = np.empty(n, np.int64)
-    cnt = np.zeros((4, COLUMNS), np.int64)
-    cast_counts(geo, acc, np.ascontiguousarray(o, float), np.ascontiguousarray(d, float),
-                np.zeros(n), np.ascontiguousarray(t_max, float), out, cnt, np.zeros(1, np.int64))
-    return out, cnt.sum(axis=0)
+    out = np.empty(len(o), np.int64)
+    return out, run_kernel(cast_counts, geo, acc, o, d, t_max, out)
 
 
 def assert_same_as_brute(geo, ranges, o, d, t_max_occ, name="bvh", **build_opts):
