@@ -102,6 +102,29 @@ class RayHits:
         return f"RayHits({len(self)} rays, {int(self.hit.sum())} hits)"
 
 
+class HitList(RayHits):
+    """Every hit along n rays (list_intersections), flat, in Open3D's
+    layout: ray i's hits are rows ray_splits[i]:ray_splits[i + 1] of each
+    field, nearest first, and ray_id names each row's ray.  The other fields
+    are RayHits', over the hits, read the same ways; normal and point are
+    computed when first read (on 540,000 hits they cost as much as finding
+    the hits)."""
+    FIELDS = ("ray_splits", "ray_id") + RayHits.FIELDS
+
+    def __init__(self, splits, t, prim, u, v, origins, directions, prepared, stats):
+        super().__init__(t, prim, u, v, origins, directions, prepared, stats)
+        self.ray_splits = splits
+        self.ray_id = np.repeat(np.arange(len(splits) - 1), np.diff(splits))
+
+    def _surface(self):
+        o, d = self._rays
+        return self._prepared.surface(self._prim, *self._raw_uv, self.t, o[self.ray_id],
+                                      d[self.ray_id])
+
+    def __repr__(self):
+        return f"HitList({len(self.ray_splits) - 1} rays, {len(self)} hits)"
+
+
 class _Prepared:
     """A built scene: kernel buffers, the structure, and the maps from the
     kernel's unified primitive ids back to the user's geometry and faces."""
@@ -263,35 +286,27 @@ class RayScene:
         never narrows its interval (the grid scans every primitive: it
         cannot tell a primitive met in two cells from two crossings)."""
         rays = _rays(origins, directions, t_min, t_max)
-        limit = _max_hits(max_hits, self._built())
-        from .kernels.cast import cast_counts
-        p = self._prepared
-        counts = np.empty(len(rays[0]), np.int64)
-        cnt = _counter_rows(len(counts))
-        cast_counts(p.geo, p.acc, *rays, counts, cnt, _clock())
-        _check_rays(cnt, rays)
-        return np.minimum(counts, limit)
+        p = self._built()
+        return np.minimum(_counts(p, rays), _max_hits(max_hits, p))
 
     def list_intersections(self, origins, directions, t_min=0.0, t_max=np.inf, max_hits=None):
-        """Every hit along each ray with t_min < t < t_max, nearest first,
-        each crossing counted as in count_intersections, at most max_hits per
-        ray.  Flat arrays, Open3D's layout: the hits of ray i are rows
-        ray_splits[i]:ray_splits[i + 1] of t, geometry_id, prim_id, u, v,
-        normal, point (as in RayHits) and ray_id."""
+        """Every hit along each ray with t_min < t < t_max, nearest first
+        (ties in t: the smaller primitive id first), each crossing counted
+        as in count_intersections, at most max_hits per ray (the nearest): a
+        HitList, flat arrays in Open3D's layout.  Two traversals a ray: one
+        counts the hits, one writes them down."""
         rays = _rays(origins, directions, t_min, t_max)
-        o, d = rays[:2]
         p = self._built()
-        counts, (t, prim, u, v) = _crossings(p.geo, p.acc, *rays, _max_hits(max_hits, p),
-                                             fill=True)
-        splits = np.zeros(len(d) + 1, np.int64)
-        np.cumsum(counts, out=splits[1:])
-        ray_id = np.repeat(np.arange(len(d)), counts)
-        gid, face = p.ids(prim)
-        tri = prim < p.n_tris
-        normal, point = p.surface(prim, u, v, t, o[ray_id], d[ray_id])
-        return {"ray_splits": splits, "ray_id": ray_id, "t": t, "geometry_id": gid,
-                "prim_id": face, "u": np.where(tri, u, np.nan), "v": np.where(tri, v, np.nan),
-                "normal": normal, "point": point}
+        limit = _max_hits(max_hits, p)
+        splits, (t, prim, u, v), cnt = _listing(p, rays)
+        counts = np.diff(splits)
+        if counts.max(initial=0) > limit:
+            kept = np.minimum(counts, limit)
+            new = np.zeros_like(splits)
+            np.cumsum(kept, out=new[1:])
+            rows = np.repeat(splits[:-1] - new[:-1], kept) + np.arange(new[-1])
+            splits, (t, prim, u, v) = new, (a[rows] for a in (t, prim, u, v))
+        return HitList(splits, t, prim, u, v, *rays[:2], p, _counters(cnt, len(counts)))
 
     def contains(self, points, votes=1):
         """Whether each point is inside the closed surfaces: a boolean (n,)
@@ -394,24 +409,41 @@ def _max_hits(max_hits, prepared):
     return int(max_hits)
 
 
-def _crossings(geo, acc, origins, dirs, t_min, t_max, max_hits, fill):
-    """(counts, (t, prim, u, v) flat, or None) of every hit along each ray."""
-    from .kernels.cast import cast_crossings
-    n = len(origins)
-    counts = np.zeros(n, np.int64)
-    empty_f, empty_i = np.zeros(0), np.zeros(0, np.int64)
-    cnt = _counter_rows(n)
-    args = (geo, acc, origins, dirs, t_min, t_max, max_hits)
-    cast_crossings(*args, empty_i, empty_f, empty_i, empty_f, empty_f, counts, cnt, _clock())
-    _check_rays(cnt, (origins, dirs, t_min, t_max))
-    if not fill:
-        return counts, None
-    offsets = np.zeros(n, np.int64)
-    np.cumsum(counts[:-1], out=offsets[1:])
-    m = int(counts.sum())
-    out = (np.empty(m), np.empty(m, np.int64), np.empty(m), np.empty(m))
-    cast_crossings(*args, offsets, *out, counts, cnt, _clock())
-    return counts, out
+def _counts(prepared, rays):
+    """How many hits each ray has (cast_counts); RaytraceError if a ray is bad."""
+    from .kernels.cast import cast_counts
+    counts = np.empty(len(rays[0]), np.int64)
+    cnt = _counter_rows(len(counts))
+    cast_counts(prepared.geo, prepared.acc, *rays, counts, cnt, _clock())
+    _check_rays(cnt, rays)
+    return counts
+
+
+def _listing(prepared, rays):
+    """(splits, (t, prim, u, v), counters): every hit of each ray, ray i's
+    in rows splits[i]:splits[i + 1], in order of (t, primitive id).  The
+    listing kernel counts too (with no rows to write to), so a first
+    list_intersections compiles one kernel, not two."""
+    from .kernels.cast import cast_listing
+    n = len(rays[0])
+
+    def run(splits):
+        m = int(splits[-1])
+        out = (np.empty(m), np.empty(m, np.int64), np.empty(m), np.empty(m))
+        found = np.empty(n, np.int64)
+        cnt = _counter_rows(n)
+        cast_listing(prepared.geo, prepared.acc, *rays, splits, *out, found, cnt, _clock())
+        _check_rays(cnt, rays)
+        return found, out, cnt.sum(axis=0)
+
+    counts = run(np.zeros(n + 1, np.int64))[0]
+    splits = np.zeros(n + 1, np.int64)
+    np.cumsum(counts, out=splits[1:])
+    found, out, cnt = run(splits)
+    if not np.array_equal(found, counts):   # the two passes run the same tests
+        raise RuntimeError("list_intersections: the listing pass found other hits than "
+                           "the counting pass (a bug: please report it)")
+    return splits, out, cnt
 
 
 def _as_rows(name, a):

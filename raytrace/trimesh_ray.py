@@ -24,12 +24,16 @@ class RayMeshIntersector:
         ray (at most max_hits, nearest first) or only its first."""
         if multiple_hits:
             h = self._scene.list_intersections(ray_origins, ray_directions, max_hits=max_hits)
-            tri, ray, loc = h["prim_id"], h["ray_id"], h["point"]
+            tri, ray = h.prim_id, h.ray_id
+            if return_locations:
+                return tri, ray, h.point
         else:
             h = self._scene.cast_rays(ray_origins, ray_directions)
             hit = h.hit
-            tri, ray, loc = h.prim_id[hit], np.flatnonzero(hit), h.point[hit]
-        return (tri, ray, loc) if return_locations else (tri, ray)
+            tri, ray = h.prim_id[hit], np.flatnonzero(hit)
+            if return_locations:
+                return tri, ray, h.point[hit]
+        return tri, ray
 
     def intersects_location(self, ray_origins, ray_directions, multiple_hits=True, **kwargs):
         """(locations, index_ray, index_tri) of the hits."""

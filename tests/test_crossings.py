@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from raytrace import RayScene, RaytraceError
-from raytrace.scene import Camera, Scene, Sphere
+from raytrace.scene import Camera, Mesh, Plane, Scene, Sphere
 
 from .structures import STRUCTURES
 
@@ -115,6 +115,52 @@ def test_list_intersections_layout_and_order():
     assert len(rs.list_intersections(o, d, max_hits=1)["t"]) == 2
 
 
+def _layers(n_layers, copies=1):
+    """n_layers unit squares in the planes z = 1 .. n_layers, each made of
+    two triangles and repeated ``copies`` times, the faces shuffled so no
+    structure meets them in order of z."""
+    v, f = [], []
+    for z in range(1, n_layers + 1):
+        k = len(v)
+        v += [[-1, -1, z], [1, -1, z], [1, 1, z], [-1, 1, z]]
+        f += [[k, k + 1, k + 2], [k, k + 2, k + 3]] * copies
+    order = np.random.default_rng(5).permutation(len(f))
+    return np.array(v, float), np.array(f)[order]
+
+
+@pytest.mark.parametrize("accel", STRUCTURES)
+def test_many_hits_come_nearest_first(accel):
+    """A ray through 40 layers lists 40 hits in order of t, more than one
+    round of the in-place sort handles; max_hits keeps the nearest."""
+    v, f = _layers(40)
+    rs = RayScene((v, f), accel=accel)
+    o = np.array([[0.25, 0.125, 0.0], [0.5, -0.25, 50.0]])
+    d = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
+    h = rs.list_intersections(o, d)
+    assert h.ray_splits.tolist() == [0, 40, 80]
+    assert h.t[:40].tolist() == list(range(1, 41))
+    assert h.t[40:].tolist() == list(range(10, 50))
+    z = v[f[h.prim_id][:, 0], 2]      # each hit's layer
+    assert np.array_equal(z[:40], h.t[:40]) and np.array_equal(z[40:], 50 - h.t[40:])
+    near = rs.list_intersections(o, d, max_hits=5)
+    assert near.ray_splits.tolist() == [0, 5, 10]
+    assert near.t.tolist() == [1, 2, 3, 4, 5, 10, 11, 12, 13, 14]
+    assert near.ray_id.tolist() == [0] * 5 + [1] * 5
+    assert np.array_equal(near.point, np.concatenate([h.point[:5], h.point[40:45]]))
+
+
+def test_hits_at_one_distance_go_by_primitive_id():
+    """Each layer three times over: three hits at each t, the smaller face
+    index first, every time."""
+    v, f = _layers(12, copies=3)
+    rs = RayScene((v, f))
+    h = rs.list_intersections([0.25, 0.125, 0.0], [0.0, 0.0, 1.0])
+    assert h.t.tolist() == [z for z in range(1, 13) for _ in range(3)]
+    ids = h.prim_id.reshape(12, 3)
+    assert np.all(np.diff(ids, axis=1) > 0)
+    assert len(set(h.prim_id.tolist())) == 36
+
+
 def test_spheres_have_two_roots():
     scene = Scene("s", Camera((0, 0, 5), (0, 0, 0)), objects=[Sphere((0, 0, 0), 1.0)])
     rs = RayScene(scene)
@@ -139,6 +185,30 @@ def test_every_structure_lists_the_same_hits(seed):
                 assert np.all(np.diff(h["t"][s]) >= 0)
         for a, b in zip(ref, got):
             assert np.array_equal(a, b, equal_nan=True), accel
+
+
+@pytest.mark.parametrize("accel", STRUCTURES)
+def test_listed_hits_are_the_counted_ones(accel):
+    """Spheres (both roots), a plane and two meshes: each ray lists as many
+    hits as count_intersections counts, each inside the interval, and the
+    sphere's and plane's hits lie on them."""
+    rng = np.random.default_rng(11)
+    v, f = box(2)
+    scene = Scene("s", Camera((0, 0, 5), (0, 0, 0)), objects=[
+        Sphere((0.2, 0.1, 0.0), 0.7), Mesh(v, f), Mesh(v * 0.4 + 1.5, f),
+        Sphere((2.0, 2.0, 2.0), 0.5), Plane((0.0, -1.5, 0.0), (0.0, 1.0, 0.0))])
+    rs = RayScene(scene, accel=accel)
+    o, d = rng.uniform(-3, 3, (1000, 3)), rng.normal(size=(1000, 3))
+    t_min, t_max = rng.uniform(0, 0.5, 1000), rng.uniform(2, 8, 1000)
+    h = rs.list_intersections(o, d, t_min=t_min, t_max=t_max)
+    counts = rs.count_intersections(o, d, t_min=t_min, t_max=t_max)
+    assert np.array_equal(np.diff(h.ray_splits), counts)
+    assert counts.sum() > 300 and set(h.geometry_id.tolist()) == {0, 1, 2, 3, 4}
+    assert np.all((h.t > t_min[h.ray_id]) & (h.t < t_max[h.ray_id]))
+    on_sphere = h.geometry_id == 0
+    r = np.linalg.norm(h.point[on_sphere] - [0.2, 0.1, 0.0], axis=1)
+    assert np.allclose(r, 0.7, rtol=1e-12)
+    assert np.allclose(h.point[h.geometry_id == 4][:, 1], -1.5, rtol=0, atol=1e-12)
 
 
 @pytest.mark.parametrize("accel", STRUCTURES)

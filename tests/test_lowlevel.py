@@ -147,7 +147,7 @@ def edge_masks(v0, v1, v2, origins, dirs):
         ray = make_ray(origins[i, 0], origins[i, 1], origins[i, 2],
                        dirs[i, 0], dirs[i, 1], dirs[i, 2])
         crossing = make_crossing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
-                                     dirs[i, 0], dirs[i, 1], dirs[i, 2], 0.0, 1 << 62)
+                                     dirs[i, 0], dirs[i, 1], dirs[i, 2], 0.0)
         consts[i, 0], consts[i, 1], consts[i, 2] = ray.kx, ray.ky, ray.kz
         consts[i, 3], consts[i, 4] = ray.sx, ray.sy
         consts[i, 5], consts[i, 6], consts[i, 7] = ray.okx, ray.oky, ray.okz

@@ -22,17 +22,17 @@ call (211,731 shadow rays, 1k teapot): 14% of the call.
 
 Each kernel is compiled once per structure (query.py), on first use.
 """
+import numpy as np
 from numba import njit, prange
 
 from ..io.mesh import MAX_COORD
 from .counters import N_COUNTERS
 from .jit import JIT, PARALLEL
-from .lowlevel import take_ticket
-from .query import closest_hit, count_hits, occluded
-from .ray import make_crossing_ray, make_ray, no_hit
+from .lowlevel import frame_array, take_ticket
+from .query import closest_hit, count_hits, list_hits, occluded
+from .ray import make_crossing_ray, make_listing_ray, make_ray, no_hit
 
 CHUNK = 64
-_ALL_PEELED = 1 << 62   # above every primitive id
 BAD_RAYS = N_COUNTERS   # counter rows have N_COUNTERS + 1 columns
 COLUMNS = N_COUNTERS + 1
 
@@ -109,52 +109,64 @@ def cast_occluded(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows, cloc
         _occluded_block(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows[b], clock)
 
 
+# Shell sort's gaps (Ciura 2001, "Best Increments for the Average Case of
+# Shellsort"): a ray's hits are sorted in place, since the kernels cannot
+# allocate; most rays have a few, where it is an insertion sort.
+_GAPS = (701, 301, 132, 57, 23, 10, 4, 1)
+
+
 @njit(**JIT)
-def _crossings_block(geo, acc, origins, dirs, t_min, t_max, max_hits, offsets, out_t,
-                     out_prim, out_u, out_v, counts, cnt, clock):
+def sort_hits(t, prim, u, v, lo, hi):
+    """Rows lo:hi of the hit arrays in order of (t, primitive id), the
+    canonical order of hits (ray.closer)."""
+    for gap in _GAPS:
+        for i in range(lo + gap, hi):
+            ti, pi, ui, vi = t[i], prim[i], u[i], v[i]
+            j = i
+            while j - gap >= lo and (t[j - gap] > ti or (t[j - gap] == ti and prim[j - gap] > pi)):
+                t[j], prim[j], u[j], v[j] = t[j - gap], prim[j - gap], u[j - gap], v[j - gap]
+                j -= gap
+            t[j], prim[j], u[j], v[j] = ti, pi, ui, vi
+
+
+@njit(**JIT)
+def _listing_block(geo, acc, origins, dirs, t_min, t_max, splits, out_t, out_prim, out_u, out_v,
+                   found, cnt, clock):
     n = origins.shape[0]
     n_chunks = (n + CHUNK - 1) // CHUNK
-    fill = offsets.shape[0] > 0
+    cursor = frame_array(2, np.int64)
     c = take_ticket(clock)
     while c < n_chunks:
         for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
-            t_lo = t_min[i]
-            after = _ALL_PEELED   # t_min itself is excluded, as for every query
-            k = 0
-            more = ray_ok(origins, dirs, t_min, t_max, i)
-            if not more:
+            found[i] = 0
+            if not ray_ok(origins, dirs, t_min, t_max, i):
                 cnt[BAD_RAYS] += 1
-            while more and k < max_hits:
-                ray = make_crossing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
-                                        dirs[i, 0], dirs[i, 1], dirs[i, 2], t_lo, after)
-                hit = closest_hit(geo, acc, ray, t_max[i], cnt)
-                more = hit.prim >= 0
-                if more:
-                    if fill:
-                        j = offsets[i] + k
-                        out_t[j] = hit.t
-                        out_prim[j] = hit.prim
-                        out_u[j] = hit.u
-                        out_v[j] = hit.v
-                    t_lo = hit.t
-                    after = hit.prim
-                    k += 1
-            counts[i] = k
+                continue
+            lo, hi = splits[i], splits[i + 1]
+            cursor[0] = lo
+            cursor[1] = hi
+            ray = make_listing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
+                                   dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i],
+                                   out_t, out_prim, out_u, out_v, cursor)
+            end = list_hits(geo, acc, ray, t_max[i], cnt)
+            found[i] = end - lo
+            sort_hits(out_t, out_prim, out_u, out_v, lo, min(end, hi))
         c = take_ticket(clock)
 
 
 @njit(**PARALLEL)
-def cast_crossings(geo, acc, origins, dirs, t_min, t_max, max_hits, offsets, out_t, out_prim,
-                   out_u, out_v, counts, cnt_rows, clock):
-    """Every hit of ray i with t_min[i] < t < t_max[i], at most max_hits, in
-    order of (t, primitive id), each crossing of a closed surface once: the
-    closest hit, then the closest past it, and so on (CrossingRay).  counts
-    gets the number; with offsets (n,) the hits are written from
-    out_*[offsets[i]] on; with offsets empty, only counted."""
+def cast_listing(geo, acc, origins, dirs, t_min, t_max, splits, out_t, out_prim, out_u, out_v,
+                 found, cnt_rows, clock):
+    """Every hit of ray i with t_min[i] < t < t_max[i], each crossing of a
+    closed surface once, into rows splits[i]:splits[i + 1] of out_*, in
+    order of (t, primitive id): one traversal that never narrows the
+    interval, as cast_counts's, whose counts make splits.  found[i] gets
+    the number of hits found, which is that count (rows past splits[i + 1]
+    are not written)."""
     n_blocks = cnt_rows.shape[0]
     for b in prange(n_blocks):
-        _crossings_block(geo, acc, origins, dirs, t_min, t_max, max_hits, offsets, out_t,
-                         out_prim, out_u, out_v, counts, cnt_rows[b], clock)
+        _listing_block(geo, acc, origins, dirs, t_min, t_max, splits, out_t, out_prim, out_u,
+                       out_v, found, cnt_rows[b], clock)
 
 
 @njit(**JIT)
@@ -169,7 +181,7 @@ def _counts_block(geo, acc, origins, dirs, t_min, t_max, out_count, cnt, clock):
                 out_count[i] = 0
                 continue
             ray = make_crossing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
-                                    dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i], _ALL_PEELED)
+                                    dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i])
             out_count[i] = count_hits(geo, acc, ray, t_max[i], cnt)
         c = take_ticket(clock)
 

@@ -92,8 +92,7 @@ def _triangle(ray, v0, v1, v2, i, t_max, crossing):
     the edge points of its edges whose direction, taken in the winding
     seen from the ray, lies in one half-plane (the rasteriser's top-left
     rule).  Where the surface folds away from the ray (a silhouette), both
-    or neither triangle owns the edge, so the parity is kept.  Hits need
-    ray.t_min <= t < t_max: the caller breaks ties at t_min.
+    or neither triangle owns the edge, so the parity is kept.
     """
     kx, ky, kz = ray.kx, ray.ky, ray.kz
     sx, sy, sz = ray.sx, ray.sy, ray.sz
@@ -141,7 +140,7 @@ def _triangle(ray, v0, v1, v2, i, t_max, crossing):
             return np.inf, 0.0, 0.0
     inv_det = 1.0 / det
     t = t_scaled * inv_det
-    if not ((t >= ray.t_min if crossing else t > ray.t_min) and t < t_max):
+    if not (t > ray.t_min and t < t_max):
         return np.inf, 0.0, 0.0
     return t, e1 * inv_det, e2 * inv_det
 

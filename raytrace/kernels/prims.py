@@ -14,7 +14,7 @@ from numba.extending import overload
 from .counters import PRIM_HITS, PRIM_TESTS
 from .intersect import ray_plane, ray_sphere, ray_triangle, ray_triangle_crossing, sphere_roots
 from .jit import JIT, OVERLOAD
-from .ray import CrossingRay, Hit, closer
+from .ray import CrossingRay, Hit, ListingRay, closer
 
 
 @njit(**JIT)
@@ -26,7 +26,8 @@ def n_bounded(geo):
 def test_prim(geo, ray, p, t_max):
     """Test bounded primitive p (triangle or sphere); returns (t, b1, b2).
     Chosen by the ray's type: a CrossingRay's test counts each crossing of
-    a closed surface once.  Compiled code only."""
+    a closed surface once; a ListingRay's also writes down each hit
+    (record_hit).  Compiled code only."""
     raise NotImplementedError("compiled code only")
 
 
@@ -43,19 +44,38 @@ def _test_prim(geo, ray, p, t_max):
 def _test_prim_crossing(geo, ray, p, t_max):
     n_tris = geo.tri_v0.shape[0]
     if p < n_tris:
-        t, u, v = ray_triangle_crossing(ray, geo.tri_v0, geo.tri_v1, geo.tri_v2, p, t_max)
-    else:
-        # A sphere's roots count from t_min exclusive: a tangent ray's
-        # double root is one hit.
-        t, u, v = ray_sphere(ray, geo.sph_center, geo.sph_radius, p - n_tris, t_max), 0.0, 0.0
-    if t == ray.t_min and p <= ray.after_prim:   # found by an earlier peel
-        return np.inf, 0.0, 0.0
+        return ray_triangle_crossing(ray, geo.tri_v0, geo.tri_v1, geo.tri_v2, p, t_max)
+    # A sphere's roots count from t_min exclusive: a tangent ray's double
+    # root is one hit.
+    return ray_sphere(ray, geo.sph_center, geo.sph_radius, p - n_tris, t_max), 0.0, 0.0
+
+
+@njit(**JIT)
+def record_hit(ray, t, p, u, v):
+    """Write a hit at a ListingRay's cursor and move it on; a row at or past
+    cursor[1] is not written, only counted."""
+    j = ray.cursor[0]
+    if j < ray.cursor[1]:
+        ray.hit_t[j] = t
+        ray.hit_prim[j] = p
+        ray.hit_u[j] = u
+        ray.hit_v[j] = v
+    ray.cursor[0] = j + 1
+
+
+@njit(**JIT)
+def _test_prim_listing(geo, ray, p, t_max):
+    t, u, v = _test_prim_crossing(geo, ray, p, t_max)
+    if t < np.inf:
+        record_hit(ray, t, p, u, v)
     return t, u, v
 
 
 @overload(test_prim, jit_options=OVERLOAD)
 def _choose_test_prim(geo, ray, p, t_max):
-    test = _test_prim_crossing if ray.instance_class is CrossingRay else _test_prim
+    cls = ray.instance_class
+    test = (_test_prim_listing if cls is ListingRay else
+            _test_prim_crossing if cls is CrossingRay else _test_prim)
 
     def impl(geo, ray, p, t_max):
         return test(geo, ray, p, t_max)
@@ -77,16 +97,40 @@ def test_and_keep(geo, ray, p, t_max, best, cnt, keep):
 
 
 @njit(**JIT)
+def _far_root(geo, ray, k, t_max):
+    """Sphere k's far root if both its roots lie in t_min < t < t_max, else
+    inf: a primitive test reports one hit a sphere (the near root), and a
+    ray through a sphere crosses it twice."""
+    t0, t1 = sphere_roots(ray, geo.sph_center, geo.sph_radius, k)
+    if t0 > ray.t_min and t1 < t_max and t0 < t1:
+        return t1
+    return np.inf
+
+
+@njit(**JIT)
 def far_sphere_roots(geo, ray, t_max):
-    """Spheres whose both roots lie in t_min < t < t_max: a primitive test
-    reports one hit a sphere, and a ray through a sphere crosses it twice.
+    """How many spheres the ray passes through, both roots in its interval.
     A loop over every sphere: scenes hold few."""
     n = 0
     for k in range(geo.sph_center.shape[0]):
-        t0, t1 = sphere_roots(ray, geo.sph_center, geo.sph_radius, k)
-        if t0 > ray.t_min and t1 < t_max and t0 < t1:
-            n += 1
+        n += _far_root(geo, ray, k, t_max) < np.inf
     return n
+
+
+@njit(**JIT)
+def record_unbounded_hits(geo, ray, t_max):
+    """A ListingRay's hits that no structure holds: spheres' far roots and
+    planes (the ones count_hits adds to its traversal's)."""
+    n_tris = geo.tri_v0.shape[0]
+    for k in range(geo.sph_center.shape[0]):
+        t = _far_root(geo, ray, k, t_max)
+        if t < np.inf:
+            record_hit(ray, t, n_tris + k, 0.0, 0.0)
+    base = n_bounded(geo)
+    for k in range(geo.pl_point.shape[0]):
+        t = ray_plane(ray, geo.pl_point, geo.pl_normal, k, t_max)
+        if t < np.inf:
+            record_hit(ray, t, base + k, 0.0, 0.0)
 
 
 @njit(**JIT)

@@ -15,7 +15,7 @@ from numba.extending import overload
 
 from .counters import PRIM_HITS
 from .jit import OVERLOAD
-from .prims import far_sphere_roots, planes_closest, planes_occluded
+from .prims import far_sphere_roots, planes_closest, planes_occluded, record_unbounded_hits
 from .ray import no_hit
 
 # What a traversal is made for, a compile-time constant of each structure's
@@ -85,6 +85,25 @@ def _count_hits(geo, acc, ray, t_max, cnt):
         all_hits(geo, acc, ray, t_max, cnt)
         planes_closest(geo, ray, t_max, no_hit(), cnt)
         return cnt[PRIM_HITS] - before + far_sphere_roots(geo, ray, t_max)
+    return impl
+
+
+def list_hits(geo, acc, ray, t_max, cnt):
+    """Write down every hit of a ListingRay with its t_min < t < t_max, in
+    the order found: the hits count_hits counts (the same traversal, the
+    same tests).  Returns the ray's cursor after the last.  Compiled code
+    only."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(list_hits, jit_options=OVERLOAD)
+def _list_hits(geo, acc, ray, t_max, cnt):
+    all_hits = _traversal(acc)[2]
+
+    def impl(geo, acc, ray, t_max, cnt):
+        all_hits(geo, acc, ray, t_max, cnt)
+        record_unbounded_hits(geo, ray, t_max)
+        return ray.cursor[0]
     return impl
 
 

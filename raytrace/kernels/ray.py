@@ -15,11 +15,17 @@ from .jit import JIT
 Ray = namedtuple("Ray", ["ox", "oy", "oz", "dx", "dy", "dz", "inv_x", "inv_y", "inv_z",
                          "kx", "ky", "kz", "sx", "sy", "sz", "okx", "oky", "okz", "t_min"])
 
-# A ray of a crossing query (every hit along it, in order): hits count from
-# t_min on, and at t_min only primitives with a larger id than after_prim
-# (the last hit found), so peeling closest hits visits each hit once.  Its
-# triangle test gives an edge or vertex to one triangle only (intersect.py).
-CrossingRay = namedtuple("CrossingRay", Ray._fields + ("after_prim",))
+# A ray of a crossing query (every hit along it): its triangle test gives
+# an edge or vertex to one triangle only (intersect.py), so a ray crossing a
+# closed surface there crosses it once.
+CrossingRay = namedtuple("CrossingRay", Ray._fields)
+
+# A CrossingRay that writes down each hit its primitive tests find, so any
+# structure's counting traversal lists them (prims.py, record_hit): into
+# rows cursor[0], cursor[0] + 1, ... of hit_t, hit_prim, hit_u and hit_v,
+# none at or past row cursor[1].
+ListingRay = namedtuple("ListingRay", Ray._fields + ("hit_t", "hit_prim", "hit_u", "hit_v",
+                                                     "cursor"))
 
 # A hit: distance, unified primitive id (-1: none) and the barycentric
 # weights of a triangle's second and third vertices.
@@ -63,11 +69,18 @@ def make_ray(ox, oy, oz, dx, dy, dz, t_min=0.0):
 
 
 @njit(**JIT)
-def make_crossing_ray(ox, oy, oz, dx, dy, dz, t_min, after_prim):
+def make_crossing_ray(ox, oy, oz, dx, dy, dz, t_min):
     r = make_ray(ox, oy, oz, dx, dy, dz, t_min)
     return CrossingRay(r.ox, r.oy, r.oz, r.dx, r.dy, r.dz, r.inv_x, r.inv_y, r.inv_z,
-                       r.kx, r.ky, r.kz, r.sx, r.sy, r.sz, r.okx, r.oky, r.okz, r.t_min,
-                       after_prim)
+                       r.kx, r.ky, r.kz, r.sx, r.sy, r.sz, r.okx, r.oky, r.okz, r.t_min)
+
+
+@njit(**JIT)
+def make_listing_ray(ox, oy, oz, dx, dy, dz, t_min, hit_t, hit_prim, hit_u, hit_v, cursor):
+    r = make_ray(ox, oy, oz, dx, dy, dz, t_min)
+    return ListingRay(r.ox, r.oy, r.oz, r.dx, r.dy, r.dz, r.inv_x, r.inv_y, r.inv_z,
+                      r.kx, r.ky, r.kz, r.sx, r.sy, r.sz, r.okx, r.oky, r.okz, r.t_min,
+                      hit_t, hit_prim, hit_u, hit_v, cursor)
 
 
 @njit(**JIT)
