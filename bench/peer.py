@@ -247,9 +247,14 @@ def run_case(detail, width, height, runs, peer_list):
     return result
 
 
+def _read(fields, names):
+    return {k: fields[k] for k in names}
+
+
 def run_queries(quick, runs):
-    """count_intersections, contains, distance and signed_distance against
-    Open3D's count_intersections, compute_occupancy, compute_distance and
+    """count_intersections, list_intersections, contains, distance and
+    signed_distance against Open3D's count_intersections,
+    list_intersections, compute_occupancy, compute_distance and
     compute_signed_distance, on a closed mesh (a bumpy icosphere: Open3D's
     occupancy and sign come from ray parity, which needs one) with random
     points in its box and random rays through it."""
@@ -276,6 +281,12 @@ def run_queries(quick, runs):
     tasks = {
         "count_intersections": (lambda: ours.count_intersections(ro, rd),
                                 lambda: theirs.count_intersections(r32).numpy()),
+        # Ours reads the fields Open3D returns (a HitList makes ids and
+        # barycentrics when first read).
+        "list_intersections": (
+            lambda: _read(ours.list_intersections(ro, rd), ("ray_splits", "t", "geometry_id",
+                                                            "prim_id", "u", "v")),
+            lambda: {k: a.numpy() for k, a in theirs.list_intersections(r32).items()}),
         "contains / compute_occupancy": (lambda: ours.contains(pts),
                                          lambda: theirs.compute_occupancy(p32).numpy()),
         "distance / compute_distance": (lambda: ours.distance(pts),
@@ -294,6 +305,8 @@ def run_queries(quick, runs):
             tb += _time(b, 2)
         if name.startswith("count"):
             agree = np.mean(ra == rb)
+        elif name.startswith("list"):     # rays with as many hits
+            agree = np.mean(np.diff(ra["ray_splits"]) == np.diff(rb["ray_splits"]))
         elif name.startswith("contains"):
             agree = np.mean(ra == (rb > 0.5))
         elif name.startswith("distance"):
