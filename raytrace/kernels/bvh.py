@@ -13,9 +13,9 @@ stopped at the first hit (tinybvh's and madmann91/bvh's IsAnyHit flag, here
 the compile-time mode of ``_traversal``): until then its best distance is
 inf, so it tests boxes against t_max.  Counting every hit never narrows
 the interval nor stops, so the order of visits does not matter: its loop
-(``_count_traverse``) pushes without sorting or branching, tests leaves
-where it meets them, and rejects their triangles 4 at a time
-(``edge_mask4``): a count tests many triangles and hits few.
+(``_count_traverse``) takes two nodes a round, pushes without sorting or
+branching, tests leaves where it meets them, and rejects their triangles
+4 at a time (``edge_mask4``): a count tests many triangles and hits few.
 
 The stack lives in the function's frame (``frame_array``, an alloca), not
 in ``np.empty``: that would need the reference-counted runtime and a heap
@@ -195,13 +195,28 @@ def _count_leaf(geo, ray, prim_ids, k, end, t_max):
 
 
 @njit(**JIT)
+def _push_inner(node_child, node_count, node, mask, stack, sp):
+    """Push node's entered inner children without a branch (each lane
+    written, the stack pointer advanced by its bit); returns (the new stack
+    pointer, the mask of its entered leaves)."""
+    leaves = 0
+    for lane in range(WIDTH):
+        is_leaf = node_count[node, lane] > 0
+        leaves |= is_leaf << lane
+        stack[sp] = node_child[node, lane]
+        sp += ((mask >> lane) & 1) & (not is_leaf)
+    return sp, leaves & mask
+
+
+@njit(**JIT)
 def _count_traverse(geo, acc, ray, t_max, cnt):
     """Every hit (counting): nothing narrows the ray, so the order of visits
     does not matter.  A node's entered inner children are pushed without a
-    branch (each lane written, the stack pointer advanced by its bit) and
-    its entered leaves tested at once, never pushed.  Set bits are visited
-    by their trailing-zero count, not by testing each: a branch fewer a lane
-    (5% faster)."""
+    branch and its entered leaves tested at once, never pushed.  Two nodes
+    a round where the stack holds another: the second node's loads and box
+    test do not wait on the first's, and both push before either's leaves
+    are tested (1.2x faster, the same nodes and counts; three a round, or
+    each node's leaves tested before the other pushes, gained nothing)."""
     node_box, node_child, node_count, prim_ids = (acc.node_box, acc.node_child,
                                                   acc.node_count, acc.prim_ids)
     if node_box.shape[0] == 0:
@@ -215,22 +230,28 @@ def _count_traverse(geo, acc, ray, t_max, cnt):
     node = 0
     sp = 0
     while node >= 0:
-        n_inner += 1
+        two = sp > 0
+        other = stack[sp - 1] if two else node    # no second node: masked out below
+        sp -= two
+        n_inner += 1 + two
         mask, _ = ray_aabb4(node_box, node, nx, ny, nz, ray.ox, ray.oy, ray.oz,
                             ray.inv_x, ray.inv_y, ray.inv_z, t_max)
-        leaves = 0
-        for lane in range(WIDTH):
-            is_leaf = node_count[node, lane] > 0
-            leaves |= is_leaf << lane
-            stack[sp] = node_child[node, lane]
-            sp += ((mask >> lane) & 1) & (not is_leaf)
-        leaves &= mask
+        mask2, _ = ray_aabb4(node_box, other, nx, ny, nz, ray.ox, ray.oy, ray.oz,
+                             ray.inv_x, ray.inv_y, ray.inv_z, t_max)
+        sp, leaves = _push_inner(node_child, node_count, node, mask, stack, sp)
+        sp, leaves2 = _push_inner(node_child, node_count, other, mask2 & -two, stack, sp)
+        # Both nodes' leaves in one loop (one copy of the leaf test to
+        # compile): bits 0-3 the first's lanes, 4-7 the second's, visited
+        # by their trailing-zero count, not by testing each bit.
+        leaves |= leaves2 << WIDTH
         while leaves:
-            lane = trailing_zeros(leaves)
+            bit = trailing_zeros(leaves)
             leaves &= leaves - 1
+            owner = node if bit < WIDTH else other
+            lane = bit & (WIDTH - 1)
             n_leaves += 1
-            start = node_child[node, lane]
-            end = start + node_count[node, lane]
+            start = node_child[owner, lane]
+            end = start + node_count[owner, lane]
             n_tests += end - start
             n_hits += _count_leaf(geo, ray, prim_ids, start, end, t_max)
         node = -1
