@@ -231,15 +231,17 @@ def _count_traverse(geo, acc, ray, t_max, cnt):
     sp = 0
     while node >= 0:
         two = sp > 0
-        other = stack[sp - 1] if two else node    # no second node: masked out below
+        other = stack[sp - 1] if two else node    # no second node: its mask stays 0
         sp -= two
         n_inner += 1 + two
         mask, _ = ray_aabb4(node_box, node, nx, ny, nz, ray.ox, ray.oy, ray.oz,
                             ray.inv_x, ray.inv_y, ray.inv_z, t_max)
-        mask2, _ = ray_aabb4(node_box, other, nx, ny, nz, ray.ox, ray.oy, ray.oz,
-                             ray.inv_x, ray.inv_y, ray.inv_z, t_max)
+        mask2 = 0
+        if two:   # not tested alone: short rays (contains') often have no second node
+            mask2, _ = ray_aabb4(node_box, other, nx, ny, nz, ray.ox, ray.oy, ray.oz,
+                                 ray.inv_x, ray.inv_y, ray.inv_z, t_max)
         sp, leaves = _push_inner(node_child, node_count, node, mask, stack, sp)
-        sp, leaves2 = _push_inner(node_child, node_count, other, mask2 & -two, stack, sp)
+        sp, leaves2 = _push_inner(node_child, node_count, other, mask2, stack, sp)
         # Both nodes' leaves in one loop (one copy of the leaf test to
         # compile): bits 0-3 the first's lanes, 4-7 the second's, visited
         # by their trailing-zero count, not by testing each bit.
