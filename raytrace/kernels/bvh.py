@@ -237,7 +237,7 @@ def _count_traverse(geo, acc, ray, t_max, cnt):
         mask, _ = ray_aabb4(node_box, node, nx, ny, nz, ray.ox, ray.oy, ray.oz,
                             ray.inv_x, ray.inv_y, ray.inv_z, t_max)
         mask2 = 0
-        if two:   # not tested alone: short rays (contains') often have no second node
+        if two:   # only then: a masked test of the first node again cost short rays most
             mask2, _ = ray_aabb4(node_box, other, nx, ny, nz, ray.ox, ray.oy, ray.oz,
                                  ray.inv_x, ray.inv_y, ray.inv_z, t_max)
         sp, leaves = _push_inner(node_child, node_count, node, mask, stack, sp)
