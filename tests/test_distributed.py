@@ -116,7 +116,10 @@ def test_small_tiles_share_a_task_and_still_come_back_in_order(scene, cluster):
 
 def test_scheduler_option_uses_a_running_cluster(scene, cluster, tmp_path, monkeypatch):
     """`--scheduler ADDRESS` (here through DASK_SCHEDULER_ADDRESS): the
-    cluster's workers render the tiles; the image is the still's."""
+    cluster's workers render the tiles; the image is the still's.  Which of
+    them gets these 8 tasks of ~3 ms is Dask's choice (a worker still
+    unpickling the scene may get none: seen once in CI); that both take
+    part is tested above, with longer tasks."""
     from click.testing import CliRunner
 
     from raytrace.cli import main
@@ -125,7 +128,8 @@ def test_scheduler_option_uses_a_running_cluster(scene, cluster, tmp_path, monke
     r = CliRunner().invoke(main, ["teapot", *size, "-o", str(tmp_path / "d.png"), "--json"])
     assert r.exit_code == 0, r.output
     stats = json.loads(r.output)
-    assert stats["tiles"] == 8 and len(stats["workers"]) == 2
+    assert stats["tiles"] == 8 and set(stats["workers"]) <= set(cluster.scheduler_info()["workers"])
+    assert sum(w["tiles"] for w in stats["workers"].values()) == 8
     monkeypatch.delenv("DASK_SCHEDULER_ADDRESS")
     r = CliRunner().invoke(main, ["teapot", *size, "-o", str(tmp_path / "s.png"), "-q"])
     assert r.exit_code == 0, r.output
