@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import RaytraceError
 from ..scene import Material
+from .ply import read_simple_ply
 
 MESH_EXTENSIONS = (".obj", ".ply", ".stl", ".off", ".glb")
 
@@ -174,11 +175,34 @@ def read_mesh_parts(path, warn=None, base=None):
     check_readable(path)
     if path.stat().st_size == 0:
         raise RaytraceError(f"{path}: file is empty")
-    library = None
-    if ext == ".obj":
-        data = path.read_bytes()
-        check_obj_indices(path, data)
-        library = _obj_materials(path, data, warn)
+    try:
+        simple = read_simple_ply(path) if ext == ".ply" else None
+    except MemoryError:
+        raise RaytraceError(f"{path}: out of memory reading the mesh") from None
+    if simple is not None:
+        parts = [MeshPart(*simple)]
+    else:
+        library = None
+        if ext == ".obj":
+            data = path.read_bytes()
+            check_obj_indices(path, data)
+            library = _obj_materials(path, data, warn)
+        parts = _read_with_trimesh(path, ext, library, warn, base)
+    parts = [p for p in parts if p is not None and len(p.faces)]
+    if not parts:
+        raise RaytraceError(f"{path}: no non-degenerate triangles (no faces found: damaged, or "
+                            f"not really {ext[1:].upper()}?)")
+    for p in parts:
+        p.vertices, p.faces = check_mesh_arrays(path, p.vertices, p.faces)
+        if p.normals is not None and np.shape(p.normals) != p.vertices.shape:
+            p.normals = None
+        _check_surface_arrays(path, p, warn)
+    return parts
+
+
+def _read_with_trimesh(path, ext, library, warn, base):
+    """The MeshParts of any mesh file trimesh reads (None for a part that
+    is not a triangle mesh)."""
     try:
         import trimesh
         # process=False: keep the file's vertices and faces as they are
@@ -196,15 +220,6 @@ def read_mesh_parts(path, warn=None, base=None):
         raise RaytraceError(f"{path}: out of memory reading the mesh") from None
     except Exception as exc:  # noqa: BLE001 -- trimesh's errors have no common base
         raise RaytraceError(f"{path}: not a readable {ext[1:].upper()} mesh ({_brief(exc)})") from None
-    parts = [p for p in parts if p is not None and len(p.faces)]
-    if not parts:
-        raise RaytraceError(f"{path}: no non-degenerate triangles (no faces found: damaged, or "
-                            f"not really {ext[1:].upper()}?)")
-    for p in parts:
-        p.vertices, p.faces = check_mesh_arrays(path, p.vertices, p.faces)
-        if p.normals is not None and np.shape(p.normals) != p.vertices.shape:
-            p.normals = None
-        _check_surface_arrays(path, p, warn)
     return parts
 
 
