@@ -331,6 +331,24 @@ def test_build_kernel_depth_reported():
 
 
 @pytest.mark.parametrize("threads", [1, 2, 3])
+def test_box_bounds_are_outward_prim_bounds_bit_for_bit(threads):
+    """The big-mesh path's fused bounds (box_bounds) against the small
+    one's two steps: signed zeros, spheres, and values beyond float32."""
+    from raytrace.accel.bvh import box_bounds
+    rng = np.random.default_rng(4)
+    tris = random_soup(rng, 500, 0.3)
+    tris[:20] = np.round(tris[:20])          # exact zeros, and -0.0 below
+    tris[20:40] *= -0.0
+    tris[40:45] *= 1e50                      # overflow float32: +-inf or its largest
+    spheres = [((0.0, -0.0, 1e-30), 0.5), ((1e45, 0, 0), 1e44), ((0.1, 0.2, 0.3), 1e-3)]
+    geo, _ = make_scene(tris, spheres=spheres)
+    want = outward(*prim_bounds(geo))
+    got = box_bounds(geo, threads)
+    for a, b in zip(want, got):
+        assert a.dtype == b.dtype == BOX and a.tobytes() == b.tobytes()
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3])
 @pytest.mark.parametrize("split", [1, 2, 7, 64, 5000])
 def test_parallel_build_gives_the_serial_tree(threads, split):
     """build_bvh_parallel builds subtrees apart, each into its own rows, and the
