@@ -330,6 +330,71 @@ def test_build_kernel_depth_reported():
     assert 0 < depth <= MAX_DEPTH and 0 < rows < 2 * n and tasks == 0
 
 
+def _subtree_ranges(node_start, node_count):
+    """[start, end) of prim_ids under each node of a depth-first binary tree."""
+    first = np.zeros(len(node_start), np.int64)
+    end = np.zeros(len(node_start), np.int64)
+    for i in range(len(node_start) - 1, -1, -1):    # children come after parents
+        if node_count[i] > 0:
+            first[i], end[i] = node_start[i], node_start[i] + node_count[i]
+        else:
+            first[i], end[i] = first[i + 1], end[node_start[i]]
+    return first, end
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_every_node_is_the_binned_sah_choice_over_its_own_primitives(seed):
+    """A reference for the builder, node by node, in NumPy: each box is its
+    primitives' union, padded and rounded outwards; each split is the
+    cheapest of the 3 x (N_BINS - 1) planes of bins over the node's own
+    centroid box, its left child the primitives binned below the plane; a
+    leaf is where no split pays.  (The builder takes a child's boxes from its
+    parent's split rather than a pass of its own: this checks they agree.)"""
+    from raytrace.accel.bvh import BOX_PAD, MAX_LEAF, N_BINS, TRAVERSAL_COST
+    lo, hi = outward(*boxes_of(random_soup(np.random.default_rng(seed), 400, 0.05)))
+    node_lo, node_hi, node_start, node_count, prim_ids = build_bvh(lo, hi)
+    first, end = _subtree_ranges(node_start, node_count)
+    lo64, hi64 = lo.astype(np.float64), hi.astype(np.float64)
+
+    def half_area(a, b):
+        d = b - a
+        return d[..., 0] * d[..., 1] + d[..., 1] * d[..., 2] + d[..., 2] * d[..., 0]
+
+    splits = 0
+    for i in range(len(node_start)):
+        ids = prim_ids[first[i]:end[i]]
+        blo, bhi = lo64[ids].min(axis=0), hi64[ids].max(axis=0)
+        pad = BOX_PAD * np.abs(np.concatenate([blo, bhi])).max()
+        want_lo, want_hi = outward(blo - pad, bhi + pad)
+        assert np.array_equal(node_lo[i], want_lo[0]) and np.array_equal(node_hi[i], want_hi[0])
+        c = 0.5 * (lo64[ids] + hi64[ids])
+        cmin, cext = c.min(axis=0), c.max(axis=0) - c.min(axis=0)
+        costs = np.full((3, N_BINS), np.inf)
+        for a in range(3):
+            if cext[a] <= 0:
+                continue
+            b = np.minimum(((c[:, a] - cmin[a]) * (N_BINS / cext[a])).astype(np.int64), N_BINS - 1)
+            for plane in range(1, N_BINS):
+                left = b < plane
+                m = int(left.sum())
+                if 0 < m < len(ids):
+                    costs[a, plane] = (m * half_area(lo64[ids][left].min(0), hi64[ids][left].max(0))
+                                       + (len(ids) - m) * half_area(lo64[ids][~left].min(0),
+                                                                    hi64[ids][~left].max(0)))
+        best = int(np.argmin(costs))     # the first of equal costs, as the builder's sweep
+        area = half_area(blo, bhi)
+        splits_here = costs.flat[best] < np.inf and (
+            len(ids) > MAX_LEAF or TRAVERSAL_COST * area + costs.flat[best] < len(ids) * area)
+        assert (node_count[i] == 0) == splits_here, i
+        if splits_here:
+            a, plane = divmod(best, N_BINS)
+            b = np.minimum(((c[:, a] - cmin[a]) * (N_BINS / cext[a])).astype(np.int64), N_BINS - 1)
+            left = prim_ids[first[i + 1]:end[i + 1]]
+            assert set(left.tolist()) == set(ids[b < plane].tolist()), i
+            splits += 1
+    assert splits > 100
+
+
 @pytest.mark.parametrize("threads", [1, 2, 3])
 def test_box_bounds_are_outward_prim_bounds_bit_for_bit(threads):
     """The big-mesh path's fused bounds (box_bounds) against the small
