@@ -106,10 +106,7 @@ def build_bvh_kernel(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, nod
 
     A box's centre, 0.5 (lo + hi), is computed where it is needed: an
     array of them cost 24 bytes a primitive (100 MB at 4.2M triangles)
-    and was no faster.  A split child's box (the union of its side's bins)
-    and centroid box (found by the partition, which reads every primitive
-    anyway) come with it, so only the root and the children of a halved
-    node take a pass of their own to find them."""
+    and was no faster."""
     bin_count = np.empty((3, N_BINS), np.int64)
     bin_lo = np.empty((3, N_BINS, 3), np.float64)
     bin_hi = np.empty((3, N_BINS, 3), np.float64)
@@ -117,17 +114,9 @@ def build_bvh_kernel(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, nod
     right_cost = np.empty(N_BINS, np.float64)
     bin_scale = np.empty(3, np.float64)  # bins per unit length on each axis
 
-    # Work stack of pending right subtrees: (start, end, depth, parent,
-    # bounds known) and the bounds (box lo, hi; centroid lo, hi).  At most
-    # one entry per level, and levels are capped at MAX_DEPTH.
-    stack = np.empty((MAX_DEPTH + 2, 5), np.int64)
-    stack_bounds = np.empty((MAX_DEPTH + 2, 12), np.float64)
-    known = False
-    bx0 = by0 = bz0 = bx1 = by1 = bz1 = 0.0
-    cx0 = cy0 = cz0 = cx1 = cy1 = cz1 = 0.0
-    # The right child's bounds, from the partition and the bins.
-    rx0 = ry0 = rz0 = rx1 = ry1 = rz1 = 0.0
-    qx0 = qy0 = qz0 = qx1 = qy1 = qz1 = 0.0
+    # Work stack of pending right subtrees: (start, end, depth, parent).
+    # At most one entry per level, and levels are capped at MAX_DEPTH.
+    stack = np.empty((MAX_DEPTH + 2, 4), np.int64)
     sp = 0
     n_nodes = first
     max_depth = depth
@@ -150,29 +139,28 @@ def build_bvh_kernel(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, nod
             n_tasks += 1
             node_count[node] = -1
         else:
-            # Node box and centroid box, unless its parent's split found them.
-            if not known:
-                bx0 = by0 = bz0 = np.inf
-                bx1 = by1 = bz1 = -np.inf
-                cx0 = cy0 = cz0 = np.inf
-                cx1 = cy1 = cz1 = -np.inf
-                for k in range(start, end):
-                    p = prim_ids[k]
-                    bx0 = min(bx0, lo[p, 0])
-                    by0 = min(by0, lo[p, 1])
-                    bz0 = min(bz0, lo[p, 2])
-                    bx1 = max(bx1, hi[p, 0])
-                    by1 = max(by1, hi[p, 1])
-                    bz1 = max(bz1, hi[p, 2])
-                    x = 0.5 * (lo[p, 0] + hi[p, 0])
-                    y = 0.5 * (lo[p, 1] + hi[p, 1])
-                    z = 0.5 * (lo[p, 2] + hi[p, 2])
-                    cx0 = min(cx0, x)
-                    cy0 = min(cy0, y)
-                    cz0 = min(cz0, z)
-                    cx1 = max(cx1, x)
-                    cy1 = max(cy1, y)
-                    cz1 = max(cz1, z)
+            # Node box and centroid box.
+            bx0 = by0 = bz0 = np.inf
+            bx1 = by1 = bz1 = -np.inf
+            cx0 = cy0 = cz0 = np.inf
+            cx1 = cy1 = cz1 = -np.inf
+            for k in range(start, end):
+                p = prim_ids[k]
+                bx0 = min(bx0, lo[p, 0])
+                by0 = min(by0, lo[p, 1])
+                bz0 = min(bz0, lo[p, 2])
+                bx1 = max(bx1, hi[p, 0])
+                by1 = max(by1, hi[p, 1])
+                bz1 = max(bz1, hi[p, 2])
+                x = 0.5 * (lo[p, 0] + hi[p, 0])
+                y = 0.5 * (lo[p, 1] + hi[p, 1])
+                z = 0.5 * (lo[p, 2] + hi[p, 2])
+                cx0 = min(cx0, x)
+                cy0 = min(cy0, y)
+                cz0 = min(cz0, z)
+                cx1 = max(cx1, x)
+                cy1 = max(cy1, y)
+                cz1 = max(cz1, z)
             # A parent's largest magnitude is at least its children's, so padded
             # children stay inside padded parents (rounding is monotonic).
             pad = BOX_PAD * max(abs(bx0), abs(by0), abs(bz0), abs(bx1), abs(by1), abs(bz1))
@@ -266,66 +254,26 @@ def build_bvh_kernel(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, nod
                     split_cost = TRAVERSAL_COST * area + best_cost
                     if best_axis >= 0 and (count > max_leaf or split_cost < leaf_cost):
                         # Partition prim_ids[start:end] by bin; the same
-                        # expression as the binning, so the sides match the
-                        # counts.  Each side's centroid box on the way.
+                        # expression as the binning, so the sides match the counts.
                         a = best_axis
                         ca = cmin[a]
                         sa = bin_scale[a]
-                        lx0 = ly0 = lz0 = qx0 = qy0 = qz0 = np.inf
-                        lx1 = ly1 = lz1 = qx1 = qy1 = qz1 = -np.inf
                         i = start
                         j = end - 1
                         while i <= j:
                             p = prim_ids[i]
-                            x = 0.5 * (lo[p, 0] + hi[p, 0])
-                            y = 0.5 * (lo[p, 1] + hi[p, 1])
-                            z = 0.5 * (lo[p, 2] + hi[p, 2])
-                            b = int(((x, y, z)[a] - ca) * sa)
+                            b = int((0.5 * (lo[p, a] + hi[p, a]) - ca) * sa)
                             if b < best_bin:
-                                lx0 = min(lx0, x)
-                                ly0 = min(ly0, y)
-                                lz0 = min(lz0, z)
-                                lx1 = max(lx1, x)
-                                ly1 = max(ly1, y)
-                                lz1 = max(lz1, z)
                                 i += 1
                             else:
-                                qx0 = min(qx0, x)
-                                qy0 = min(qy0, y)
-                                qz0 = min(qz0, z)
-                                qx1 = max(qx1, x)
-                                qy1 = max(qy1, y)
-                                qz1 = max(qz1, z)
                                 prim_ids[i] = prim_ids[j]
                                 prim_ids[j] = p
                                 j -= 1
                         mid = i
-                        # Each side's box: the union of its bins' boxes, the
-                        # same minima and maxima a pass over it would find.
-                        bx0 = by0 = bz0 = rx0 = ry0 = rz0 = np.inf
-                        bx1 = by1 = bz1 = rx1 = ry1 = rz1 = -np.inf
-                        for b in range(N_BINS):
-                            if b < best_bin:
-                                bx0 = min(bx0, bin_lo[a, b, 0])
-                                by0 = min(by0, bin_lo[a, b, 1])
-                                bz0 = min(bz0, bin_lo[a, b, 2])
-                                bx1 = max(bx1, bin_hi[a, b, 0])
-                                by1 = max(by1, bin_hi[a, b, 1])
-                                bz1 = max(bz1, bin_hi[a, b, 2])
-                            else:
-                                rx0 = min(rx0, bin_lo[a, b, 0])
-                                ry0 = min(ry0, bin_lo[a, b, 1])
-                                rz0 = min(rz0, bin_lo[a, b, 2])
-                                rx1 = max(rx1, bin_hi[a, b, 0])
-                                ry1 = max(ry1, bin_hi[a, b, 1])
-                                rz1 = max(rz1, bin_hi[a, b, 2])
-                        cx0, cy0, cz0, cx1, cy1, cz1 = lx0, ly0, lz0, lx1, ly1, lz1
-                        known = True
                 elif count > max_leaf:
                     # All centroids coincide: no plane separates them, so halve
                     # the list (any order is as good as another).
                     mid = start + count // 2
-                    known = False
 
             if mid > start and mid < end:
                 node_count[node] = 0
@@ -335,20 +283,6 @@ def build_bvh_kernel(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, nod
                 stack[sp, 1] = end
                 stack[sp, 2] = depth + 1
                 stack[sp, 3] = node
-                stack[sp, 4] = known
-                if known:
-                    stack_bounds[sp, 0] = rx0
-                    stack_bounds[sp, 1] = ry0
-                    stack_bounds[sp, 2] = rz0
-                    stack_bounds[sp, 3] = rx1
-                    stack_bounds[sp, 4] = ry1
-                    stack_bounds[sp, 5] = rz1
-                    stack_bounds[sp, 6] = qx0
-                    stack_bounds[sp, 7] = qy0
-                    stack_bounds[sp, 8] = qz0
-                    stack_bounds[sp, 9] = qx1
-                    stack_bounds[sp, 10] = qy1
-                    stack_bounds[sp, 11] = qz1
                 sp += 1
                 end = mid
                 depth += 1
@@ -363,14 +297,6 @@ def build_bvh_kernel(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, nod
         end = stack[sp, 1]
         depth = stack[sp, 2]
         parent = stack[sp, 3]
-        known = stack[sp, 4] != 0
-        if known:
-            bx0, by0, bz0, bx1, by1, bz1 = (stack_bounds[sp, 0], stack_bounds[sp, 1],
-                                            stack_bounds[sp, 2], stack_bounds[sp, 3],
-                                            stack_bounds[sp, 4], stack_bounds[sp, 5])
-            cx0, cy0, cz0, cx1, cy1, cz1 = (stack_bounds[sp, 6], stack_bounds[sp, 7],
-                                            stack_bounds[sp, 8], stack_bounds[sp, 9],
-                                            stack_bounds[sp, 10], stack_bounds[sp, 11])
 
     return n_nodes, max_depth, n_tasks
 
