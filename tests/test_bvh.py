@@ -348,8 +348,8 @@ def test_every_node_is_the_binned_sah_choice_over_its_own_primitives(seed):
     primitives' union, padded and rounded outwards; each split is the
     cheapest of the 3 x (N_BINS - 1) planes of bins over the node's own
     centroid box, its left child the primitives binned below the plane; a
-    leaf is where no split pays.  (The builder takes a child's boxes from its
-    parent's split rather than a pass of its own: this checks they agree.)"""
+    leaf is where no split pays.  Mutations that took a child's boxes from
+    the wrong side of its parent's split failed it."""
     from raytrace.accel.bvh import BOX_PAD, MAX_LEAF, N_BINS, TRAVERSAL_COST
     lo, hi = outward(*boxes_of(random_soup(np.random.default_rng(seed), 400, 0.05)))
     node_lo, node_hi, node_start, node_count, prim_ids = build_bvh(lo, hi)
