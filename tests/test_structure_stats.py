@@ -43,6 +43,33 @@ def test_bvh_of_two_triangles_far_apart():
     assert st["bytes_per_primitive"] == st["memory_bytes"] / 2
 
 
+def test_bvh_sah_cost_is_summed_over_every_block_of_nodes(monkeypatch):
+    """The SAH sums run a block of nodes at a time: with blocks of 3 nodes
+    the cost is the one-block sum's, and it is the formula's, summed here
+    over every lane."""
+    import raytrace.accel.bvh as bvh_module
+    rng = np.random.default_rng(7)
+    tris = rng.normal(size=(300, 3, 3))
+    geo, ranges, _ = flatten(Scene("s", None, [Mesh(tris.reshape(-1, 3),
+                                                    np.arange(900).reshape(-1, 3))]))
+    bvh, _ = get("bvh").build(geo, ranges)
+    whole = bvh_module.statistics(bvh, 300)["sah_cost"]
+    monkeypatch.setattr(bvh_module, "STATS_BLOCK", 3)
+    assert len(bvh.node_child) > 9
+    assert bvh_module.statistics(bvh, 300)["sah_cost"] == pytest.approx(whole, rel=1e-12)
+    box = bvh.node_box.astype(np.float64)
+    with np.errstate(invalid="ignore"):      # unused lanes: inf - inf, not summed
+        e = np.maximum(box[:, 3:, :] - box[:, :3, :], 0.0)
+    area = e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0]
+    used = bvh.node_box[:, 0, :] < np.inf
+    inner, leaf = used & (bvh.node_count == 0), used & (bvh.node_count > 0)
+    root = box[0, :3][:, used[0]].min(axis=1), box[0, 3:][:, used[0]].max(axis=1)
+    r = root[1] - root[0]
+    root_area = r[0] * r[1] + r[1] * r[2] + r[2] * r[0]
+    want = 1.0 + area[inner].sum() / root_area + (area * bvh.node_count)[leaf].sum() / root_area
+    assert whole == pytest.approx(want, rel=1e-9)
+
+
 def test_grid_and_kdtree_counts():
     geo, ranges = scene_of(*TWO_APART)
     grid, _ = get("grid").build(geo, ranges)
