@@ -142,31 +142,23 @@ def _kept_corners_parallel(v, corners, threads):
     a run of faces, tests them, then writes its kept corners where the runs
     before it end.  The few rows too large or small to test as they are
     (ODD) are tested by degenerate_mask between the two steps."""
-    import threading
+    from functools import partial
 
-    from .kernels.corners import KEPT, ODD, classify, gather
-    n = corners.shape[1]
-    cuts = np.linspace(0, n, threads + 1).astype(np.int64).tolist()
-    runs = list(zip(cuts[:-1], cuts[1:]))
-
-    def on_threads(kernel, args_of):
-        workers = [threading.Thread(target=kernel, args=args_of(k, s, e))
-                   for k, (s, e) in enumerate(runs[1:], 1)]
-        for w in workers:
-            w.start()
-        kernel(*args_of(0, *runs[0]))
-        for w in workers:
-            w.join()
-
-    state = np.empty(n, np.uint8)
-    on_threads(classify, lambda k, s, e: (v, corners, DEGENERATE_RATIO, s, e, state))
+    from .kernels.corners import DROPPED, KEPT, ODD, classify, gather
+    from .threads import run_on_threads, runs
+    faces = runs(corners.shape[1], threads)
+    state = np.empty(corners.shape[1], np.uint8)
+    run_on_threads([partial(classify, v, corners, DEGENERATE_RATIO, s, e, state)
+                    for s, e in faces])
     odd = np.flatnonzero(state == ODD)
     if len(odd):
-        state[odd] = np.where(degenerate_mask(*(v[corners[i, odd]] for i in range(3))), 0, KEPT)
+        dropped = degenerate_mask(*(v[corners[i, odd]] for i in range(3)))
+        state[odd] = np.where(dropped, DROPPED, KEPT)
     keep = state == KEPT
-    rows = np.concatenate([[0], np.cumsum([np.count_nonzero(keep[s:e]) for s, e in runs])])
-    out = [np.empty((int(rows[-1]), 3)) for _ in range(3)]
-    on_threads(gather, lambda k, s, e: (v, corners, state, s, e, int(rows[k]), *out))
+    rows = np.cumsum([0] + [np.count_nonzero(keep[s:e]) for s, e in faces]).tolist()
+    out = [np.empty((rows[-1], 3)) for _ in range(3)]
+    run_on_threads([partial(gather, v, corners, state, s, e, rows[k], *out)
+                    for k, (s, e) in enumerate(faces)])
     return (*out, keep)
 
 

@@ -19,7 +19,7 @@ its ``node_count`` is 0.  A leaf covers
 ``prim_ids[node_start : node_start + node_count]``.  ``collapse_bvh4`` then
 turns it into the 4-wide tree traversal uses (``BVH`` below).
 """
-import threading
+import functools
 from collections import namedtuple
 
 import numba
@@ -28,6 +28,7 @@ from numba import njit
 
 from ..buffers import n_bounded, prim_bounds
 from ..kernels.jit import BUILD, BUILD_STEP
+from ..threads import run_on_threads, runs
 
 # The layout traversal reads (raytrace/kernels/bvh.py), 4 children per
 # node: node_box (m, 6, 4) float32 child boxes, rows lo x, y, z, hi x, y, z,
@@ -472,14 +473,8 @@ def box_bounds(geo, threads):
     n = n_bounded(geo)
     lo, hi = np.empty((n, 3), BOX), np.empty((n, 3), BOX)
     args = (geo.tri_v0, geo.tri_v1, geo.tri_v2, geo.sph_center, geo.sph_radius)
-    cuts = np.linspace(0, n, threads + 1).astype(np.int64).tolist()
-    workers = [threading.Thread(target=box_bounds_kernel, args=(*args, s, e, lo, hi))
-               for s, e in zip(cuts[1:-1], cuts[2:])]
-    for w in workers:
-        w.start()
-    box_bounds_kernel(*args, cuts[0], cuts[1], lo, hi)
-    for w in workers:
-        w.join()
+    run_on_threads([functools.partial(box_bounds_kernel, *args, s, e, lo, hi)
+                    for s, e in runs(n, threads)])
     return lo, hi
 
 
@@ -565,24 +560,13 @@ def build_bvh_parallel(lo, hi, max_leaf, threads=None, split=SPLIT):
         load[th] += int(tasks[k, 2] - tasks[k, 1])
     ends = np.empty(n_tasks, np.int64)
     no_tasks = tasks[:0]
-    failed = []
 
     def work(queue):
-        try:
-            for k in queue:
-                s, e, depth = (int(x) for x in tasks[k, 1:])
-                ends[k] = build_bvh_kernel(lo, hi, prim_ids, s, e, depth, max_leaf, *nodes, 2 * s,
-                                           0, no_tasks)[0]
-        except BaseException as exc:   # a thread's error (MemoryError, say) is the build's
-            failed.append(exc)
-    workers = [threading.Thread(target=work, args=(q,)) for q in queues[1:]]
-    for w in workers:
-        w.start()
-    work(queues[0])
-    for w in workers:
-        w.join()
-    if failed:
-        raise failed[0]
+        for k in queue:
+            s, e, depth = (int(x) for x in tasks[k, 1:])
+            ends[k] = build_bvh_kernel(lo, hi, prim_ids, s, e, depth, max_leaf, *nodes, 2 * s,
+                                       0, no_tasks)[0]
+    run_on_threads([functools.partial(work, q) for q in queues])
     # A top node's children are rows of the top, or placeholders (count -1)
     # whose subtrees' roots are at row 2 s: link past the placeholders.
     root_of = dict(zip(tasks[:, 0].tolist(), (2 * tasks[:, 1]).tolist()))

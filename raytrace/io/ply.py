@@ -2,12 +2,12 @@
 nz; a face element of triangles only) read straight into arrays.
 
 This is the layout of scans and of most exported meshes.  At a million
-triangles (bench/make_big.py 128) read_mesh_parts took 0.16-0.17 s through
-trimesh, its import included, and 0.02-0.04 s here.  Anything else (ASCII, colours, texture
-coordinates, quads, more elements, a size that does not add up) returns
-None and goes to trimesh, which reads every PLY, so what a file means is
-decided in one place for everything but this one layout; tests check that
-both give the same arrays for it.
+triangles (bench/make_big.py 128) read_mesh_parts took 0.16-0.17 s
+through trimesh, its import included, and 0.02-0.04 s here.  Anything
+else (ASCII, colours, texture coordinates, quads, more elements, a size
+that does not add up) returns None and goes to trimesh, which reads every
+PLY: what a file means is trimesh's decision for everything but this one
+layout, and tests check that both read it alike (tests/test_ply.py).
 
 The format: http://paulbourke.net/dataformats/ply/ (Greg Turk, 1994).
 """
@@ -71,8 +71,7 @@ def read_simple_ply(path):
         return None
     if (len(face_props) != 1 or len(face_props[0]) != 4 or face_props[0][0] != "list"
             or face_props[0][3] not in _INDEX_NAMES
-            or _TYPES.get(face_props[0][1], "f")[0] == "f"
-            or _TYPES.get(face_props[0][2], "f")[0] == "f"):
+            or not (_is_integer(face_props[0][1]) and _is_integer(face_props[0][2]))):
         return None
     vertex_type = np.dtype([(name, endian + _TYPES[t]) for t, name in vertex_props])
     # Triangles only: every face is a count of 3 and three indices.
@@ -88,6 +87,10 @@ def read_simple_ply(path):
     vertices = _columns(vertex_data, "xyz")
     normals = _columns(vertex_data, ("nx", "ny", "nz")) if "nx" in names else None
     return vertices, face_data["index"].astype(np.int64), normals
+
+
+def _is_integer(name):
+    return _TYPES.get(name, "f")[0] in "iu"
 
 
 def _columns(records, names):
