@@ -1,0 +1,37 @@
+"""raytrace.threads: every job runs, on threads of its own, and an error in
+any of them reaches the caller."""
+import threading
+
+import pytest
+
+from raytrace.threads import run_on_threads, runs
+
+
+def test_every_job_runs_the_first_on_the_calling_thread():
+    seen = []
+    run_on_threads([lambda k=k: seen.append((k, threading.current_thread().name))
+                    for k in range(3)])
+    assert sorted(k for k, _ in seen) == [0, 1, 2]
+    assert dict(seen)[0] == threading.current_thread().name
+    assert len({name for _, name in seen}) == 3
+
+
+@pytest.mark.parametrize("which", [0, 2])
+def test_a_jobs_error_is_raised_by_the_caller(which):
+    done = []
+
+    def job(k):
+        if k == which:
+            raise MemoryError("job failed")
+        done.append(k)
+    with pytest.raises(MemoryError, match="job failed"):
+        run_on_threads([lambda k=k: job(k) for k in range(3)])
+    assert sorted(done) == [k for k in range(3) if k != which]   # the others still ran
+
+
+@pytest.mark.parametrize("n, threads", [(0, 2), (1, 2), (10, 3), (7, 7), (1_000_003, 2)])
+def test_runs_cover_the_range_in_order(n, threads):
+    r = runs(n, threads)
+    assert len(r) == threads and r[0][0] == 0 and r[-1][1] == n
+    assert all(a[1] == b[0] for a, b in zip(r, r[1:]))
+    assert max(e - s for s, e in r) - min(e - s for s, e in r) <= 1
