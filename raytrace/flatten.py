@@ -137,6 +137,22 @@ def _kept_corners(v, f):
     return out[0][:m], out[1][:m], out[2][:m], keep
 
 
+def load_corners(scene):
+    """Seconds spent loading (or compiling) kernels/corners.py if the scene
+    has a mesh that will use it, so that flattening's time is not compile
+    time (driver.prepare); 0.0 otherwise."""
+    import numba
+    big = any(isinstance(o, Mesh) and np.asarray(o.faces).size >= 3 * PARALLEL_MIN
+              for o in scene.objects)
+    if not big or numba.get_num_threads() < 2:
+        return 0.0
+    import time
+    t0 = time.perf_counter()
+    v, corners = np.zeros((1, 3)), np.zeros((3, 1), np.int64)
+    _kept_corners_parallel(v, corners, 1)
+    return time.perf_counter() - t0
+
+
 def _kept_corners_parallel(v, corners, threads):
     """_kept_corners on ``threads`` threads (kernels/corners.py): each takes
     a run of faces, tests them, then writes its kept corners where the runs
@@ -146,6 +162,7 @@ def _kept_corners_parallel(v, corners, threads):
 
     from .kernels.corners import DROPPED, KEPT, ODD, classify, gather
     from .threads import run_on_threads, runs
+    v = np.ascontiguousarray(v)        # one layout: the kernels compile once (load_corners)
     faces = runs(corners.shape[1], threads)
     state = np.empty(corners.shape[1], np.uint8)
     run_on_threads([partial(classify, v, corners, DEGENERATE_RATIO, s, e, state)

@@ -25,13 +25,18 @@ class Structure:
     visit_counter: str = None     # its own counter, if any (stats.COUNTERS)
     visit_metric: str = None      # that counter per ray (stats.derive), a bench column
 
-    def load(self, **options):
+    def load(self, n_prims=0, **options):
         """Seconds spent loading (or compiling) the builder: a build of a
         few primitives, so the timed build() that follows measures building
         alone.  Builders are compiled per argument type, never per size, so
-        the tiny scene loads everything the real one uses."""
+        the tiny scene loads everything the real one uses, but for a
+        builder's code for big scenes (``load_big(n_prims, **options)`` in
+        its module, if it has one: the n_prims of the scene to come)."""
         t0 = time.perf_counter()
         self.build(*_tiny_scene(), **options)
+        builder = importlib.import_module(f"raytrace.accel.{self.module}")
+        if hasattr(builder, "load_big"):
+            builder.load_big(n_prims, **options)
         return time.perf_counter() - t0
 
     def build(self, geo, obj_ranges, **options):

@@ -56,3 +56,46 @@ def test_flatten_takes_the_parallel_path_for_big_meshes(monkeypatch):
     assert calls and info_small == info_big
     for a, b in zip(small, big):
         assert np.array_equal(a, b)
+
+
+def test_big_mesh_kernels_compile_in_the_compile_phase(monkeypatch):
+    """A big mesh's corners and boxes kernels are first called in the
+    compile phase (driver.prepare: load_corners before flattening,
+    Structure.load's load_big before the build), with the argument types of
+    the real calls, so those find them compiled: flattening and build times
+    hold no compile time."""
+    import raytrace.accel.bvh as bvh_module
+    import raytrace.structures as structures
+    from raytrace.driver import RenderOptions, prepare
+    from raytrace.kernels import corners
+    from raytrace.scene import Camera
+    events = []
+
+    def spy(module, name):
+        real = getattr(module, name)
+
+        def wrapper(*args):
+            events.append((name, tuple(numba.typeof(a) for a in args)))
+            return real(*args)
+        monkeypatch.setattr(module, name, wrapper)
+
+    def mark(module, name):
+        real = getattr(module, name)
+        monkeypatch.setattr(module, name, lambda *a, **k: events.append((name, None)) or real(*a, **k))
+    for module, name in ((corners, "classify"), (corners, "gather"),
+                         (bvh_module, "box_bounds_kernel")):
+        spy(module, name)
+    mark(flatten_module, "flatten")
+    mark(structures, "build_structure")
+    monkeypatch.setattr(flatten_module, "PARALLEL_MIN", 1_000)
+    monkeypatch.setattr(bvh_module, "PARALLEL_MIN", 1_000)
+    monkeypatch.setattr(numba, "get_num_threads", lambda: 2)
+    v, f = awkward_mesh(3, 3_000)
+    scene = Scene("m", Camera((0, 0, 50), (0, 0, 0)), [Mesh(v * 1e-3, f)])
+    prepare(scene, RenderOptions(width=8, height=8, threads=2))
+    names = [name for name, _ in events]
+    for kernel, phase in (("classify", "flatten"), ("gather", "flatten"),
+                          ("box_bounds_kernel", "build_structure")):
+        calls = [k for k, name in enumerate(names) if name == kernel]
+        assert calls and calls[0] < names.index(phase) < calls[-1], (kernel, names)
+        assert len({events[k][1] for k in calls}) == 1, (kernel, [events[k][1] for k in calls])

@@ -478,6 +478,14 @@ def box_bounds(geo, threads):
     return lo, hi
 
 
+def load_big(n_prims, bvh_build="sah", **_):
+    """Load (or compile) box_bounds_kernel if a scene of n_prims primitives
+    will use it (Structure.load: compile time is not build time)."""
+    if BUILDERS[bvh_build] is None and n_prims >= PARALLEL_MIN and numba.get_num_threads() > 1:
+        rows = np.zeros((0, 3))
+        box_bounds_kernel(rows, rows, rows, rows, np.zeros(0), 0, 0, *outward(rows, rows))
+
+
 def build_bvh(lo, hi, max_leaf=MAX_LEAF):
     """Binned-SAH BVH over (n, 3) primitive boxes ``lo``, ``hi`` (float64,
     or BOX from ``outward``).
