@@ -11,9 +11,10 @@ from raytrace.scene import Mesh, Scene
 
 
 def awkward_mesh(seed, n_faces=20_000):
-    """Faces of every kind degenerate_mask decides: ordinary, slivers near
-    the ratio, collinear, repeated vertices, and rows too large or small to
-    square (its rescaled path)."""
+    """Faces of every kind degenerate_mask decides: ordinary, slivers
+    (kept), collinear up to rounding (areas of rounding size, dropped),
+    repeated vertices, and rows too large or small to square (its rescaled
+    path)."""
     rng = np.random.default_rng(seed)
     v = rng.normal(size=(5_000, 3))
     v[:100] = v[100:200] + 1e-7 * rng.normal(size=(100, 3))   # near twins: slivers
