@@ -478,10 +478,18 @@ def box_bounds(geo, threads):
     return lo, hi
 
 
+def _parallel_threads(n_prims, bvh_build):
+    """Threads for build_bvh_parallel and box_bounds: Numba's, for the SAH
+    builder from PARALLEL_MIN primitives on and with more than one; else 0."""
+    threads = numba.get_num_threads()
+    big = BUILDERS[bvh_build] is None and n_prims >= PARALLEL_MIN
+    return threads if big and threads > 1 else 0
+
+
 def load_big(n_prims, bvh_build="sah", **_):
     """Load (or compile) box_bounds_kernel if a scene of n_prims primitives
     will use it (Structure.load: compile time is not build time)."""
-    if BUILDERS[bvh_build] is None and n_prims >= PARALLEL_MIN and numba.get_num_threads() > 1:
+    if _parallel_threads(n_prims, bvh_build):
         rows = np.zeros((0, 3))
         box_bounds_kernel(rows, rows, rows, rows, np.zeros(0), 0, 0, *outward(rows, rows))
 
@@ -598,8 +606,8 @@ def build(geo, obj_ranges, bvh_build="sah", leaf_size=MAX_LEAF, **_):
     separately by every structure), built by ``bvh_build`` with leaves of at
     most ``leaf_size`` primitives, collapsed to 4 children per node."""
     links = None
-    threads = numba.get_num_threads()
-    if BUILDERS[bvh_build] is None and n_bounded(geo) >= PARALLEL_MIN and threads > 1:
+    threads = _parallel_threads(n_bounded(geo), bvh_build)
+    if threads:
         lo, hi = box_bounds(geo, threads)
         *binary, links = build_bvh_parallel(lo, hi, int(leaf_size), threads)
     else:
