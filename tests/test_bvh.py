@@ -609,3 +609,7 @@ def test_every_builder_gives_the_brute_force_image(builder, leaf_size):
     lo, hi = prim_bounds(geo)
     wide_check(lo, hi, bvh.node_box, bvh.node_child, bvh.node_count, bvh.prim_ids)
     assert bvh.node_count.max() <= leaf_size
+    # box_bound, read from the root's lanes, bounds every box of the tree
+    # (the float32 box test's overflow argument rests on it).
+    used = bvh.node_box[:, 0, :] < np.inf
+    assert bvh.box_bound == np.abs(np.moveaxis(bvh.node_box, 1, 2)[used]).max() > 0

@@ -35,7 +35,9 @@ from ..threads import run_on_threads, runs
 # a lane per child; node_count (m, 4) > 0 makes a lane a leaf covering
 # prim_ids[node_child : node_child + node_count], 0 an inner child, node
 # node_child (or an unused lane, whose box is +inf).  prim_ids: unified ids.
-BVH = namedtuple("BVH", ["node_box", "node_child", "node_count", "prim_ids"])
+# box_bound: the largest magnitude of a box coordinate (inf past float32's
+# range), which bounds the float32 box test's distances (kernels/bvh.py).
+BVH = namedtuple("BVH", ["node_box", "node_child", "node_count", "prim_ids", "box_bound"])
 # The nodes' box type, binary and wide: float32, each the padded float64
 # box rounded outwards (build_bvh_kernel, collapse_bvh4).
 BOX = np.float32
@@ -43,7 +45,7 @@ BOX = np.float32
 # for any mesh that fits in memory): half of int64's bytes while the
 # binary and the wide tree are both held, the build's peak.
 LINK = np.int32
-# Children per node: one <4 x double> per box plane (kernels/lowlevel.py).
+# Children per node: one <4 x float> per box plane (kernels/lowlevel.py).
 WIDTH = 4
 
 # 12 bins, as pbrt-v4's buckets: Wald 2007 finds 8-16 bins close to the
@@ -622,7 +624,17 @@ def build(geo, obj_ranges, bvh_build="sah", leaf_size=MAX_LEAF, **_):
     del lo, hi, binary        # the boxes go before the wide tree is made: 24 bytes a primitive
     node_box, node_child, node_count4 = collapse_bvh4(node_lo, node_hi, node_start, node_count,
                                                       links)
-    return BVH(node_box=node_box, node_child=node_child, node_count=node_count4, prim_ids=prim_ids)
+    return BVH(node_box=node_box, node_child=node_child, node_count=node_count4, prim_ids=prim_ids,
+               box_bound=box_bound(node_box))
+
+
+def box_bound(node_box):
+    """The largest magnitude of any box coordinate of the tree: the root's
+    lanes', since every box holds its children's."""
+    if len(node_box) == 0:
+        return 0.0
+    root = node_box[0]
+    return float(np.abs(root[:, root[0] < np.inf]).max(initial=0.0))
 
 
 def _lanes(bvh):

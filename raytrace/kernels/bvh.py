@@ -3,7 +3,8 @@ counting every hit.
 
 The tree is the 4-wide layout of ``raytrace.accel.bvh.BVH``: the binned-SAH
 binary tree collapsed so each node holds the boxes of up to 4 children.  At
-a node all 4 child boxes are tested at once (``ray_aabb4``, SIMD); the
+a node all 4 child boxes are tested at once (``ray_aabb4``, SIMD, in
+float32 with margins that keep it conservative: ``box_ray``); the
 children the ray enters go on a fixed-size stack with their entry
 distances, sorted so the nearest is on top, and the nearest is visited
 next.  A popped entry is skipped when a hit closer than its entry distance
@@ -29,6 +30,8 @@ Conventions shared with every structure (prims.py), so the result is
 bit-identical to brute force.  Counters are kept in locals and added to
 ``cnt`` once per ray.
 """
+from collections import namedtuple
+
 import numpy as np
 from numba import njit
 from numba.cpython.unsafe.numbers import trailing_zeros  # llvm.cttz: a mask's lowest set bit
@@ -36,7 +39,7 @@ from numba.cpython.unsafe.numbers import trailing_zeros  # llvm.cttz: a mask's l
 from ..accel.bvh import BVH, MAX_DEPTH, WIDTH
 from .counters import BOX_TESTS, NODES_VISITED, PRIM_HITS, PRIM_TESTS
 from .jit import JIT
-from .lowlevel import edge_mask4, frame_array, ray_aabb4
+from .lowlevel import box_ray_f32, edge_mask4, frame_array, ray_aabb4
 from .prims import test_prim
 from .query import ANY_HIT, CLOSEST, register
 from .ray import Hit, closer, no_hit
@@ -44,6 +47,20 @@ from .ray import Hit, closer, no_hit
 STACK_SIZE = 3 * MAX_DEPTH + 4
 _LANE_BITS = WIDTH.bit_length() - 1   # a leaf's stack entry is ~(node << 2 | lane)
 _DONE = -(1 << 62)  # "stack empty": below every leaf entry
+
+# A ray's constants for the float32 box test (lowlevel.ray_aabb4): the
+# rows of its near planes, and on each axis the origin and the inverse
+# direction for the near and the far plane.
+BoxRay = namedtuple("BoxRay", ["nx", "ny", "nz", "onx", "ony", "onz", "ofx", "ofy", "ofz",
+                               "inx", "iny", "inz", "ifx", "ify", "ifz"])
+# The inverse direction is shrunk for the near plane and grown for the far
+# one by 16 float32 ulps: its own rounding and the test's subtraction and
+# product round by at most 3.
+BOX32_MARGIN = 2.0 ** -20
+# Origins and boxes within 2^62 in magnitude, and near inverses cut to
+# 2^63: their products stay below 2^126, and float32's range ends at 2^128.
+BOX32_RANGE = 2.0 ** 62
+NEAR_LIMIT = 2.0 ** 63
 
 
 @njit(**JIT)
@@ -57,15 +74,42 @@ def near_rows(ray):
 
 
 @njit(**JIT)
-def _push_children(node_box, node_child, node_count, node, ray, nx, ny, nz, t_box,
-                   stack, stack_t, sp):
+def box_ray(acc, ray):
+    """The ray's BoxRay for tree acc (lowlevel.box_ray_f32 makes the
+    constants).  A near inverse is cut to NEAR_LIMIT, so its products
+    with a box-to-origin difference stay finite; a smaller near inverse
+    only lowers a positive entry.  Past BOX32_RANGE (an origin or a box
+    beyond 4.6e18) the test cannot bound its distances: such a ray gets
+    constants that enter every used lane (near plane lo at -inf, far plane
+    hi at +inf, an unused lane's +inf lo at +inf), so it visits the whole
+    tree, as brute force would, with the same hits."""
+    reach = max(abs(ray.ox), abs(ray.oy), abs(ray.oz))
+    bounded = (reach <= BOX32_RANGE) & (acc.box_bound <= BOX32_RANGE)
+    nx, ny, nz = near_rows(ray)
+    c = box_ray_f32(ray.ox, ray.oy, ray.oz, ray.inv_x, ray.inv_y, ray.inv_z, NEAR_LIMIT,
+                    BOX32_MARGIN, bounded)
+    # Unbounded: rows 0, 1, 2 (nx is 0 or 3, ny 1 or 4, nz 2 or 5).
+    return BoxRay(nx * bounded, 1 + (ny - 1) * bounded, 2 + (nz - 2) * bounded,
+                  c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11])
+
+
+@njit(**JIT)
+def child_boxes(node_box, node, br, t_box):
+    """(mask, entry distances) of the ray whose BoxRay is br against node's
+    4 child boxes."""
+    return ray_aabb4(node_box, node, br.nx, br.ny, br.nz, br.onx, br.ony, br.onz,
+                     br.ofx, br.ofy, br.ofz, br.inx, br.iny, br.inz, br.ifx, br.ify, br.ifz,
+                     t_box)
+
+
+@njit(**JIT)
+def _push_children(node_box, node_child, node_count, node, br, t_box, stack, stack_t, sp):
     """Test node's 4 child boxes; push the ones the ray enters, nearest on
     top (insertion into the entries pushed here, usually 1 or 2).  Returns
     the new stack pointer.  Lanes are chosen by the mask's bits rather than
     by their distances (and a node whose children all miss skips the
     loop): 5% faster on the 1k and 118k teapots (docs/design.md)."""
-    mask, d = ray_aabb4(node_box, node, nx, ny, nz, ray.ox, ray.oy, ray.oz,
-                        ray.inv_x, ray.inv_y, ray.inv_z, t_box)
+    mask, d = child_boxes(node_box, node, br, t_box)
     if mask == 0:
         return sp
     base = sp
@@ -133,7 +177,7 @@ def _traversal(mode):
             return best
         stack = frame_array(STACK_SIZE, np.int64)
         stack_t = frame_array(STACK_SIZE, np.float64)
-        nx, ny, nz = near_rows(ray)
+        br = box_ray(acc, ray)
         n_inner = 0
         n_leaves = 0
         n_tests = 0
@@ -144,7 +188,7 @@ def _traversal(mode):
             if entry >= 0:
                 n_inner += 1
                 base = sp
-                sp = _push_children(node_box, node_child, node_count, entry, ray, nx, ny, nz,
+                sp = _push_children(node_box, node_child, node_count, entry, br,
                                     min(best.t, t_max), stack, stack_t, sp)
                 if sp > base:
                     # The nearest child was just pushed: its entry is within
@@ -222,7 +266,7 @@ def _count_traverse(geo, acc, ray, t_max, cnt):
     if node_box.shape[0] == 0:
         return no_hit()
     stack = frame_array(STACK_SIZE, np.int64)
-    nx, ny, nz = near_rows(ray)
+    br = box_ray(acc, ray)
     n_inner = 0
     n_leaves = 0
     n_tests = 0
@@ -234,12 +278,10 @@ def _count_traverse(geo, acc, ray, t_max, cnt):
         other = stack[sp - 1] if two else node    # no second node: its mask stays 0
         sp -= two
         n_inner += 1 + two
-        mask, _ = ray_aabb4(node_box, node, nx, ny, nz, ray.ox, ray.oy, ray.oz,
-                            ray.inv_x, ray.inv_y, ray.inv_z, t_max)
+        mask, _ = child_boxes(node_box, node, br, t_max)
         mask2 = 0
         if two:   # only then: a masked test of the first node again cost short rays most
-            mask2, _ = ray_aabb4(node_box, other, nx, ny, nz, ray.ox, ray.oy, ray.oz,
-                                 ray.inv_x, ray.inv_y, ray.inv_z, t_max)
+            mask2, _ = child_boxes(node_box, other, br, t_max)
         sp, leaves = _push_inner(node_child, node_count, node, mask, stack, sp)
         sp, leaves2 = _push_inner(node_child, node_count, other, mask2, stack, sp)
         # Both nodes' leaves in one loop (one copy of the leaf test to

@@ -2,7 +2,7 @@
 caller's stack frame, a 4-wide box test in SIMD, the first step of the
 triangle test for 4 triangles at once, and an atomic counter.
 
-Both are Numba intrinsics that emit LLVM IR directly.
+Each is a Numba intrinsic that emits LLVM IR directly.
 """
 import numpy as np
 from llvmlite import ir
@@ -13,7 +13,6 @@ from numba.np.arrayobj import populate_array
 from numba.np.numpy_support import from_dtype
 
 from ..accel.bvh import BOX, WIDTH
-from .intersect import BOX_FAR_SCALE
 
 
 @intrinsic
@@ -46,44 +45,72 @@ _BOX_ARRAY = types.Array(from_dtype(np.dtype(BOX)), 3, "C")
 
 
 @intrinsic
-def ray_aabb4(typingctx, node_box, node, nx, ny, nz, ox, oy, oz, ix, iy, iz, t_max):
-    """Slab test of one ray against the 4 child boxes of BVH node ``node``.
+def ray_aabb4(typingctx, node_box, node, nx, ny, nz, onx, ony, onz, ofx, ofy, ofz,
+              inx, iny, inz, ifx, ify, ifz, t_max):
+    """Slab test of one ray against the 4 child boxes of BVH node ``node``,
+    in float32 (<4 x float>: on a 128-bit SIMD unit half the
+    micro-operations of <4 x double>, and no widening of the stored boxes).
 
     ``node_box`` is (m, 6, 4) float32: rows lo x, y, z, hi x, y, z, one
-    lane per child, each row widened to <4 x double> as it is loaded
-    (exactly), so the arithmetic is float64's.  ``nx, ny, nz`` are the rows
-    of the planes the ray meets first on each axis (0/3, 1/4, 2/5 by the
-    sign of its inverse direction), so no swap is needed: pbrt's dirIsNeg
-    trick, vectorised across children as in Dammertz et al. 2008 ("Shallow
-    Bounding Volume Hierarchies for Fast SIMD Ray Tracing of Incoherent
-    Rays").
+    lane per child.  ``nx, ny, nz`` are the rows of the planes the ray
+    meets first on each axis (0/3, 1/4, 2/5 by the sign of its inverse
+    direction), so no swap is needed: pbrt's dirIsNeg trick, vectorised
+    across children as in Dammertz et al. 2008 ("Shallow Bounding Volume
+    Hierarchies for Fast SIMD Ray Tracing of Incoherent Rays").
 
-    Returns (mask, the 4 entry distances): bit k of mask set where the ray
-    enters child k (one vmovmskpd), its distance clamped to 0, inf where the
-    ray misses the box or enters beyond t_max.  The arithmetic is ray_aabb's operation
-    for operation (the same products, the same Ize far-bound widening), so
-    every lane gives ray_aabb's answer: a NaN slab distance (the ray lies in
-    a face plane, 0 * inf) fails both comparisons and constrains nothing,
-    which is what ray_aabb's explicit NaN check does.  An unused lane holds
-    lo = hi = +inf, which every ray misses on any axis.
+    Conservative, not exact: the entry it returns is at most, and the exit
+    it compares with at least, the exact slab distances of the exact ray,
+    so it enters every box the ray meets before t_max (and a few more, by
+    a few float32 ulps).  The float32 ray constants of kernels/bvh.py's
+    ``box_ray`` make that so:
+
+    - ``on*``/``of*``: the origin for the near and the far planes, rounded
+      to float32 away from the near plane and towards the far one, so the
+      subtraction of a rounded origin can only lower an entry and raise an
+      exit;
+    - ``in*``/``if*``: the inverse direction for the near and far planes,
+      shrunk and grown by BOX32_MARGIN (2^-20: 16 float32 ulps, against at
+      most 3 ulps of rounding in the inverse, the subtraction and the
+      product), the near one bounded so its products cannot overflow.
+
+    t_max is rounded to the nearest float32, at most half an ulp below it:
+    the near margin lowers every entry by far more.  A far product that
+    overflows is an infinite exit of the right sign, so it needs no
+    bound.  The signs of the subtraction and the product are exact, so an
+    exit below 0 is truly behind the ray.  Distances in float32's
+    subnormal range round absolutely, by at most 2^-150: the entry is
+    lowered and the exit raised by 2^-126 for them.
+
+    A NaN slab distance (the ray in a face plane, 0 * inf) fails both
+    comparisons and constrains nothing.  An unused lane (lo = hi = +inf)
+    gets an entry of +inf or an exit of -inf on every axis: no ray enters it.
+
+    Returns (mask, the 4 entry distances as float64): bit k of mask set
+    where the ray enters child k (one vmovmskps), its distance (at most
+    0 where the ray starts inside), inf where the ray misses the box or
+    enters beyond t_max.
 
     LLVM does not vectorise the scalar form of this (measured: all scalar
-    vmulsd); the explicit <4 x double> code measured 1.2x faster BVH queries.
+    vmulsd); the explicit <4 x double> form measured 1.2x faster BVH
+    queries, and this float32 one another 1.01-1.08x (docs/design.md).
     """
-    args = (node_box, node, nx, ny, nz, ox, oy, oz, ix, iy, iz, t_max)
+    args = (node_box, node, nx, ny, nz, onx, ony, onz, ofx, ofy, ofz, inx, iny, inz,
+            ifx, ify, ifz, t_max)
     if node_box != _BOX_ARRAY or not all(isinstance(a, types.Integer) for a in args[1:5]) \
-            or not all(isinstance(a, types.Float) for a in args[5:]):
+            or not all(a == types.float32 for a in args[5:17]) \
+            or not isinstance(t_max, types.Float):
         return None
     sig = types.Tuple((types.int64, types.UniTuple(types.float64, WIDTH)))(*args)
 
     def codegen(context, builder, sig, llargs):
-        box, node, nx, ny, nz, ox, oy, oz, ix, iy, iz, t_max = [
-            context.cast(builder, v, t, to) for v, t, to in zip(
-                llargs, sig.args, (sig.args[0],) + (types.int64,) * 4 + (types.float64,) * 7)]
+        box, node, nx, ny, nz = [context.cast(builder, v, t, to) for v, t, to in zip(
+            llargs[:5], sig.args[:5], (sig.args[0],) + (types.int64,) * 4)]
+        near_o, far_o, near_i, far_i = llargs[5:8], llargs[8:11], llargs[11:14], llargs[14:17]
+        f32 = ir.FloatType()
+        t_max = builder.fptrunc(context.cast(builder, llargs[17], sig.args[17], types.float64),
+                                f32)
         data = context.make_array(sig.args[0])(context, builder, value=box).data
-        f64 = ir.DoubleType()
-        vec = ir.VectorType(f64, WIDTH)
-        stored = ir.VectorType(context.get_value_type(sig.args[0].dtype), WIDTH)
+        vec = ir.VectorType(f32, WIDTH)
         i64 = ir.IntType(64)
         i32 = ir.IntType(32)
 
@@ -97,29 +124,112 @@ def ray_aabb4(typingctx, node_box, node, nx, ny, nz, ox, oy, oz, ix, iy, iz, t_m
 
         def plane(row):
             p = builder.gep(data, [builder.add(base, builder.mul(row, ir.Constant(i64, WIDTH)))])
-            row = builder.load(builder.bitcast(p, stored.as_pointer()), align=4)
-            return builder.fpext(row, vec)
+            return builder.load(builder.bitcast(p, vec.as_pointer()), align=4)
 
-        widen = splat(ir.Constant(f64, BOX_FAR_SCALE))
-        t0 = splat(ir.Constant(f64, 0.0))
+        t0 = splat(ir.Constant(f32, 0.0))
         t1 = splat(t_max)
         # far row: 3 - nx for x (0 <-> 3), 5 - ny for y (1 <-> 4), 7 - nz for z (2 <-> 5)
-        for o, inv, near, far_sum in ((ox, ix, nx, 3), (oy, iy, ny, 5), (oz, iz, nz, 7)):
-            o, inv = splat(o), splat(inv)
+        for a, (near, far_sum) in enumerate(((nx, 3), (ny, 5), (nz, 7))):
             far = builder.sub(ir.Constant(i64, far_sum), near)
-            tn = builder.fmul(builder.fsub(plane(near), o), inv)
-            tf = builder.fmul(builder.fmul(builder.fsub(plane(far), o), inv), widen)
+            tn = builder.fmul(builder.fsub(plane(near), splat(near_o[a])), splat(near_i[a]))
+            tf = builder.fmul(builder.fsub(plane(far), splat(far_o[a])), splat(far_i[a]))
             t0 = builder.select(builder.fcmp_ordered(">", tn, t0), tn, t0)
             t1 = builder.select(builder.fcmp_ordered("<", tf, t1), tf, t1)
-        inf = splat(ir.Constant(f64, float("inf")))
+        subnormal = splat(ir.Constant(f32, 2.0 ** -126))
+        t0 = builder.fsub(t0, subnormal)
+        t1 = builder.fadd(t1, subnormal)
+        inf = splat(ir.Constant(f32, float("inf")))
         # An unused lane (lo = hi = +inf) passes t0 <= t1 at t0 = inf when
         # t_max is inf: only a finite entry is a hit.
         hit = builder.and_(builder.fcmp_ordered("<=", t0, t1), builder.fcmp_ordered("<", t0, inf))
-        entry = builder.select(hit, t0, inf)
+        entry = builder.fpext(builder.select(hit, t0, inf), ir.VectorType(ir.DoubleType(), WIDTH))
         lanes = [builder.extract_element(entry, ir.Constant(i32, k)) for k in range(WIDTH)]
         mask = builder.zext(builder.bitcast(hit, ir.IntType(WIDTH)), i64)
         return context.make_tuple(builder, sig.return_type, [
             mask, context.make_tuple(builder, sig.return_type[1], lanes)])
+
+    return sig, codegen
+
+
+@intrinsic
+def box_ray_f32(typingctx, ox, oy, oz, ix, iy, iz, near_limit, margin, bounded):
+    """ray_aabb4's float32 constants of a ray, the three axes at once in
+    SIMD (in scalar code this set-up cost as much as the float32 test
+    saved, docs/design.md): the near-plane origins x, y, z, the far-plane
+    origins, the near inverses, the far inverses.
+
+    The origin o is rounded to o32, within half an ulp; o32 +- (|o32| *
+    2^-23 + 2^-149), at least a whole ulp away (subnormal too), is above
+    and below o.  The near plane takes the one above where the inverse
+    direction is positive (the near plane is then lo: a larger origin
+    lowers lo - o) and the one below where it is negative; the far plane
+    the other.  The near inverse is the inverse shrunk by ``margin`` and
+    cut to ``near_limit`` in magnitude (infinite ones stay: a zero
+    direction component's test is exact); the far one grown by ``margin``.
+
+    Where ``bounded`` is false (distances the test cannot bound), the
+    constants that enter every used lane instead: origins +-FLT_MAX and
+    inverses +inf, with the near planes in rows lo (kernels/bvh.py).
+    Chosen by selects, not a branch: a branch in the set-up cost 5-8%.
+    """
+    floats = (ox, oy, oz, ix, iy, iz, near_limit, margin)
+    if not all(isinstance(a, types.Float) for a in floats) \
+            or not isinstance(bounded, types.Boolean):
+        return None
+    sig = types.UniTuple(types.float32, 12)(*floats, bounded)
+
+    def codegen(context, builder, sig, llargs):
+        f64, f32 = ir.DoubleType(), ir.FloatType()
+        i32 = ir.IntType(32)
+        v64, v32 = ir.VectorType(f64, 4), ir.VectorType(f32, 4)
+        i64x4, i32x4 = ir.VectorType(ir.IntType(64), 4), ir.VectorType(i32, 4)
+        args = [context.cast(builder, v, t, types.float64) for v, t in zip(llargs, sig.args[:8])]
+        o_s, inv_s, (limit, margin) = args[0:3], args[3:6], args[6:8]
+
+        def vector(xs, pad):
+            v = ir.Constant(v64, [0.0] * 4)
+            for k, x in enumerate(xs + [ir.Constant(f64, pad)]):
+                v = builder.insert_element(v, x, ir.Constant(i32, k))
+            return v
+
+        def splat(ty, x):
+            v = ir.Constant(ty, ir.Undefined)
+            for k in range(4):
+                v = builder.insert_element(v, x, ir.Constant(i32, k))
+            return v
+
+        def fabs(v, ity, mask):
+            return builder.bitcast(builder.and_(builder.bitcast(v, ity),
+                                                ir.Constant(ity, [mask] * 4)), v.type)
+
+        o = builder.fptrunc(vector(o_s, 0.0), v32)
+        inv = vector(inv_s, 1.0)
+        step = builder.fadd(builder.fmul(fabs(o, i32x4, 0x7FFFFFFF),
+                                         ir.Constant(v32, [2.0 ** -23] * 4)),
+                            ir.Constant(v32, [2.0 ** -149] * 4))
+        up, down = builder.fadd(o, step), builder.fsub(o, step)
+        negative = builder.fcmp_ordered("<", inv, ir.Constant(v64, [0.0] * 4))
+        near_o = builder.select(negative, down, up)
+        far_o = builder.select(negative, up, down)
+        one = splat(v64, ir.Constant(f64, 1.0))
+        margin = splat(v64, margin)
+        near = builder.fmul(inv, builder.fsub(one, margin))
+        far = builder.fmul(inv, builder.fadd(one, margin))
+        size = fabs(near, i64x4, 0x7FFFFFFFFFFFFFFF)
+        limit = splat(v64, limit)
+        cut = builder.and_(builder.fcmp_ordered(">", size, limit),
+                           builder.fcmp_ordered("<", size, ir.Constant(v64, [float("inf")] * 4)))
+        sign = builder.and_(builder.bitcast(near, i64x4), ir.Constant(i64x4, [1 << 63] * 4))
+        near = builder.select(cut, builder.bitcast(builder.or_(builder.bitcast(limit, i64x4),
+                                                               sign), v64), near)
+        bounded = splat(ir.VectorType(ir.IntType(1), 4),
+                        context.cast(builder, llargs[8], sig.args[8], types.boolean))
+        big = float(np.finfo(np.float32).max)
+        columns = [builder.select(bounded, v, ir.Constant(v32, [x] * 4)) for v, x in (
+            (near_o, big), (far_o, -big), (builder.fptrunc(near, v32), float("inf")),
+            (builder.fptrunc(far, v32), float("inf")))]
+        out = [builder.extract_element(v, ir.Constant(i32, k)) for v in columns for k in range(3)]
+        return context.make_tuple(builder, sig.return_type, out)
 
     return sig, codegen
 
