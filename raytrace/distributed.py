@@ -2,12 +2,15 @@
 
 The scene's arrays go to every worker once (scatter, broadcast); a task
 gets only its camera (12 floats) and its rows, and sends back 8-bit
-rows.  Dask reruns the tasks of a worker that dies; a task's answer
-depends only on its arguments, so a rerun changes nothing in the image.
+rows.  Dask reruns the tasks of a worker that dies, and where the death
+took the scattered scene too, the runner sends it again and reruns them;
+a task's answer depends only on its arguments, so a rerun changes
+nothing in the image.
 """
 import contextlib
 import os
 import time
+from concurrent.futures import CancelledError
 
 import numpy as np
 
@@ -17,6 +20,7 @@ EXTRA = "pip install 'raytrace[distributed]'"
 WAIT_FOR_WORKERS_S = 30      # a scheduler with no workers would wait for ever
 CONNECT_S = 10               # Dask retries a refused connection until then
 TASKS_PER_WORKER = 4         # in flight at once: enough to hide the round trips
+RESCATTERS = 2               # times a task may find its scattered scene lost and rerun
 
 
 def _dask(why):
@@ -80,10 +84,7 @@ class DaskRunner:
             raise RaytraceError(f"no Dask workers joined the scheduler in "
                                 f"{WAIT_FOR_WORKERS_S} s") from None
         t0 = time.perf_counter()
-        try:
-            shared = self.client.scatter(payload, broadcast=True, hash=False)
-        except Exception as exc:           # the workers could not take the scene's buffers
-            raise _failure(exc) from None
+        self._scatter(payload)
         # Sending the scene; the first time, also each worker's import of
         # raytrace and Numba to unpickle it (0.36 s here): start-up, apart.
         self.scatter_s = time.perf_counter() - t0
@@ -91,27 +92,47 @@ class DaskRunner:
         workers = self.workers
         window = TASKS_PER_WORKER * workers
         group = _group_size(tasks, payload, workers)
-        futures = []
+        futures = []      # (future, its tiles, the scatter it was given)
         try:
             for k in range(0, len(tasks), group):
-                futures.append(self.client.submit(_render_tiles, shared, self.threads,
-                                                  tasks[k:k + group], pure=False))
+                futures.append(self._submit(tasks[k:k + group]))
                 if len(futures) >= window:
-                    yield from self._result(futures.pop(0))
+                    yield from self._result(payload, *futures.pop(0))
             while futures:
-                yield from self._result(futures.pop(0))
+                yield from self._result(payload, *futures.pop(0))
         finally:
-            for f in futures:
+            for f, _, _ in futures:
                 f.cancel()
 
-    @staticmethod
-    def _result(future):
+    def _scatter(self, payload):
         try:
-            return future.result()
-        except RaytraceError:
-            raise
-        except Exception as exc:
+            self._shared = self.client.scatter(payload, broadcast=True, hash=False)
+        except Exception as exc:           # the workers could not take the scene's buffers
             raise _failure(exc) from None
+
+    def _submit(self, tiles):
+        shared = self._shared
+        return (self.client.submit(_render_tiles, shared, self.threads, tiles, pure=False),
+                tiles, shared)
+
+    def _result(self, payload, future, tiles, shared):
+        for attempt in range(RESCATTERS + 1):
+            try:
+                return future.result()
+            except RaytraceError:
+                raise
+            except CancelledError as exc:
+                # A worker's death can take the scattered scene with it and
+                # cancel the tasks that need it, even broadcast to every
+                # worker (dask/distributed#3149): send it again, once for all
+                # the tasks that had the lost copy, and run these tiles again.
+                if attempt == RESCATTERS:
+                    raise _failure(exc) from None
+                if self._shared is shared:
+                    self._scatter(payload)
+                future, tiles, shared = self._submit(tiles)
+            except Exception as exc:
+                raise _failure(exc) from None
 
 
 # A Dask task costs ~7 ms of scheduling and transfer here: several small

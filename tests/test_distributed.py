@@ -213,6 +213,54 @@ def test_in_a_fresh_process_a_layout_finds_its_traversal_and_dask_stays_out(scen
     assert p.stdout.decode().split() == ["raytrace.kernels.bvh", "[]"]
 
 
+class _LosesTheScene:
+    """A Dask client in this process whose tasks on the first scattered
+    scene come back cancelled, as when a worker's death takes the
+    scattered data with it (dask/distributed#3149): the runner must send
+    the scene again and rerun those tiles."""
+
+    class Future:
+        def __init__(self, value=None, lost=False):
+            self.value, self.lost = value, lost
+
+        def result(self):
+            if self.lost:
+                from distributed.client import FutureCancelledError
+                raise FutureCancelledError("key", reason="already forgotten")
+            return self.value
+
+        def cancel(self):
+            pass
+
+    def __init__(self):
+        self.scatters = []
+
+    def wait_for_workers(self, n, timeout):
+        pass
+
+    def scheduler_info(self):
+        return {"workers": {"a": {}, "b": {}}}
+
+    def scatter(self, payload, broadcast, hash):
+        self.scatters.append(payload)
+        return len(self.scatters)          # the key: which scatter
+
+    def submit(self, fn, shared, threads, tiles, pure):
+        if shared == 1:
+            return self.Future(lost=True)
+        return self.Future(fn(self.scatters[shared - 1], threads, tiles))
+
+
+def test_a_lost_scattered_scene_is_sent_again_and_changes_nothing(scene):
+    from raytrace.distributed import DaskRunner
+    cams = turntable(scene.camera, 3)
+    here, _ = animate(scene, cams, RenderOptions(**HARD))
+    client = _LosesTheScene()
+    there, _ = animate(scene, cams, RenderOptions(**HARD), runner=DaskRunner(client, 1), tiles=2)
+    assert len(client.scatters) == 2            # once, then once again for every lost task
+    assert all(np.array_equal(a, b) for a, b in zip(here, there))
+
+
 def test_a_worker_killed_mid_render_changes_nothing(scene, cluster):
     """Last in this file: it kills one of the shared cluster's workers (its
     nanny starts another)."""
