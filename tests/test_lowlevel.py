@@ -186,13 +186,19 @@ def test_tiny_direction_components_are_cut_not_dropped():
 
 
 def test_past_float32_range_every_used_lane_is_entered():
-    """An origin or a box beyond BOX32_RANGE: the float32 test cannot bound
-    the distances, so every used lane is entered (the ray visits the whole
-    tree, as brute force would) and unused lanes still never are."""
+    """An origin or a box beyond BOX32_RANGE, or a direction whose inverse
+    float32 cannot hold: the float32 test cannot bound the distances, so
+    every used lane is entered (the ray visits the whole tree, as brute
+    force would) and unused lanes still never are."""
     lo, hi = np.array([[1.0, 1, 1], [5.0, 5, 5]]), np.array([[2.0, 2, 2], [6.0, 6, 6]])
     far = np.array([[1e30, 0.0, 0.0], [0.0, -1e25, 0.0]])   # origins past the range
     e = check(lo, hi, far, np.array([[-1.0, 0.1, 0.2], [0.0, 1.0, 0.0]]), np.full(2, np.inf),
               tight=False)
+    assert np.all(e < np.inf)
+    # Directions so long that their inverses vanish in float32 (t itself
+    # would underflow): unbounded too.
+    huge = np.array([[1e50, 1e50, 1e50], [-1e45, 2e45, -3e45], [1e50, 0.0, 1e50]])
+    e = check(lo, hi, np.array([[-5.0, 0, 0]] * 3), huge, np.full(3, np.inf), tight=False)
     assert np.all(e < np.inf)
     for far_box in (1e50, 1e20):     # past float32's range (stored as inf), and within it
         acc = as_tree(np.vstack([lo, [[far_box, 0, 0]]]), np.vstack([hi, [[2 * far_box, 1, 1]]]))

@@ -79,10 +79,10 @@ def box_ray(acc, ray):
     constants).  A near inverse is cut to NEAR_LIMIT, so its products
     with a box-to-origin difference stay finite; a smaller near inverse
     only lowers a positive entry.  Past BOX32_RANGE (an origin or a box
-    beyond 4.6e18) the test cannot bound its distances: such a ray gets
-    constants that enter every used lane (near plane lo at -inf, far plane
-    hi at +inf, an unused lane's +inf lo at +inf), so it visits the whole
-    tree, as brute force would, with the same hits."""
+    beyond 4.6e18), or with an inverse direction below 2^-100, the test
+    cannot bound its distances: such a ray gets constants that enter every
+    used lane (box_ray_f32), so it visits the whole tree, as brute force
+    would, with the same hits."""
     reach = max(abs(ray.ox), abs(ray.oy), abs(ray.oz))
     bounded = (reach <= BOX32_RANGE) & (acc.box_bound <= BOX32_RANGE)
     nx, ny, nz = near_rows(ray)

@@ -167,9 +167,14 @@ def box_ray_f32(typingctx, ox, oy, oz, ix, iy, iz, near_limit, margin, bounded):
     cut to ``near_limit`` in magnitude (infinite ones stay: a zero
     direction component's test is exact); the far one grown by ``margin``.
 
-    Where ``bounded`` is false (distances the test cannot bound), the
-    constants that enter every used lane instead: origins +-FLT_MAX and
-    inverses +inf, with the near planes in rows lo (kernels/bvh.py).
+    Where ``bounded`` is false, or an inverse direction is below 2^-100
+    (float32 would flush it, or its products, to zero, and an unused lane's
+    0 * inf would then constrain nothing), the distances cannot be bounded:
+    the constants that enter every used lane instead, origins +-FLT_MAX
+    and inverses +inf: (b - FLT_MAX) * inf is -inf or NaN for any finite
+    or -inf b, (b + FLT_MAX) * inf +inf or NaN, and an unused lane's +inf
+    near plane +inf.  A tree past the range may hold +inf in a used lane's
+    hi: its rays then take the near planes from rows lo (kernels/bvh.py).
     Chosen by selects, not a branch: a branch in the set-up cost 5-8%.
     """
     floats = (ox, oy, oz, ix, iy, iz, near_limit, margin)
@@ -222,8 +227,12 @@ def box_ray_f32(typingctx, ox, oy, oz, ix, iy, iz, near_limit, margin, bounded):
         sign = builder.and_(builder.bitcast(near, i64x4), ir.Constant(i64x4, [1 << 63] * 4))
         near = builder.select(cut, builder.bitcast(builder.or_(builder.bitcast(limit, i64x4),
                                                                sign), v64), near)
-        bounded = splat(ir.VectorType(ir.IntType(1), 4),
-                        context.cast(builder, llargs[8], sig.args[8], types.boolean))
+        vanishing = builder.fcmp_ordered("<", size, ir.Constant(v64, [2.0 ** -100] * 4))
+        bounded = builder.and_(
+            context.cast(builder, llargs[8], sig.args[8], types.boolean),
+            builder.icmp_unsigned("==", builder.bitcast(vanishing, ir.IntType(4)),
+                                  ir.Constant(ir.IntType(4), 0)))
+        bounded = splat(ir.VectorType(ir.IntType(1), 4), bounded)
         big = float(np.finfo(np.float32).max)
         columns = [builder.select(bounded, v, ir.Constant(v32, [x] * 4)) for v, x in (
             (near_o, big), (far_o, -big), (builder.fptrunc(near, v32), float("inf")),
