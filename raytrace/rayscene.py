@@ -133,8 +133,9 @@ class _Prepared:
         from .flatten import flatten
         from .structures import build_structure
         scene = Scene(name="rays", camera=None, objects=objects)
+        # No shading normals: a ray query reports the geometric normal.
         self.geo, self.obj_ranges, _, (self.prim_object, self.prim_face) = flatten(
-            scene, with_sources=True)
+            scene, with_sources=True, shading=False)
         self.accel = accel
         self.acc, self.build_s = build_structure(accel, self.geo, self.obj_ranges)
         self.n_tris = self.geo.tri_v0.shape[0]

@@ -35,6 +35,22 @@ def test_geometry_ids_faces_normals_and_points(accel):
     assert np.isnan(h.normal[2]).all() and np.isnan(h.point[2]).all()
 
 
+def test_a_scene_of_shaded_meshes_is_built_without_what_only_shading_reads():
+    """Ray queries never shade: the meshes' vertex normals, colours and
+    texture coordinates are not flattened (they cost half of flattening),
+    and the normal a hit reports is still the face's own."""
+    from raytrace.scene import Mesh
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
+    tilted = np.array([[0.6, 0, 0.8]] * 3)
+    mesh = Mesh(v, np.array([[0, 1, 2]]), normals=tilted, colors=np.full((3, 3), 0.5))
+    s = RayScene(Scene("s", Camera((0, 0, 5), (0, 0, 0)), [mesh]))
+    h = s.cast_rays([[0.2, 0.2, 1.0]], DOWN)
+    geo = s._built().geo
+    assert geo.vtx_normal.shape[0] == 0 and geo.tri_normal.shape[0] == 0
+    assert geo.tri_color.shape[0] == 0
+    assert h.normal.tolist() == [[0.0, 0.0, 1.0]]
+
+
 @pytest.mark.parametrize("accel", STRUCTURES)
 def test_t_min_skips_nearer_hits(accel):
     s = two_squares(accel)
