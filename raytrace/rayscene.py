@@ -294,8 +294,9 @@ class RayScene:
         """Every hit along each ray with t_min < t < t_max, nearest first
         (ties in t: the smaller primitive id first), each crossing counted
         as in count_intersections, at most max_hits per ray (the nearest): a
-        HitList, flat arrays in Open3D's layout.  Two traversals a ray: one
-        counts the hits, one writes them down."""
+        HitList, flat arrays in Open3D's layout.  One traversal a ray, and a
+        second for a ray with more than LISTING_GUESS hits (rows are
+        reserved for that many first)."""
         rays = _rays(origins, directions, t_min, t_max)
         p = self._built()
         limit = _max_hits(max_hits, p)
@@ -420,30 +421,73 @@ def _counts(prepared, rays):
     return counts
 
 
+# list_intersections writes each ray's hits in the traversal that counts
+# them, into LISTING_GUESS rows reserved for it; only the rays with more
+# hits are traversed again, into rows their counts size.  Random rays
+# through a closed mesh meet it 0-4 times.  At most LISTING_ROWS rows (32
+# bytes each) are reserved at once: more rays than that go in blocks.
+LISTING_GUESS = 4
+LISTING_ROWS = 1 << 22
+
+
 def _listing(prepared, rays):
     """(splits, (t, prim, u, v), counters): every hit of each ray, ray i's
-    in rows splits[i]:splits[i + 1], in order of (t, primitive id).  The
-    listing kernel counts too (with no rows to write to), so a first
-    list_intersections compiles one kernel, not two."""
+    in rows splits[i]:splits[i + 1], in order of (t, primitive id); the
+    counters of one traversal a ray."""
+    n = len(rays[0])
+    block = max(1, LISTING_ROWS // LISTING_GUESS)
+    if n <= block:
+        return _listing_block(prepared, rays)
+    parts = [_listing_block(prepared, [a[s:s + block] for a in rays]) for s in range(0, n, block)]
+    splits = np.zeros(n + 1, np.int64)
+    np.cumsum(np.concatenate([np.diff(sp) for sp, _, _ in parts]), out=splits[1:])
+    out = tuple(np.concatenate([o[k] for _, o, _ in parts]) for k in range(4))
+    return splits, out, sum(c for _, _, c in parts)
+
+
+def _run_listing(prepared, rays, splits):
+    """cast_listing into fresh rows sized by splits: (found, rows, counters)."""
     from .kernels.cast import cast_listing
     n = len(rays[0])
+    m = int(splits[-1])
+    out = (np.empty(m), np.empty(m, np.int64), np.empty(m), np.empty(m))
+    found = np.empty(n, np.int64)
+    cnt = _counter_rows(n)
+    cast_listing(prepared.geo, prepared.acc, *rays, splits, *out, found, cnt, _clock())
+    _check_rays(cnt, rays)
+    return found, out, cnt.sum(axis=0)
 
-    def run(splits):
-        m = int(splits[-1])
-        out = (np.empty(m), np.empty(m, np.int64), np.empty(m), np.empty(m))
-        found = np.empty(n, np.int64)
-        cnt = _counter_rows(n)
-        cast_listing(prepared.geo, prepared.acc, *rays, splits, *out, found, cnt, _clock())
-        _check_rays(cnt, rays)
-        return found, out, cnt.sum(axis=0)
 
-    counts = run(np.zeros(n + 1, np.int64))[0]
+def _rows_of(starts, counts):
+    """The rows starts[i] + j, j < counts[i], of every i in turn."""
+    ends = np.cumsum(counts)
+    return np.repeat(starts - (ends - counts), counts) + np.arange(ends[-1] if len(ends) else 0)
+
+
+def _listing_block(prepared, rays):
+    n = len(rays[0])
+    guess = np.arange(n + 1, dtype=np.int64) * LISTING_GUESS
+    found, first, cnt = _run_listing(prepared, rays, guess)
     splits = np.zeros(n + 1, np.int64)
-    np.cumsum(counts, out=splits[1:])
-    found, out, cnt = run(splits)
-    if not np.array_equal(found, counts):   # the two passes run the same tests
-        raise RuntimeError("list_intersections: the listing pass found other hits than "
-                           "the counting pass (a bug: please report it)")
+    np.cumsum(found, out=splits[1:])
+    out = tuple(np.empty(int(splits[-1]), a.dtype) for a in first)
+    fits = found <= LISTING_GUESS          # all of their hits written, in order
+    src = _rows_of(guess[:-1][fits], found[fits])
+    dst = _rows_of(splits[:-1][fits], found[fits])
+    for o, f in zip(out, first):
+        o[dst] = f[src]
+    again = np.flatnonzero(~fits)
+    if len(again):
+        sub = [np.ascontiguousarray(a[again]) for a in rays]
+        sub_splits = np.zeros(len(again) + 1, np.int64)
+        np.cumsum(found[again], out=sub_splits[1:])
+        found_again, rows, _ = _run_listing(prepared, sub, sub_splits)
+        if not np.array_equal(found_again, found[again]):   # the same tests, both times
+            raise RuntimeError("list_intersections: the second pass found other hits than "
+                               "the first (a bug: please report it)")
+        dst = _rows_of(splits[:-1][again], found[again])
+        for o, r in zip(out, rows):
+            o[dst] = r
     return splits, out, cnt
 
 

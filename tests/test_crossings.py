@@ -149,6 +149,32 @@ def test_many_hits_come_nearest_first(accel):
     assert np.array_equal(near.point, np.concatenate([h.point[:5], h.point[40:45]]))
 
 
+def test_rays_listed_in_blocks_and_traversed_again_give_the_same_hits(monkeypatch):
+    """Rays with 0 to 12 hits, so that some fit the rows reserved in the
+    first traversal and some are traversed again; then the same rays in
+    blocks of two (a small LISTING_ROWS): the same rows, in order, and the
+    counters of one traversal a ray."""
+    from raytrace import rayscene
+    v, f = _layers(12)
+    rs = RayScene((v, f))
+    n = 40
+    o = np.column_stack([(np.arange(n) % 28 - 14) / 16, np.full(n, 0.125), np.zeros(n)])
+    o[::7, 0] = 5.0                                 # beside the layers: no hit
+    d = np.tile([0.0, 0.0, 1.0], (n, 1))
+    t_max = np.arange(n) % 14 + 0.5                 # 0 to 12 layers
+    h = rs.list_intersections(o, d, t_max=t_max)
+    want = [0 if o[i, 0] == 5.0 else min(int(t_max[i]), 12) for i in range(n)]
+    assert np.diff(h.ray_splits).tolist() == want and max(want) > rayscene.LISTING_GUESS
+    for i in range(n):
+        assert h.t[h.ray_splits[i]:h.ray_splits[i + 1]].tolist() == list(range(1, want[i] + 1))
+    monkeypatch.setattr(rayscene, "LISTING_ROWS", 2 * rayscene.LISTING_GUESS)
+    blocks = rs.list_intersections(o, d, t_max=t_max)
+    for k in ("ray_splits", "t", "prim_id", "u", "v"):
+        assert np.array_equal(h[k], blocks[k]), k
+    assert blocks.stats == h.stats
+    assert h.stats["prim_hits"] == sum(want)
+
+
 def test_hits_at_one_distance_go_by_primitive_id():
     """Each layer three times over: three hits at each t, the smaller face
     index first, every time."""
