@@ -438,7 +438,13 @@ def _listing(prepared, rays):
     block = max(1, LISTING_ROWS // LISTING_GUESS)
     if n <= block:
         return _listing_block(prepared, rays)
-    parts = [_listing_block(prepared, [a[s:s + block] for a in rays]) for s in range(0, n, block)]
+    parts = []
+    for s in range(0, n, block):
+        try:
+            parts.append(_listing_block(prepared, [a[s:s + block] for a in rays]))
+        except RaytraceError:
+            _name_the_problem(*rays)    # the bad ray by its index in the whole call
+            raise
     splits = np.zeros(n + 1, np.int64)
     np.cumsum(np.concatenate([np.diff(sp) for sp, _, _ in parts]), out=splits[1:])
     out = tuple(np.concatenate([o[k] for _, o, _ in parts]) for k in range(4))

@@ -173,6 +173,9 @@ def test_rays_listed_in_blocks_and_traversed_again_give_the_same_hits(monkeypatc
         assert np.array_equal(h[k], blocks[k]), k
     assert blocks.stats == h.stats
     assert h.stats["prim_hits"] == sum(want)
+    d[33] = 0.0                                     # a bad ray in the fifth block
+    with pytest.raises(RaytraceError, match=r"directions\[33\]: zero vector"):
+        rs.list_intersections(o, d, t_max=t_max)
 
 
 def test_hits_at_one_distance_go_by_primitive_id():
