@@ -471,6 +471,9 @@ def _rows_of(starts, counts):
 
 
 def _listing_block(prepared, rays):
+    """_listing for rays whose reserved rows fit in LISTING_ROWS: one
+    traversal into LISTING_GUESS rows a ray, the rows of the rays whose
+    hits all fit packed into place, the others traversed again."""
     n = len(rays[0])
     guess = np.arange(n + 1, dtype=np.int64) * LISTING_GUESS
     found, first, cnt = _run_listing(prepared, rays, guess)
