@@ -173,7 +173,7 @@ def test_rays_listed_in_blocks_and_traversed_again_give_the_same_hits(monkeypatc
         assert np.array_equal(h[k], blocks[k]), k
     assert blocks.stats == h.stats
     assert h.stats["prim_hits"] == sum(want)
-    d[33] = 0.0                                     # a bad ray in the fifth block
+    d[33] = 0.0                                     # a bad ray in block 17 of 20
     with pytest.raises(RaytraceError, match=r"directions\[33\]: zero vector"):
         rs.list_intersections(o, d, t_max=t_max)
 
