@@ -464,10 +464,12 @@ def _run_listing(prepared, rays, splits):
     return found, out, cnt.sum(axis=0)
 
 
-def _rows_of(starts, counts):
-    """The rows starts[i] + j, j < counts[i], of every i in turn."""
+def _rows_of(rays, counts):
+    """(ray, j) of the rows j < counts[r] of each ray r of ``rays`` in turn:
+    the rays repeated, and each row's place among its ray's."""
     ends = np.cumsum(counts)
-    return np.repeat(starts - (ends - counts), counts) + np.arange(ends[-1] if len(ends) else 0)
+    ray = np.repeat(rays, counts)
+    return ray, np.arange(len(ray)) - np.repeat(ends - counts, counts)
 
 
 def _listing_block(prepared, rays):
@@ -481,8 +483,8 @@ def _listing_block(prepared, rays):
     np.cumsum(found, out=splits[1:])
     out = tuple(np.empty(int(splits[-1]), a.dtype) for a in first)
     fits = found <= LISTING_GUESS          # all of their hits written, in order
-    src = _rows_of(guess[:-1][fits], found[fits])
-    dst = _rows_of(splits[:-1][fits], found[fits])
+    ray, j = _rows_of(np.flatnonzero(fits), found[fits])
+    src, dst = guess[ray] + j, splits[ray] + j
     for o, f in zip(out, first):
         o[dst] = f[src]
     again = np.flatnonzero(~fits)
@@ -494,7 +496,8 @@ def _listing_block(prepared, rays):
         if not np.array_equal(found_again, found[again]):   # the same tests, both times
             raise RuntimeError("list_intersections: the second pass found other hits than "
                                "the first (a bug: please report it)")
-        dst = _rows_of(splits[:-1][again], found[again])
+        ray, j = _rows_of(again, found[again])
+        dst = splits[ray] + j
         for o, r in zip(out, rows):
             o[dst] = r
     return splits, out, cnt

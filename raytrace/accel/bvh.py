@@ -197,7 +197,6 @@ def build_bvh_kernel(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, nod
 
             mid = -1
             if count > 1 and depth < MAX_DEPTH:
-                cmin = (cx0, cy0, cz0)
                 cext = (cx1 - cx0, cy1 - cy0, cz1 - cz0)
                 # Bin width as a scale; an axis whose centroids coincide (or whose
                 # extent is so small the scale overflows) cannot be split.
@@ -212,12 +211,11 @@ def build_bvh_kernel(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, nod
                     bin_lo[:, :, :] = np.inf
                     bin_hi[:, :, :] = -np.inf
                     sx, sy, sz = bin_scale[0], bin_scale[1], bin_scale[2]
-                    c0, c1, c2 = cmin
                     for k in range(start, end):
                         p = prim_ids[k]
-                        bin_of[k - slot0, 0] = _bin(0.5 * (lo[p, 0] + hi[p, 0]), c0, sx)
-                        bin_of[k - slot0, 1] = _bin(0.5 * (lo[p, 1] + hi[p, 1]), c1, sy)
-                        bin_of[k - slot0, 2] = _bin(0.5 * (lo[p, 2] + hi[p, 2]), c2, sz)
+                        bin_of[k - slot0, 0] = _bin(0.5 * (lo[p, 0] + hi[p, 0]), cx0, sx)
+                        bin_of[k - slot0, 1] = _bin(0.5 * (lo[p, 1] + hi[p, 1]), cy0, sy)
+                        bin_of[k - slot0, 2] = _bin(0.5 * (lo[p, 2] + hi[p, 2]), cz0, sz)
                     # Every primitive into its bin on all three axes in one pass
                     # (an axis not binned fills bin 0, which its sweep skips).
                     for k in range(start, end):
