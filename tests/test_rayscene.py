@@ -97,10 +97,11 @@ def test_every_structure_same_answers_with_random_bounds(seed):
     rng = np.random.default_rng(seed)
     v = rng.normal(size=(90, 3))
     f = rng.integers(0, 90, size=(60, 3))
-    o = rng.normal(size=(400, 3)) * 3
-    d = rng.normal(size=(400, 3))
-    t_min = rng.uniform(0, 2, 400)
-    t_max = t_min + rng.uniform(0.01, 5, 400)
+    n = 3000     # three chunks of rays (kernels/cast.py): both threads take some
+    o = rng.normal(size=(n, 3)) * 3
+    d = rng.normal(size=(n, 3))
+    t_min = rng.uniform(0, 2, n)
+    t_max = t_min + rng.uniform(0.01, 5, n)
     ref = None
     for accel in STRUCTURES:
         s = RayScene((v, f), accel=accel)
@@ -143,16 +144,18 @@ def test_bad_bounds_name_the_argument(kw, message):
 @pytest.mark.parametrize("row, change, message", [
     (700, ("o", [np.nan, 0, 0]), r"origins\[700\]: NaN or infinite value \(1 such rows\)"),
     (3, ("d", [0.0, -0.0, 0.0]), r"directions\[3\]: zero vector"),
-    (999, ("d", [0, 0, 2e100]), r"directions\[999\]: a value beyond 1e\+100"),
-    (64, ("t_min", 3.0), r"t_min\[64\]: .* below t_max"),
+    (2999, ("d", [0, 0, 2e100]), r"directions\[2999\]: a value beyond 1e\+100"),
+    (1100, ("t_min", 3.0), r"t_min\[1100\]: .* below t_max"),
 ])
 def test_a_bad_ray_among_good_ones_is_named_by_every_query(accel, query, row, change, message):
     # The kernels check each ray as they read it (kernels/cast.py): a bad
-    # ray anywhere in a batch, in any thread's chunk, is found and named.
+    # ray anywhere in a batch, in any thread's chunk (CHUNK rays: these
+    # 3,000 make three), is found and named.
+    n = 3000
     rng = np.random.default_rng(row)
-    o = np.column_stack([rng.uniform(0, 2, 1000), rng.uniform(0, 1, 1000), np.ones(1000)])
-    d = np.tile(DOWN, (1000, 1))
-    t_min, t_max = np.zeros(1000), np.full(1000, 2.0)
+    o = np.column_stack([rng.uniform(0, 2, n), rng.uniform(0, 1, n), np.ones(n)])
+    d = np.tile(DOWN, (n, 1))
+    t_min, t_max = np.zeros(n), np.full(n, 2.0)
     arrays = {"o": o, "d": d, "t_min": t_min}
     arrays[change[0]][row] = change[1]
     scene = two_squares(accel)
