@@ -294,9 +294,9 @@ class RayScene:
         """Every hit along each ray with t_min < t < t_max, nearest first
         (ties in t: the smaller primitive id first), each crossing counted
         as in count_intersections, at most max_hits per ray (the nearest): a
-        HitList, flat arrays in Open3D's layout.  One traversal a ray, and a
-        second for a ray with more than LISTING_GUESS hits (rows are
-        reserved for that many first)."""
+        HitList, flat arrays in Open3D's layout.  One traversal a ray,
+        writing its hits into rows taken as they come (LISTING_GUESS rows a
+        ray reserved in all); a second only for rays that find them spent."""
         rays = _rays(origins, directions, t_min, t_max)
         p = self._built()
         limit = _max_hits(max_hits, p)
@@ -422,10 +422,11 @@ def _counts(prepared, rays):
 
 
 # list_intersections writes each ray's hits in the traversal that counts
-# them, into LISTING_GUESS rows reserved for it; only the rays with more
-# hits are traversed again, into rows their counts size.  Random rays
-# through a closed mesh meet it 0-4 times.  At most LISTING_ROWS rows (32
-# bytes each) are reserved at once: more rays than that go in blocks.
+# them, into rows its thread takes in slabs as hits come (kernels/cast.py),
+# LISTING_GUESS rows a ray in all; only rays whose hits find the rows spent
+# are traversed again, into rows their counts size.  Random rays through a
+# closed mesh meet it 0-4 times.  At most LISTING_ROWS rows (32 bytes each)
+# are reserved at once: more rays than that go in blocks.
 LISTING_GUESS = 4
 LISTING_ROWS = 1 << 22
 
@@ -451,17 +452,25 @@ def _listing(prepared, rays):
     return splits, out, sum(c for _, _, c in parts)
 
 
-def _run_listing(prepared, rays, splits):
-    """cast_listing into fresh rows sized by splits: (found, rows, counters)."""
-    from .kernels.cast import cast_listing
+def _run_listing(prepared, rays, rows, start=None):
+    """cast_listing into ``rows`` fresh rows: (start, found, rows, counters).
+    With ``start`` (splits), each ray's rows are given; without, taken in
+    slabs, and start[i] is -1 for a ray not written (rows spent)."""
+    from .kernels.cast import SLAB, cast_listing
     n = len(rays[0])
-    m = int(splits[-1])
-    out = (np.empty(m), np.empty(m, np.int64), np.empty(m), np.empty(m))
+    out = (np.empty(rows), np.empty(rows, np.int64), np.empty(rows), np.empty(rows))
     found = np.empty(n, np.int64)
+    fixed = start is not None
+    if not fixed:
+        start = np.empty(n + 1, np.int64)
     cnt = _counter_rows(n)
-    cast_listing(prepared.geo, prepared.acc, *rays, splits, *out, found, cnt, _clock())
+    # Slabs of at most a quarter of a thread's share, so that no thread's
+    # first slab leaves the others without rows.
+    slab = max(1, min(SLAB, rows // (4 * len(cnt))))
+    cast_listing(prepared.geo, prepared.acc, *rays, start, fixed, slab, *out, found, cnt,
+                 np.zeros(2, np.int64))
     _check_rays(cnt, rays)
-    return found, out, cnt.sum(axis=0)
+    return start[:n], found, out, cnt.sum(axis=0)
 
 
 def _rows_of(rays, counts):
@@ -474,25 +483,24 @@ def _rows_of(rays, counts):
 
 def _listing_block(prepared, rays):
     """_listing for rays whose reserved rows fit in LISTING_ROWS: one
-    traversal into LISTING_GUESS rows a ray, the rows of the rays whose
-    hits all fit packed into place, the others traversed again."""
+    traversal into LISTING_GUESS rows a ray, taken in slabs, the written
+    rays' rows packed into place, the others traversed again."""
     n = len(rays[0])
-    guess = np.arange(n + 1, dtype=np.int64) * LISTING_GUESS
-    found, first, cnt = _run_listing(prepared, rays, guess)
+    start, found, first, cnt = _run_listing(prepared, rays, n * LISTING_GUESS)
     splits = np.zeros(n + 1, np.int64)
     np.cumsum(found, out=splits[1:])
     out = tuple(np.empty(int(splits[-1]), a.dtype) for a in first)
-    fits = found <= LISTING_GUESS          # all of their hits written, in order
-    ray, j = _rows_of(np.flatnonzero(fits), found[fits])
-    src, dst = guess[ray] + j, splits[ray] + j
+    written = start >= 0
+    ray, j = _rows_of(np.flatnonzero(written), found[written])
+    src, dst = start[ray] + j, splits[ray] + j
     for o, f in zip(out, first):
         o[dst] = f[src]
-    again = np.flatnonzero(~fits)
+    again = np.flatnonzero(~written)
     if len(again):
         sub = [np.ascontiguousarray(a[again]) for a in rays]
         sub_splits = np.zeros(len(again) + 1, np.int64)
         np.cumsum(found[again], out=sub_splits[1:])
-        found_again, rows, _ = _run_listing(prepared, sub, sub_splits)
+        _, found_again, rows, _ = _run_listing(prepared, sub, int(sub_splits[-1]), sub_splits)
         if not np.array_equal(found_again, found[again]):   # the same tests, both times
             raise RuntimeError("list_intersections: the second pass found other hits than "
                                "the first (a bug: please report it)")

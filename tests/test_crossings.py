@@ -150,11 +150,20 @@ def test_many_hits_come_nearest_first(accel):
 
 
 def test_rays_listed_in_blocks_and_traversed_again_give_the_same_hits(monkeypatch):
-    """Rays with 0 to 12 hits, so that some fit the rows reserved in the
-    first traversal and some are traversed again; then the same rays in
-    blocks of two (a small LISTING_ROWS): the same rows, in order, and the
-    counters of one traversal a ray."""
+    """Rays with 0 to 12 hits, more in all than the rows reserved (4 a
+    ray), taken in slabs of 8 rows: some rays' hits overrun a slab and go
+    into the next, some find the rows spent and are traversed again; then
+    the same rays in blocks of two (a small LISTING_ROWS): the same rows,
+    in order, and the counters of one traversal a ray."""
     from raytrace import rayscene
+    from raytrace.kernels import cast
+    monkeypatch.setattr(cast, "SLAB", 8)
+    run_listing, runs = rayscene._run_listing, []
+
+    def spy(prepared, rays, rows, start=None):
+        runs.append(start is None)
+        return run_listing(prepared, rays, rows, start)
+    monkeypatch.setattr(rayscene, "_run_listing", spy)
     v, f = _layers(12)
     rs = RayScene((v, f))
     n = 40
@@ -164,7 +173,8 @@ def test_rays_listed_in_blocks_and_traversed_again_give_the_same_hits(monkeypatc
     t_max = np.arange(n) % 14 + 0.5                 # 0 to 12 layers
     h = rs.list_intersections(o, d, t_max=t_max)
     want = [0 if o[i, 0] == 5.0 else min(int(t_max[i]), 12) for i in range(n)]
-    assert np.diff(h.ray_splits).tolist() == want and max(want) > rayscene.LISTING_GUESS
+    assert np.diff(h.ray_splits).tolist() == want and sum(want) > n * rayscene.LISTING_GUESS
+    assert runs == [True, False]        # slabs, then the rays not written, again
     for i in range(n):
         assert h.t[h.ray_splits[i]:h.ray_splits[i + 1]].tolist() == list(range(1, want[i] + 1))
     monkeypatch.setattr(rayscene, "LISTING_ROWS", 2 * rayscene.LISTING_GUESS)

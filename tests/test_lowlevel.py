@@ -12,7 +12,7 @@ from numba import njit, prange
 from raytrace.accel.bvh import BOX, BVH, WIDTH, box_bound
 from raytrace.kernels.bvh import BOX32_RANGE, NEAR_LIMIT, box_ray, child_boxes
 from raytrace.kernels.intersect import ray_triangle, ray_triangle_crossing
-from raytrace.kernels.lowlevel import edge_mask4, frame_array, take_ticket
+from raytrace.kernels.lowlevel import edge_mask4, frame_array, take_rows, take_ticket
 from raytrace.kernels.ray import make_crossing_ray, make_ray
 
 
@@ -363,3 +363,26 @@ def test_take_ticket_hands_out_each_number_once():
     import numba
     if numba.get_num_threads() > 1:
         assert len(np.unique(by)) > 1
+
+
+@njit(parallel=True)
+def row_runs(n_threads, n, clock, taken):
+    for b in prange(n_threads):
+        size = 1 + b % 3
+        s = take_rows(clock, size)
+        while s < n:
+            for r in range(s, min(s + size, n)):
+                taken[r] += 1
+            s = take_rows(clock, size)
+
+
+def test_take_rows_hands_out_runs_that_never_overlap():
+    """Threads racing for runs of 1-3 rows from clock[1]: every row below
+    n is in exactly one run, and clock[0] (take_ticket's) is untouched."""
+    n = 1_000_000
+    clock = np.array([7, 0], np.int64)
+    taken = np.zeros(n, np.int64)
+    row_runs(4, n, clock, taken)
+    assert np.all(taken == 1)
+    assert clock[0] == 7 and clock[1] >= n
+

@@ -32,7 +32,7 @@ from numba import njit, prange
 from ..io.mesh import MAX_COORD
 from .counters import N_COUNTERS
 from .jit import JIT, PARALLEL
-from .lowlevel import frame_array, take_ticket
+from .lowlevel import frame_array, take_rows, take_ticket
 from .query import closest_hit, count_hits, list_hits, occluded
 from .ray import make_crossing_ray, make_listing_ray, make_ray, no_hit
 
@@ -133,44 +133,81 @@ def sort_hits(t, prim, u, v, lo, hi):
             t[j], prim[j], u[j], v[j] = ti, pi, ui, vi
 
 
+# list_intersections' rows are taken by each thread in slabs of at least
+# SLAB rows (lowlevel.take_rows), and a ray's hits go in the next rows of
+# its thread's slab; so rows are used as the hits come, whatever each ray
+# has, and a ray is traversed again only where its hits overrun the slab.
+SLAB = 4096
+
+
 @njit(**JIT)
-def _listing_block(geo, acc, origins, dirs, t_min, t_max, splits, out_t, out_prim, out_u, out_v,
-                   found, cnt, clock):
+def _listing_block(geo, acc, origins, dirs, t_min, t_max, start, fixed, slab, out_t, out_prim,
+                   out_u, out_v, found, cnt, clock):
     n = origins.shape[0]
+    rows = out_t.shape[0]
     n_chunks = (n + CHUNK - 1) // CHUNK
     cursor = frame_array(2, np.int64)
+    saved = frame_array(N_COUNTERS, np.int64)
+    pos = 0
+    slab_end = 0    # no slab yet: the first ray with a hit takes one
     c = take_ticket(clock)
     while c < n_chunks:
         for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             found[i] = 0
+            if not fixed:
+                start[i] = pos
             if not ray_ok(origins, dirs, t_min, t_max, i):
                 cnt[BAD_RAYS] += 1
                 continue
-            lo, hi = splits[i], splits[i + 1]
-            cursor[0] = lo
-            cursor[1] = hi
-            ray = make_listing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
-                                   dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i],
-                                   out_t, out_prim, out_u, out_v, cursor)
-            end = list_hits(geo, acc, ray, t_max[i], cnt)
-            found[i] = end - lo
-            sort_hits(out_t, out_prim, out_u, out_v, lo, min(end, hi))
+            if fixed:
+                pos, slab_end = start[i], start[i + 1]
+            for k in range(N_COUNTERS):
+                saved[k] = cnt[k]
+            while True:
+                cursor[0] = pos
+                cursor[1] = slab_end
+                ray = make_listing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
+                                       dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i],
+                                       out_t, out_prim, out_u, out_v, cursor)
+                end = list_hits(geo, acc, ray, t_max[i], cnt)
+                found[i] = end - pos
+                if fixed or end <= slab_end:
+                    sort_hits(out_t, out_prim, out_u, out_v, pos, min(end, slab_end))
+                    pos = end
+                    break
+                # Past the slab's end: a new slab, and the ray again into
+                # it (its counters as if traversed once), unless the rows
+                # are spent: then start -1, and the caller traverses it again.
+                size = max(slab, end - pos)
+                s = take_rows(clock, size)
+                if s + (end - pos) > rows:
+                    start[i] = -1
+                    pos = slab_end = rows
+                    break
+                pos = start[i] = s
+                slab_end = min(s + size, rows)
+                for k in range(N_COUNTERS):
+                    cnt[k] = saved[k]
         c = take_ticket(clock)
 
 
 @njit(**PARALLEL)
-def cast_listing(geo, acc, origins, dirs, t_min, t_max, splits, out_t, out_prim, out_u, out_v,
-                 found, cnt_rows, clock):
+def cast_listing(geo, acc, origins, dirs, t_min, t_max, start, fixed, slab, out_t, out_prim,
+                 out_u, out_v, found, cnt_rows, clock):
     """Every hit of ray i with t_min[i] < t < t_max[i], each crossing of a
-    closed surface once, into rows splits[i]:splits[i + 1] of out_*, in
-    order of (t, primitive id): one traversal that never narrows the
-    interval, as cast_counts's, whose counts make splits.  found[i] gets
-    the number of hits found, which is that count (rows past splits[i + 1]
-    are not written)."""
+    closed surface once, in order of (t, primitive id), into rows of out_*:
+    one traversal that never narrows the interval, as cast_counts's.
+    found[i] gets the number of hits found, which is that count.
+
+    fixed: the rays' rows are given, ray i's start[i]:start[i + 1] (hits
+    past them are counted, not written).  Otherwise each thread takes rows
+    in slabs of at least ``slab`` (clock[1], 0 at the call, counts the rows
+    taken) and start[i] gets ray i's first row, or -1 where the rows ran
+    out before its hits were written."""
     n_blocks = cnt_rows.shape[0]
     for b in prange(n_blocks):
-        _listing_block(geo, acc, origins, dirs, t_min, t_max, splits, out_t, out_prim, out_u,
-                       out_v, found, cnt_rows[b], clock)
+        _listing_block(geo, acc, origins, dirs, t_min, t_max, start, fixed, slab, out_t, out_prim,
+                       out_u, out_v, found, cnt_rows[b], clock)
 
 
 @njit(**JIT)

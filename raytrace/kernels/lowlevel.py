@@ -333,3 +333,21 @@ def take_ticket(typingctx, clock):
         return builder.atomic_rmw("add", data, ir.Constant(ir.IntType(64), 1), "monotonic")
 
     return types.int64(clock), codegen
+
+
+@intrinsic
+def take_rows(typingctx, clock, amount):
+    """Atomically add ``amount`` to clock[1] and return its value before:
+    threads taking runs of rows from one clock each get runs that do not
+    overlap (list_intersections' slabs of hit rows; clock[0] is
+    take_ticket's)."""
+    if clock != _CLOCK or not isinstance(amount, types.Integer):
+        return None
+
+    def codegen(context, builder, sig, args):
+        data = context.make_array(sig.args[0])(context, builder, value=args[0]).data
+        size = context.cast(builder, args[1], sig.args[1], types.int64)
+        return builder.atomic_rmw("add", builder.gep(data, [ir.Constant(ir.IntType(64), 1)]),
+                                  size, "monotonic")
+
+    return types.int64(clock, amount), codegen
