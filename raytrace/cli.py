@@ -434,9 +434,11 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
             if show_depth is not None:
                 from .structures import DEFAULT, get
                 get(options.get("accel", DEFAULT)).check_outline()
+            t_load = time.perf_counter()
             with _warnings_once():
                 sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
                                 crease=crease, flat=flat, **_view_options(view, up))
+            t_load = time.perf_counter() - t_load
             raise_if_interrupted()
             if not named and kind == "toml":      # a scene file's name names its image
                 output = f"{sc.name}.png"
@@ -458,6 +460,7 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
                         result = render_tiled(sc, opts, runner, n)
             finally:
                 progress.close()
+            result.stats["time"]["load_s"] = t_load
             if show_depth is not None:
                 result.image = _show_structure(result, sc, opts.accel, show_depth)
             raise_if_interrupted()

@@ -74,7 +74,10 @@ def format_table(stats):
         ("Render time (s)", t["render_s"]),
         ("Build time (s)", t["build_s"]),
         ("Compile/load time (s)", t["compile_s"]),
+        ("Flatten time (s)", t["setup_s"]),
     ]
+    if "load_s" in t:      # the command line's: reading the file and framing it
+        rows.append(("Load time (s)", t["load_s"]))
     rows += _batch_rows(stats)
     if stats.get("peak_memory_mb"):
         rows.append(("Peak memory (MB)", max(stats["peak_memory_mb"].values())))

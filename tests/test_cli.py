@@ -28,8 +28,9 @@ def test_render_writes_png_and_prints_table(run, tmp_path):
     r = run("teapot", "--no-bvol", "--shadows", "none", *SMALL)
     assert r.exit_code == 0, r.output
     assert (tmp_path / "teapot.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    for label in ("Render time", "Compile/load time", "Primary rays", "Ray-primitive tests",
-                  "Ray-primitive hits", "Ray-box tests", "Mrays/s"):
+    for label in ("Render time", "Compile/load time", "Flatten time", "Load time",
+                  "Primary rays", "Ray-primitive tests", "Ray-primitive hits", "Ray-box tests",
+                  "Mrays/s"):
         assert label in r.output
     assert not list(tmp_path.glob("*.tmp"))
 
@@ -48,6 +49,8 @@ def test_json_parses_and_counts(run):
     assert stats["counters"]["primary_rays"] == 48 * 36
     assert stats["time"]["render_s"] > 0
     assert "compile_s" in stats["time"] and "build_s" in stats["time"]
+    # Every phase of the command is reported, loading the scene included.
+    assert stats["time"]["load_s"] > 0 and stats["time"]["setup_s"] > 0
 
 
 def test_bvol_flags_map_to_accel(run):
