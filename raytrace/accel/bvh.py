@@ -128,8 +128,8 @@ def build_bvh_kernel(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, nod
     empty bins.  Together: the same tree, 143-152 -> 118-124 ms for the
     118k-triangle teapot on one thread (docs/design.md)."""
     bin_count = np.empty((3, N_BINS), np.int64)
-    bin_lo = np.empty((3, N_BINS, 3), np.float64)
-    bin_hi = np.empty((3, N_BINS, 3), np.float64)
+    bin_lo = np.empty((3, N_BINS, 3), BOX)   # exact: min and max of float32 boxes
+    bin_hi = np.empty((3, N_BINS, 3), BOX)
     # right_cost[b] = N_R * A_R (half area) of bins b.. on the current axis.
     right_cost = np.empty(N_BINS, np.float64)
     bin_scale = np.empty(3, np.float64)  # bins per unit length on each axis
