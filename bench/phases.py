@@ -8,9 +8,10 @@ built-in scene name.  Each run is a new process; REV's tree (a commit,
 checked out into a temporary worktree, or the path of a checkout) and
 this one alternate (A B B A ...), one warm-up each first, so the cache
 holds both trees' kernels and drift hits both alike.  Reported: medians
-of the whole command, the statistics' phases (time.setup_s: flattening
-and the mode records; time.build_s; time.compile_s; time.render_s) and
-the process's peak memory; and whether the two images are identical.
+of the whole command, the statistics' phases (time.load_s: reading and
+framing the file; time.setup_s: flattening and the mode records;
+time.build_s; time.compile_s; time.render_s) and the process's peak
+memory; and whether the two images are identical.
 Markdown on stdout.
 """
 import os
@@ -74,14 +75,17 @@ def main(mesh, rev, rounds, extra):
     stats = runs["this checkout"][-1][1]
     print(f"### `raytrace {Path(mesh).name} {' '.join(SIZE + list(extra))}`: "
           f"{stats['triangles']:,} triangles, median of {rounds}\n")
-    print("| tree | whole command (s) | flatten (s) | build (s) | compile/load (s) | render (s) "
-          "| peak memory (MB) | bytes per triangle |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+    print("| tree | whole command (s) | load (s) | flatten (s) | build (s) | compile/load (s) "
+          "| render (s) | peak memory (MB) | bytes per triangle |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for name, rs in runs.items():
         def med(f, rs=rs):
             return statistics.median(f(x) for x in rs)
         peak = med(lambda x: x[2])
-        print(f"| {name} | {med(lambda x: x[0]):.2f} | {med(lambda x: x[1]['time']['setup_s']):.2f} "
+        # load_s: a tree from before it was timed has none
+        load = med(lambda x: x[1]['time'].get('load_s', float("nan")))
+        print(f"| {name} | {med(lambda x: x[0]):.2f} | {load:.2f} "
+              f"| {med(lambda x: x[1]['time']['setup_s']):.2f} "
               f"| {med(lambda x: x[1]['time']['build_s']):.2f} "
               f"| {med(lambda x: x[1]['time']['compile_s']):.2f} "
               f"| {med(lambda x: x[1]['time']['render_s']):.3f} | {peak:.0f} "

@@ -4,7 +4,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ..buffers import f64, i64, prim_bounds
+from ..buffers import box_of, f64, i64, prim_bounds
 from .grid import grid_eps
 
 # Object j: box obj_lo[j]..obj_hi[j], covering unified primitive ids
@@ -27,7 +27,7 @@ def build(geo, obj_ranges, **_):
         # rays (a few ulps apart), unlike brute force.  The padding dwarfs
         # both roundings (the argument is kernels/grid.py's), so the cull
         # is exact for ray origins within ~1e7 scene sizes.
-        pad = grid_eps(lo.min(axis=0), hi.max(axis=0))
+        pad = grid_eps(*box_of(lo, hi))
         obj_lo = obj_lo - pad
         obj_hi = obj_hi + pad
     return BoundingVolumes(obj_lo=f64(obj_lo, 3), obj_hi=f64(obj_hi, 3),

@@ -12,7 +12,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from ..buffers import FLOAT, INDEX, prim_bounds
+from ..buffers import FLOAT, INDEX, box_of, prim_bounds
 from ..kernels.jit import BUILD, BUILD_STEP
 
 # The layout traversal reads (raytrace/kernels/grid.py): bounds, cell size
@@ -126,7 +126,7 @@ def build_grid(lo, hi, density=GRID_DENSITY):
     if n == 0:
         return (np.zeros(3, FLOAT), np.zeros(3, FLOAT), np.ones(3, FLOAT),
                 np.zeros(3, INDEX), np.zeros(1, INDEX), np.zeros(0, INDEX))
-    raw_lo, raw_hi = lo.min(axis=0), hi.max(axis=0)
+    raw_lo, raw_hi = box_of(lo, hi)
     # Pad by twice the tolerance: boundary primitives (and their widened
     # boxes) lie strictly inside, and a flat axis (every box in one plane)
     # still gets a cell of positive size.

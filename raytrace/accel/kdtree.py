@@ -19,7 +19,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from ..buffers import FLOAT, INDEX, prim_bounds
+from ..buffers import FLOAT, INDEX, box_of, prim_bounds
 from ..kernels.jit import BUILD, BUILD_STEP
 from .grid import grid_eps
 
@@ -313,7 +313,7 @@ def build_kdtree(lo, hi, triangles=None):
     if n == 0:
         z = np.zeros(0, INDEX)
         return KdTree(z, np.zeros(0, FLOAT), z, z, z, np.zeros(3, FLOAT), np.zeros(3, FLOAT))
-    raw_lo, raw_hi = lo.min(axis=0), hi.max(axis=0)
+    raw_lo, raw_hi = box_of(lo, hi)
     # Bounds padded as the grid's: boundary primitives lie strictly inside.
     pad = 2.0 * grid_eps(raw_lo, raw_hi)
     glo, ghi = raw_lo - pad, raw_hi + pad

@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 
+from ..buffers import box_of
 from ..errors import RaytraceError
 from ..scene import Camera, Light, Material, Mesh, Plane, Scene
 from .views import DEFAULT_VIEW, UP_AXES, VIEWS
@@ -80,7 +81,7 @@ def mesh_scene(vertices, faces, name="mesh", view=None, azimuth=None, elevation=
     if not 0 < fov < 180:
         raise RaytraceError(f"field of view must be between 0 and 180 degrees, got {fov}")
     v = np.asarray(vertices, dtype=np.float64)
-    lo, hi = v.min(axis=0), v.max(axis=0)
+    lo, hi = box_of(v, v)
     center = (lo + hi) / 2
     radius = float(np.linalg.norm(hi - lo)) / 2
     if not radius > 0:
