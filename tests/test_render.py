@@ -144,3 +144,16 @@ def test_drop_meshes_frees_the_meshes_and_renders_the_same():
     assert kept.stats["counters"] == dropped.stats["counters"]
     assert kept.stats["triangles"] == dropped.stats["triangles"] > 0
     assert scene.objects and not any(isinstance(o, Mesh) for o in scene.objects)
+
+
+def test_progress_bands_give_the_same_image_and_counts(spheres_scene):
+    """With a progress callback the image is rendered in bands of rows
+    (several kernel calls): the same pixels and counters as in one call,
+    and the callback sees every row done."""
+    calls = []
+    banded = render(spheres_scene, width=40, height=300,
+                    progress=lambda done, total: calls.append((done, total)))
+    whole = render(spheres_scene, width=40, height=300)
+    assert np.array_equal(banded.linear, whole.linear)
+    assert banded.stats["counters"] == whole.stats["counters"]
+    assert len(calls) > 1 and calls[-1] == (300, 300)
