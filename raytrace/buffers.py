@@ -84,6 +84,7 @@ def box_of(lo, hi):
     return (np.array([lo[:, k].min() for k in range(3)]),
             np.array([hi[:, k].max() for k in range(3)]))
 
+
 Lights = namedtuple(
     "Lights",
     [

@@ -385,4 +385,3 @@ def test_take_rows_hands_out_runs_that_never_overlap():
     row_runs(4, n, clock, taken)
     assert np.all(taken == 1)
     assert clock[0] == 7 and clock[1] >= n
-
