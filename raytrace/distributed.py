@@ -9,6 +9,7 @@ nothing in the image.
 """
 import contextlib
 import os
+import sys
 import time
 from concurrent.futures import CancelledError
 
@@ -31,6 +32,9 @@ def _dask(why):
     return distributed
 
 
+_QUIET_TRACKER = "ignore:resource_tracker:UserWarning"
+
+
 @contextlib.contextmanager
 def connect(workers=None, scheduler=None):
     """A DaskRunner on a local cluster of ``workers`` processes (started
@@ -42,6 +46,12 @@ def connect(workers=None, scheduler=None):
         # One Dask thread a worker; the kernel's own threads share the cores.
         threads = max(1, (os.cpu_count() or 1) // workers)
         import warnings
+        # After Ctrl-C, multiprocessing's resource tracker (a process that
+        # takes this one's -W options when the cluster starts it) cleans up
+        # the workers' semaphores and warns that it had to: a second line
+        # under "interrupted: no animation written", now and then.
+        if _QUIET_TRACKER not in sys.warnoptions:
+            sys.warnoptions.append(_QUIET_TRACKER)
         with warnings.catch_warnings():
             # Its scheduler's HTTP server moves off a busy port 8787 (another
             # Dask's) and says so; nothing for a renderer's user to do.
