@@ -304,10 +304,9 @@ class RayScene:
         counts = np.diff(splits)
         if counts.max(initial=0) > limit:
             kept = np.minimum(counts, limit)
-            new = np.zeros_like(splits)
-            np.cumsum(kept, out=new[1:])
-            rows = np.repeat(splits[:-1] - new[:-1], kept) + np.arange(new[-1])
-            splits, (t, prim, u, v) = new, (a[rows] for a in (t, prim, u, v))
+            ray, j = _rows_of(np.arange(len(counts)), kept)
+            rows = splits[ray] + j
+            splits, (t, prim, u, v) = _splits(kept), (a[rows] for a in (t, prim, u, v))
         return HitList(splits, t, prim, u, v, *rays[:2], p, _counters(cnt, len(counts)))
 
     def contains(self, points, votes=1):
@@ -446,8 +445,7 @@ def _listing(prepared, rays):
         except RaytraceError:
             _name_the_problem(*rays)    # the bad ray by its index in the whole call
             raise
-    splits = np.zeros(n + 1, np.int64)
-    np.cumsum(np.concatenate([np.diff(sp) for sp, _, _ in parts]), out=splits[1:])
+    splits = _splits(np.concatenate([np.diff(sp) for sp, _, _ in parts]))
     out = tuple(np.concatenate([o[k] for _, o, _ in parts]) for k in range(4))
     return splits, out, sum(c for _, _, c in parts)
 
@@ -473,6 +471,14 @@ def _run_listing(prepared, rays, rows, start=None):
     return start[:n], found, out, cnt.sum(axis=0)
 
 
+def _splits(counts):
+    """Each ray's first row, and the end, of rows laid out ray after ray:
+    (n + 1,) int64, from the rays' row counts."""
+    splits = np.zeros(len(counts) + 1, np.int64)
+    np.cumsum(counts, out=splits[1:])
+    return splits
+
+
 def _rows_of(rays, counts):
     """(ray, j) of the rows j < counts[r] of each ray r of ``rays`` in turn:
     the rays repeated, and each row's place among its ray's."""
@@ -487,8 +493,7 @@ def _listing_block(prepared, rays):
     rays' rows packed into place, the others traversed again."""
     n = len(rays[0])
     start, found, first, cnt = _run_listing(prepared, rays, n * LISTING_GUESS)
-    splits = np.zeros(n + 1, np.int64)
-    np.cumsum(found, out=splits[1:])
+    splits = _splits(found)
     out = tuple(np.empty(int(splits[-1]), a.dtype) for a in first)
     written = start >= 0
     ray, j = _rows_of(np.flatnonzero(written), found[written])
@@ -498,8 +503,7 @@ def _listing_block(prepared, rays):
     again = np.flatnonzero(~written)
     if len(again):
         sub = [np.ascontiguousarray(a[again]) for a in rays]
-        sub_splits = np.zeros(len(again) + 1, np.int64)
-        np.cumsum(found[again], out=sub_splits[1:])
+        sub_splits = _splits(found[again])
         _, found_again, rows, _ = _run_listing(prepared, sub, int(sub_splits[-1]), sub_splits)
         if not np.array_equal(found_again, found[again]):   # the same tests, both times
             raise RuntimeError("list_intersections: the second pass found other hits than "

@@ -27,7 +27,7 @@ import numpy as np
 from numba import njit
 
 from ..buffers import n_bounded, prim_bounds
-from ..kernels.f32 import f32_bits, f32_from_bits
+from ..kernels.f32 import f32_next
 from ..kernels.jit import BUILD, BUILD_STEP
 from ..threads import run_on_threads, runs
 
@@ -382,35 +382,19 @@ def collapse_bvh4(node_lo, node_hi, node_start, node_count, links=None):
 
 @njit(**BUILD_STEP)
 def _round_down(x):
-    """The largest float32 at most x (x itself if it is one).  The float32
-    below f: one less in its bits' magnitude if f > 0, one more if f < 0,
-    and -2^-149 below a zero (as nextafter, without libm's call)."""
+    """The largest float32 at most x (x itself if it is one)."""
     f = np.float32(x)
     if f > x:
-        bits = np.int64(f32_bits(f))
-        if f > 0.0:
-            bits -= 1
-        elif f < 0.0:
-            bits += 1
-        else:
-            bits = -(2**31 - 1)          # 0x80000001
-        f = f32_from_bits(np.int32(bits))
+        f = f32_next(f, False)
     return f
 
 
 @njit(**BUILD_STEP)
 def _round_up(x):
-    """The smallest float32 at least x (the mirror of _round_down)."""
+    """The smallest float32 at least x."""
     f = np.float32(x)
     if f < x:
-        bits = np.int64(f32_bits(f))
-        if f > 0.0:
-            bits += 1
-        elif f < 0.0:
-            bits -= 1
-        else:
-            bits = 1
-        f = f32_from_bits(np.int32(bits))
+        f = f32_next(f, True)
     return f
 
 

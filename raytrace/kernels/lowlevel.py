@@ -319,18 +319,25 @@ def edge_mask4(typingctx, v0, v1, v2, r0, r1, r2, r3, kx, ky, kz, okx, oky, okz,
 _CLOCK = types.Array(types.int64, 1, "C")
 
 
+def _fetch_add(context, builder, clock_type, clock, index, amount):
+    """LLVM's atomicrmw add of int64 ``amount`` to clock[index], monotonic:
+    only the count must be exact, and the end of the parallel region orders
+    everything the threads wrote.  Returns the value before."""
+    data = context.make_array(clock_type)(context, builder, value=clock).data
+    slot = builder.gep(data, [ir.Constant(ir.IntType(64), index)])
+    return builder.atomic_rmw("add", slot, amount, "monotonic")
+
+
 @intrinsic
 def take_ticket(typingctx, clock):
     """Atomically add 1 to clock[0] and return its value before: threads
-    taking tickets from one clock each get a different number, 0, 1, 2, ...
-    (LLVM's atomicrmw add, monotonic: only the count must be exact, and the
-    end of the parallel region orders everything the threads wrote)."""
+    taking tickets from one clock each get a different number, 0, 1, 2, ..."""
     if clock != _CLOCK:
         return None
 
     def codegen(context, builder, sig, args):
-        data = context.make_array(sig.args[0])(context, builder, value=args[0]).data
-        return builder.atomic_rmw("add", data, ir.Constant(ir.IntType(64), 1), "monotonic")
+        return _fetch_add(context, builder, sig.args[0], args[0], 0,
+                          ir.Constant(ir.IntType(64), 1))
 
     return types.int64(clock), codegen
 
@@ -345,9 +352,7 @@ def take_rows(typingctx, clock, amount):
         return None
 
     def codegen(context, builder, sig, args):
-        data = context.make_array(sig.args[0])(context, builder, value=args[0]).data
         size = context.cast(builder, args[1], sig.args[1], types.int64)
-        return builder.atomic_rmw("add", builder.gep(data, [ir.Constant(ir.IntType(64), 1)]),
-                                  size, "monotonic")
+        return _fetch_add(context, builder, sig.args[0], args[0], 1, size)
 
     return types.int64(clock, amount), codegen
