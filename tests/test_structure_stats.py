@@ -70,6 +70,57 @@ def test_bvh_sah_cost_is_summed_over_every_block_of_nodes(monkeypatch):
     assert whole == pytest.approx(want, rel=1e-9)
 
 
+def test_bvh_leaf_depths_and_sizes_are_the_trees_walked_lane_by_lane(monkeypatch):
+    """Leaves counted level by level and from a histogram of lane counts
+    (statistics) against a recursive walk of every lane, on a tree many
+    levels deep with leaves of every size up to 4."""
+    import raytrace.accel.bvh as bvh_module
+    rng = np.random.default_rng(11)
+    tris = rng.normal(size=(2000, 3, 3)) * [[1.0, 1.0, 0.05]]
+    geo, ranges, _ = flatten(Scene("s", None, [Mesh(tris.reshape(-1, 3),
+                                                    np.arange(6000).reshape(-1, 3))]))
+    bvh, _ = get("bvh").build(geo, ranges)
+    found = []                                  # (depth, primitives) of each leaf lane
+
+    def walk(node, depth):
+        for lane in range(4):
+            child, count = bvh.node_child[node, lane], bvh.node_count[node, lane]
+            if count > 0:
+                found.append((depth + 1, count))
+            elif child >= 0:
+                walk(child, depth + 1)
+    walk(0, 0)
+    depths, counts = np.array(found).T
+    st = bvh_module.statistics(bvh, 2000)
+    assert depths.max() >= 4 and set(counts.tolist()) == {1, 2, 3, 4}
+    assert st["leaves"] == len(found) and counts.sum() == 2000
+    assert st["max_depth"] == depths.max()
+    assert st["mean_leaf_depth"] == pytest.approx(depths.mean(), rel=1e-12)
+    assert st["primitives_per_leaf_mean"] == pytest.approx(counts.mean(), rel=1e-12)
+    assert st["primitives_per_leaf_max"] == 4
+    assert [st["leaf_size_histogram"][k] for k in "1234"] == [int((counts == k).sum())
+                                                              for k in (1, 2, 3, 4)]
+    monkeypatch.setattr(bvh_module, "STATS_BLOCK", 5)
+    assert bvh_module.statistics(bvh, 2000)["leaves"] == len(found)
+
+
+def test_leaves_histogram_bins():
+    """leaves() bins sizes 0, 1, 2, 3, 4, 5-8, 9-16, 17+ as np.histogram does."""
+    from raytrace.accel.statistics import LEAF_BIN_LABELS, LEAF_BINS, leaves
+    rng = np.random.default_rng(3)
+    counts = rng.integers(0, 40, size=500)
+    depths = rng.integers(0, 20, size=500)
+    st = leaves(counts, depths)
+    want = np.histogram(counts, bins=list(LEAF_BINS) + [np.inf])[0]
+    assert list(st["leaf_size_histogram"].values()) == want.tolist()
+    assert list(st["leaf_size_histogram"]) == list(LEAF_BIN_LABELS)
+    assert (st["leaves"], st["max_depth"], st["primitives_per_leaf_max"]) == (
+        500, depths.max(), counts.max())
+    assert st["mean_leaf_depth"] == pytest.approx(depths.mean(), rel=1e-12)
+    assert leaves([], []) == {"leaves": 0}
+    assert leaves([2, 3], [1, 1])["leaf_size_histogram"]["17+"] == 0
+
+
 def test_grid_and_kdtree_counts():
     geo, ranges = scene_of(*TWO_APART)
     grid, _ = get("grid").build(geo, ranges)

@@ -17,17 +17,29 @@ def memory(layout, n_prims):
 
 def leaves(counts, depths):
     """Statistics of leaves with the given primitive counts and depths."""
-    counts = np.asarray(counts)
+    counts = np.asarray(counts, np.int64)
     if not len(counts):
         return {"leaves": 0}
-    hist = np.histogram(counts, bins=list(LEAF_BINS) + [np.inf])[0]
+    return leaf_histograms(np.bincount(counts), np.bincount(np.asarray(depths, np.int64)))
+
+
+def leaf_histograms(by_count, by_depth):
+    """leaves' statistics from two histograms: by_count[k] leaves hold k
+    primitives, by_depth[d] leaves lie at depth d (a structure whose
+    leaves are lanes of its nodes counts them without listing them)."""
+    n = int(by_count.sum())
+    if not n:
+        return {"leaves": 0}
+    ks, ds = np.arange(len(by_count)), np.arange(len(by_depth))
+    edges = list(LEAF_BINS) + [len(by_count)]
+    hist = [int(by_count[a:max(a, b)].sum()) for a, b in zip(edges, edges[1:])]
     return {
-        "leaves": int(len(counts)),
-        "max_depth": int(np.max(depths)),
-        "mean_leaf_depth": float(np.mean(depths)),
-        "primitives_per_leaf_mean": float(np.mean(counts)),
-        "primitives_per_leaf_max": int(np.max(counts)),
-        "leaf_size_histogram": dict(zip(LEAF_BIN_LABELS, (int(h) for h in hist))),
+        "leaves": n,
+        "max_depth": int(ds[by_depth > 0].max()),
+        "mean_leaf_depth": float((ds * by_depth).sum() / n),
+        "primitives_per_leaf_mean": float((ks * by_count).sum() / n),
+        "primitives_per_leaf_max": int(ks[by_count > 0].max()),
+        "leaf_size_histogram": dict(zip(LEAF_BIN_LABELS, hist)),
     }
 
 
