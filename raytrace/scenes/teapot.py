@@ -46,7 +46,7 @@ def tessellate(detail=4):
     return verts, faces, _vertex_normals(verts, faces, n_seam, len(patches), detail)
 
 
-_ROWS = 8192
+_ROWS = 1024      # (u, v) pairs a block: 96 of them a pair, so 786 KB of float64 a block
 
 
 def _surface_points(b, ctrl):
@@ -56,7 +56,8 @@ def _surface_points(b, ctrl):
     in its order ((B_i(u) B_j(v)) C_ij, i then j, from 0.0), so the same
     bits, computed _ROWS (u, v) pairs at a time for every patch: 16 passes
     over a block that stays in cache instead of einsum's loop (0.10 against
-    0.53 s at --detail 256).
+    0.53 s at --detail 256).  Blocks of 8,192 pairs (6 MB) outgrew the L2
+    of an AMD EPYC Zen 1 (512 KB): 323 against 180 ms there.
     """
     n1, n_patches = len(b), len(ctrl)
     weight = (b[:, None, :, None] * b[None, :, None, :]).reshape(n1 * n1, 16)
@@ -118,34 +119,48 @@ def _vertex_normals(verts, faces, n_seam, n_patches, detail):
     welded seam vertices (the first n_seam), and for the rest, a grid's
     interior, the six triangles around each taken from the face grid by
     slicing, in the order bincount would add them.  Bincount over every
-    corner took 0.4 s at --detail 256.
+    corner took 0.4 s at --detail 256.  Everything runs a coordinate at a
+    time, on (faces,) and (vertices,) rows: NumPy's loops over rows of 3
+    (np.cross, norm along axis 1, slices of (..., 2, 3) face grids) took
+    0.92 of these steps' 1.5 s at --detail 256 here.
     """
     corners = np.ascontiguousarray(faces.T)     # np.take on contiguous rows: fast gathers
-    # Face normals a chunk of faces at a time: the corners and edges of all
-    # faces at once were 500 MB of temporaries at --detail 256 (4.2M faces),
-    # the tessellation's peak; the same products, so the same bits.
-    fn = np.empty((len(faces), 3))
+    xyz = np.ascontiguousarray(verts.T)
+    # Face normals a chunk of faces at a time (the corners and edges of all
+    # faces at once were 500 MB of temporaries at --detail 256), np.cross's
+    # products and differences in its order, so the same bits.
+    fn = np.empty((3, len(faces)))
     for s in range(0, len(faces), _CHUNK):
-        p0, p1, p2 = (np.take(verts, corners[k, s:s + _CHUNK], axis=0) for k in range(3))
-        fn[s:s + _CHUNK] = np.cross(p1 - p0, p2 - p0)
-    vn = np.empty((len(verts), 3))
+        c = slice(s, s + _CHUNK)
+        p0, p1, p2 = ([np.take(xyz[a], corners[k, c]) for a in range(3)] for k in range(3))
+        e1 = [p1[a] - p0[a] for a in range(3)]
+        e2 = [p2[a] - p0[a] for a in range(3)]
+        for a in range(3):
+            b, d = (a + 1) % 3, (a + 2) % 3
+            np.multiply(e1[b], e2[d], out=fn[a, c])
+            fn[a, c] -= e1[d] * e2[b]
+    vn = np.empty((3, len(verts)))
     at = np.flatnonzero(corners.reshape(-1) < n_seam)   # corner k of face i is at k * len(faces) + i
     seam, face = corners.reshape(-1)[at], at % len(faces)
-    for a in range(3):
-        vn[:n_seam, a] = np.bincount(seam, weights=fn[face, a], minlength=n_seam)
     # Interior vertex (x, y) of a patch is corner 0 of both triangles of
     # quad (x, y) (a, tessellate's names), corner 1 of triangle 0 of quad
     # (x-1, y-1) (c) and of triangle 1 of (x, y-1) (d), and corner 2 of
     # triangle 1 of (x-1, y-1) (c) and of triangle 0 of (x-1, y) (b); faces
     # run quad by quad, row by row.  0.0 + starts the sum as bincount does.
-    tri = fn.reshape(n_patches, detail, detail, 2, 3)
-    t0, t1 = tri[:, :, :, 0], tri[:, :, :, 1]
-    inner = 0.0 + t0[:, 1:, 1:]
-    inner += t1[:, 1:, 1:]
-    inner += t0[:, :-1, :-1]
-    inner += t1[:, 1:, :-1]
-    inner += t1[:, :-1, :-1]
-    inner += t0[:, :-1, 1:]
-    vn[n_seam:] = inner.reshape(-1, 3)
-    ln = np.linalg.norm(vn, axis=1, keepdims=True)
-    return np.divide(vn, ln, out=np.zeros_like(vn), where=ln > 0)
+    for a in range(3):
+        vn[a, :n_seam] = np.bincount(seam, weights=fn[a, face], minlength=n_seam)
+        tri = fn[a].reshape(n_patches, detail, detail, 2)
+        t0, t1 = tri[..., 0], tri[..., 1]
+        inner = vn[a, n_seam:].reshape(n_patches, detail - 1, detail - 1)
+        np.add(0.0, t0[:, 1:, 1:], out=inner)
+        inner += t1[:, 1:, 1:]
+        inner += t0[:, :-1, :-1]
+        inner += t1[:, 1:, :-1]
+        inner += t1[:, :-1, :-1]
+        inner += t0[:, :-1, 1:]
+    # np.linalg.norm's sum along a row, ((x^2 + y^2) + z^2): the same bits.
+    ln = np.sqrt(vn[0] * vn[0] + vn[1] * vn[1] + vn[2] * vn[2])
+    out = np.zeros_like(verts)
+    for a in range(3):
+        np.divide(vn[a], ln, out=out[:, a], where=ln > 0)
+    return out
