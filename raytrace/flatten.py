@@ -99,10 +99,13 @@ def mesh_triangles(mesh, shading=True):
             f"indices span {f.min()}..{f.max()})")
     _check_finite(mesh.name, v)
     v0, v1, v2, keep = _kept_corners(v, f)
-    if not keep.all():
-        f = f[keep]
+    kept = np.flatnonzero(keep)
+    if len(kept) < len(f):
+        # np.take of rows, not f[keep]: a boolean mask over rows of 3 took
+        # 95 ms at 4.2M faces, the take 27 ms.
+        f = np.take(f, kept, axis=0)
     if not shading:
-        return v0, v1, v2, None, None, np.flatnonzero(keep), f
+        return v0, v1, v2, None, None, kept, f
     # Made unit here, a second time for normals that normals.py made unit
     # (a pass that may move a last bit; the images and exact counters are
     # made with it).  Per vertex, then gathered: per-corner results at a
@@ -113,7 +116,7 @@ def mesh_triangles(mesh, shading=True):
     else:
         nrm = unit_rows(unit_rows(np.cross(v1 - v0, v2 - v0)))
         at = np.repeat(np.arange(len(f)), 3).reshape(-1, 3)
-    return v0, v1, v2, nrm, at, np.flatnonzero(keep), f
+    return v0, v1, v2, nrm, at, kept, f
 
 
 def _kept_corners(v, f):
@@ -237,8 +240,11 @@ def flatten(scene, with_sources=False, shading=True):
                     dst.append(src)
                 if shading:
                     normals.append(nrm)
-                    # int32 before the offset: no (n, 3) int64 temporaries
-                    normal_at.append(at.astype(np.int32) + np.int32(n_normals))
+                    # int32 before the offset, added in place: no (n, 3)
+                    # int64 temporary nor a second int32 one
+                    rows = at.astype(np.int32)
+                    rows += np.int32(n_normals)
+                    normal_at.append(rows)
                     n_normals += len(nrm)
                 tri_mat.append(np.full(k, mat_id(obj.material)))
                 colors.append(_corner_values(obj, "colors", 3, faces) if shading else None)
