@@ -341,18 +341,21 @@ def trimesh_agreement(ours, mesh, pts, ro, rd):
         "list_intersections": np.diff(ours.list_intersections(ro, rd).ray_splits) == crossings,
         "contains / compute_occupancy": ours.contains(pts) == mesh.contains(pts),
     }
+    distances = ("distance / compute_distance", "signed_distance / compute_signed_distance")
     try:
         import scipy  # noqa: F401
     except ImportError:
         log("peer: scipy is not installed: no trimesh distances (pip install scipy)")
+        same.update((name, None) for name in distances)
     else:
         theirs = -trimesh.proximity.signed_distance(mesh, pts)
         ours_sd = ours.signed_distance(pts)
         tol = 1e-9 * np.maximum(1.0, np.abs(theirs))
-        same["distance / compute_distance"] = np.abs(ours.distance(pts) - np.abs(theirs)) <= tol
-        same["signed_distance / compute_signed_distance"] = (
-            (np.sign(ours_sd) == np.sign(theirs)) & (np.abs(np.abs(ours_sd) - np.abs(theirs)) <= tol))
-    return {name: {"agree": float(np.mean(ok)), "differ": np.flatnonzero(~ok).tolist()}
+        same[distances[0]] = np.abs(ours.distance(pts) - np.abs(theirs)) <= tol
+        same[distances[1]] = ((np.sign(ours_sd) == np.sign(theirs))
+                              & (np.abs(np.abs(ours_sd) - np.abs(theirs)) <= tol))
+    return {name: ({"agree": None, "differ": []} if ok is None else
+                   {"agree": float(np.mean(ok)), "differ": np.flatnonzero(~ok).tolist()})
             for name, ok in same.items()}
 
 
@@ -372,7 +375,9 @@ def run(quick):
 
 def _differ(row):
     """A query's agreement with trimesh, as a table cell."""
-    return "" if row is None else f"{row['agree']:.4%}"
+    if row is None:
+        return ""
+    return "needs SciPy" if row["agree"] is None else f"{row['agree']:.4%}"
 
 
 def markdown(res):
@@ -436,9 +441,11 @@ def markdown(res):
                                      f"Same answer as trimesh (first {tm['sample']:,})"],
                                     body, align="lrrrrr"))
         if tm["rows"]:
+            differ = "; ".join(f"{name}: {r['differ'][:5]}"
+                               for name, r in tm["rows"].items() if r["differ"])
             lines += ["", f"trimesh {tm['version']} (float64; its rays through embreex, each "
                           "further hit cast again from just past the last; distances to faces "
-                          "near the nearest vertices). Where it differs, the first indices: "
-                          + "; ".join(f"{name}: {r['differ'][:5]}"
-                                      for name, r in tm["rows"].items() if r["differ"])]
+                          "near the nearest vertices). "
+                          + (f"Where it differs, the first indices: {differ}." if differ
+                             else "Wherever compared, it gives our answer.")]
     return "\n".join(out + [""] + lines)
