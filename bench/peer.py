@@ -332,7 +332,7 @@ def trimesh_agreement(ours, mesh, pts, ro, rd):
     SciPy, which the peers extra leaves out: with SciPy installed, Numba
     imports SciPy's BLAS when it first loads a kernel (0.19 s and 20 MB
     more for every raytrace command, our start-up figures included).
-    Without it, the distance rows are left out."""
+    Without it, the distance rows say they need it."""
     import trimesh
     _, ray_of, _ = mesh.ray.intersects_location(ro, rd, multiple_hits=True)
     crossings = np.bincount(ray_of, minlength=len(ro))
