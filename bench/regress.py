@@ -201,6 +201,8 @@ def main(update_baseline, baseline_path, no_timing, no_cold, cold_only, cold_cac
     """Fail (exit 1) if the BVH's or grid's counters or speedups regressed."""
     from raytrace import RaytraceError
     t0 = time.perf_counter()
+    if cold_only and no_cold:
+        raise click.UsageError("--cold-only and --no-cold leave nothing to check")
     if cold_only:
         line, fails = check_cold(cold_cache)
         click.echo(line)
