@@ -461,6 +461,24 @@ def test_parallel_build_gives_the_serial_tree(threads, split):
             assert np.array_equal(a, b)
 
 
+def test_uneven_shares_split_a_subtree_and_keep_the_serial_tree():
+    """Where the threads' shares of subtrees are uneven (3 threads, a few
+    subtrees), build_bvh_parallel splits the largest subtree's root first,
+    its row after the top's: the top gains rows, and the 4-wide tree is
+    still the serial builder's, array for array."""
+    lo, hi = outward(*boxes_of(random_soup(np.random.default_rng(5), 3000, 0.02)))
+    binary = build_bvh(lo, hi)
+    serial = collapse_bvh4(*binary[:4]) + (binary[4],)
+    top_rows = {}
+    for refine in (0, 4):
+        *binary, links = build_bvh_parallel(lo, hi, 4, threads=3, split=4, refine=refine)
+        top_rows[refine] = len(links[2])
+        parallel = collapse_bvh4(*binary[:4], links) + (binary[4],)
+        for a, b in zip(serial, parallel):
+            assert np.array_equal(a, b)
+    assert top_rows[4] == top_rows[0] + 3 * 4   # four splits, three rows each
+
+
 # ---------------------------------------------------------------- traversal
 
 # Every structure and builder whose traversal prunes (brute force is the
