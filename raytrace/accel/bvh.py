@@ -597,7 +597,9 @@ def build_bvh_parallel(lo, hi, max_leaf, threads=None, split=SPLIT, refine=REFIN
     threads = threads or numba.get_num_threads()
     n = len(lo)
     top = 2 * n
-    rows = top + max(2 * n - 1, 1)
+    # The top's rows hold its nodes and placeholders, at most the serial
+    # tree's 2 n - 1, and three a split task (its root, two placeholders).
+    rows = top + max(2 * n - 1, 1) + 3 * refine
     nodes = (np.empty((rows, 3), BOX), np.empty((rows, 3), BOX), np.empty(rows, LINK),
              np.empty(rows, LINK))
     node_count = nodes[3]
