@@ -429,7 +429,6 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
             from .driver import RenderOptions, render
             from .load import load_scene
             from .output import check_writable
-            from .stats import format_table, to_json
 
             if show_depth is not None:
                 from .structures import DEFAULT, get
@@ -471,6 +470,7 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
         done = "outputs written" if outputs is not None and outputs.committed else "no image written"
         click.echo(f"interrupted: {done}", err=True)
         sys.exit(130)
+    from .stats import format_table, to_json  # here: it loads Numba, which a bad file never needs
     if as_json:
         click.echo(to_json(result.stats))
     elif not quiet:
@@ -500,7 +500,6 @@ def _render_animation(scene, kind, output, turntable, fps, resume, tiles, worker
             from .batch import animate
             from .driver import RenderOptions
             from .load import load_scene
-            from .stats import format_table, to_json
 
             with _warnings_once():
                 sc = load_scene(scene, width=width, height=height, **scene_opts)
@@ -523,6 +522,7 @@ def _render_animation(scene, kind, output, turntable, fps, resume, tiles, worker
         click.echo("interrupted: no animation written" if not _is_numbered(output)
                    else "interrupted: the frames written are complete", err=True)
         sys.exit(130)
+    from .stats import format_table, to_json
     if as_json:
         click.echo(to_json(stats))
     elif not quiet:

@@ -160,15 +160,18 @@ def test_no_progress_bar_without_a_terminal_or_with_quiet(run, monkeypatch):
     assert r.exit_code == 0 and r.output == ""
 
 
-def test_listing_and_help_import_neither_numba_nor_trimesh():
+def test_listing_help_and_bad_files_import_neither_numba_nor_trimesh(tmp_path):
     import subprocess
     import sys
+    bad_scene = tmp_path / "bad.toml"
+    bad_scene.write_text("[camera\n")
     code = ("import sys; from raytrace.cli import main\n"
-            "for args in (['scenes'], ['render', '--help']):\n"
+            f"for args in (['scenes'], ['render', '--help'], ['nosuch.obj'], [{str(bad_scene)!r}]):\n"
             "    try: main(args)\n"
             "    except SystemExit: pass\n"
             "bad = [m for m in ('numba', 'trimesh') if m in sys.modules]\n"
             "assert not bad, bad\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
+    assert "nosuch.obj: no such file" in out.stderr and "bad.toml" in out.stderr
     assert "village.toml" in out.stdout and "--heatmap" in out.stdout
