@@ -13,7 +13,7 @@ from click.testing import CliRunner
 
 from raytrace.cli import main
 
-from .structures import STRUCTURES
+from .structures import EVERY_MODE, STRUCTURES
 
 ROOT = Path(__file__).resolve().parents[1]
 # --aov: the kernels with AOV buffers are the ones the other tests compile
@@ -58,8 +58,16 @@ def test_same_png_in_a_fresh_process_and_from_every_structure(tmp_path, monkeypa
     assert out.returncode == 0, out.stderr
     assert (tmp_path / "there.png").read_bytes() == png
     assert json.loads(out.stdout)["counters"] == stats["counters"]
-    for accel in STRUCTURES:
+    # Soft shadows from brute force and the default structure; every
+    # structure with hard shadows (tests/structures.py).
+    keys = ("primary_rays", "shadow_rays", "shading_points", "shadow_points", "occluded_rays")
+    for accel in EVERY_MODE:
         other, s = run(tmp_path, "--pattern", "halton", "--accel", accel, "-o", f"{accel}.png")
         assert other == png, accel
-        for key in ("primary_rays", "shadow_rays", "shading_points", "shadow_points", "occluded_rays"):
-            assert s["counters"][key] == stats["counters"][key], (accel, key)
+        assert [s["counters"][k] for k in keys] == [stats["counters"][k] for k in keys], accel
+    hard_png, hard = run(tmp_path, "--shadows", "hard", "-o", "hard.png")
+    assert hard_png != png
+    for accel in STRUCTURES:
+        other, s = run(tmp_path, "--shadows", "hard", "--accel", accel, "-o", f"hard_{accel}.png")
+        assert other == hard_png, accel
+        assert [s["counters"][k] for k in keys] == [hard["counters"][k] for k in keys], accel

@@ -50,7 +50,7 @@ def test_primary_rays_exact_without_shadows(render_small, teapot_scene):
 
 @pytest.mark.parametrize("shadows, samples", [("hard", 1), ("soft", 16), ("soft", 81)])
 def test_shadow_rays_are_points_times_samples(render_small, teapot_scene, shadows, samples):
-    r = render_small(teapot_scene, accel="bvol", shadows=shadows, light_samples=samples)
+    r = render_small(teapot_scene, accel="bvh", shadows=shadows, light_samples=samples)
     c = r.stats["counters"]
     assert c["shadow_points"] > 0
     assert c["shadow_rays"] == c["shadow_points"] * samples
@@ -73,9 +73,9 @@ def test_shadows_darken_without_changing_lit_pixels(render_small, teapot_scene):
 
 
 def test_soft_shadow_has_penumbra(render_small, teapot_scene):
-    none = render_small(teapot_scene, accel="bvol", shadows="none").linear
-    hard = render_small(teapot_scene, accel="bvol", shadows="hard").linear
-    soft = render_small(teapot_scene, accel="bvol", shadows="soft", light_samples=16).linear
+    none = render_small(teapot_scene, accel="bvh", shadows="none").linear
+    hard = render_small(teapot_scene, accel="bvh", shadows="hard").linear
+    soft = render_small(teapot_scene, accel="bvh", shadows="soft", light_samples=16).linear
     frac = lambda img: (img < none).any(axis=2) & (img > 0.02 + 0 * none).any(axis=2)  # noqa: E731
     # Partially lit pixels: darker than unshadowed, brighter than umbra.
     partial_soft = ((soft < none - 1e-6) & (soft > hard + 1e-6)).any(axis=2).sum()
@@ -84,7 +84,7 @@ def test_soft_shadow_has_penumbra(render_small, teapot_scene):
 
 
 def test_same_seed_same_image_across_threads(teapot_scene):
-    kw = dict(accel="bvol", shadows="soft", light_samples=16, pattern="random", width=48, height=36, seed=7)
+    kw = dict(accel="bvh", shadows="soft", light_samples=16, pattern="random", width=48, height=36, seed=7)
     a = render(teapot_scene, threads=1, **kw)
     b = render(teapot_scene, threads=2, **kw)
     assert np.array_equal(a.image, b.image)
