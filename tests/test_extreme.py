@@ -470,13 +470,17 @@ def test_a_single_triangle(accel):
 
 # --- whole scenes far from the origin and at extreme scales ------------------
 
-TEAPOT_KW = dict(shadows="soft", light_samples=16, width=160, height=120)
+def teapot_kw(accel):
+    """Soft shadows for brute force and the default structure, hard for the
+    others (tests/structures.py)."""
+    return dict(shadows="soft" if accel in EVERY_MODE else "hard", light_samples=16, width=160,
+                height=120)
 
 
 @pytest.fixture(scope="module")
 def unit_teapots():
     from raytrace.scenes.builtin import teapot
-    return {accel: render(teapot(), accel=accel, **TEAPOT_KW) for accel in STRUCTURES}
+    return {accel: render(teapot(), accel=accel, **teapot_kw(accel)) for accel in STRUCTURES}
 
 
 @pytest.mark.parametrize("accel", STRUCTURES)
@@ -499,7 +503,7 @@ def test_teapot_scaled_or_moved_far_away_looks_the_same(unit_teapots, accel, sca
     """
     from raytrace.scenes.builtin import teapot
     base = unit_teapots[accel]
-    r = render(transform_scene(teapot(), scale, shift), accel=accel, **TEAPOT_KW)
+    r = render(transform_scene(teapot(), scale, shift), accel=accel, **teapot_kw(accel))
     diff = np.abs(r.linear - base.linear).max(axis=2)
     if shift == 0.0:
         assert np.array_equal(r.linear, base.linear)
