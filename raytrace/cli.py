@@ -427,12 +427,13 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
     try:
         with _one_line_errors():
             from .driver import RenderOptions, render
-            from .load import load_scene
+            from .load import load_kernels, load_scene
             from .output import check_writable
 
             if show_depth is not None:
                 from .structures import DEFAULT, get
                 get(options.get("accel", DEFAULT)).check_outline()
+            t_kernels = load_kernels(scene, detail)     # compile time, not loading's
             t_load = time.perf_counter()
             with _warnings_once():
                 sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
@@ -460,6 +461,7 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
             finally:
                 progress.close()
             result.stats["time"]["load_s"] = t_load
+            result.stats["time"]["compile_s"] += t_kernels
             if show_depth is not None:
                 result.image = _show_structure(result, sc, opts.accel, show_depth)
             raise_if_interrupted()

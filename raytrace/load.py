@@ -63,7 +63,7 @@ def load_scene(name_or_path, *, detail=None, view=None, azimuth=None, elevation=
     if detail is not None:
         if not (kind == "builtin" and str(name_or_path) == "teapot"):
             raise RaytraceError("detail applies to the teapot scene only")
-        if isinstance(detail, bool) or not isinstance(detail, int) or not DETAIL.lo <= detail <= DETAIL.hi:
+        if not _detail_ok(detail):
             raise RaytraceError(f"detail must be an integer from {DETAIL.lo} to {DETAIL.hi}, "
                                 f"got {detail!r}")
 
@@ -100,6 +100,21 @@ def load_scene(name_or_path, *, detail=None, view=None, azimuth=None, elevation=
     if height is not None:
         scene.camera.height = height
     return scene
+
+
+def _detail_ok(detail):
+    return not isinstance(detail, bool) and isinstance(detail, int) and DETAIL.lo <= detail <= DETAIL.hi
+
+
+def load_kernels(name_or_path, detail=None):
+    """Seconds spent loading (or compiling) the kernels that load_scene
+    will run for this scene, so that loading's time is not compile time
+    (the command's statistics); 0.0 if it runs none.  Only a big teapot
+    has any: its tessellation's (scenes/teapot.py)."""
+    if str(name_or_path) != "teapot" or not _detail_ok(detail):
+        return 0.0
+    from .scenes.teapot import load_kernels
+    return load_kernels(detail)
 
 
 def check_shading(crease, flat):

@@ -60,3 +60,43 @@ def test_vertex_normals_are_the_corner_sums_bit_for_bit(chunk, monkeypatch):
         np.add.at(vn, f[:, k], fn)
     ln = np.linalg.norm(vn, axis=1, keepdims=True)
     assert np.array_equal(n, np.divide(vn, ln, out=np.zeros_like(vn), where=ln > 0))
+
+
+def _same(want, got):
+    return all(a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+               for a, b in zip(want, got))
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3])
+@pytest.mark.parametrize("detail", [1, 2, 7, 40])
+def test_big_tessellations_kernels_give_the_numpy_paths_bits(detail, threads):
+    """kernels/tessellate.py (--detail 125 and up) against the NumPy path:
+    vertices, their order, faces and normals, bit for bit."""
+    want = tessellate(detail)
+    patches, cps = load_patches()
+    b = _bernstein(np.linspace(0.0, 1.0, detail + 1))
+    got = teapot_module._tessellate_parallel(b, cps[patches].reshape(-1, 4, 4, 3), detail, threads)
+    assert _same(want, got)
+
+
+def test_tessellate_takes_the_kernels_from_kernel_min(monkeypatch):
+    calls = []
+    real = teapot_module._tessellate_parallel
+    monkeypatch.setattr(teapot_module, "_tessellate_parallel",
+                        lambda *a: calls.append(a[2]) or real(*a))
+    want = tessellate(9)            # 5,184 triangles
+    assert calls == []
+    monkeypatch.setattr(teapot_module, "KERNEL_MIN", 5_184)
+    assert _same(want, tessellate(9)) and calls == [9]
+    tessellate(8)                   # 4,096 triangles: NumPy
+    assert calls == [9]
+
+
+def test_the_command_counts_the_tessellation_kernels_as_compile_time():
+    """load.load_kernels loads them before the teapot is loaded, for the
+    details that run them only."""
+    from raytrace.load import load_kernels
+    assert load_kernels("teapot", 125) > 0            # 1,000,000 triangles
+    assert load_kernels("teapot", 124) == 0.0
+    assert load_kernels("teapot", None) == load_kernels("spheres", 200) == 0.0
+    assert load_kernels("teapot", True) == load_kernels("teapot", 10**9) == 0.0   # load_scene's errors

@@ -32,10 +32,12 @@ def tessellate(detail=4):
     if detail < 1:
         raise ValueError("teapot detail must be at least 1")
     patches, cps = load_patches()
-    t = np.linspace(0.0, 1.0, detail + 1)
-    b = _bernstein(t)
+    b = _bernstein(np.linspace(0.0, 1.0, detail + 1))
+    ctrl = cps[patches].reshape(-1, 4, 4, 3)
+    if 2 * len(patches) * detail * detail >= KERNEL_MIN:
+        return _tessellate_parallel(b, ctrl, detail, _threads())
     n1 = detail + 1
-    verts = _surface_points(b, cps[patches].reshape(-1, 4, 4, 3)).reshape(-1, 3)
+    verts = _surface_points(b, ctrl).reshape(-1, 3)
     idx = np.arange(n1 * n1).reshape(n1, n1)
     a, bq, c, d = idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]
     # Wound so normals point out of the teapot (Newell's patches run the
@@ -46,11 +48,90 @@ def tessellate(detail=4):
     return verts, faces, _vertex_normals(verts, faces, n_seam, len(patches), detail)
 
 
+# From this many triangles on (--detail 125 and up), tessellate on every
+# thread (kernels/tessellate.py): --detail 256's 4.2M triangles took 0.9-2
+# s in NumPy, most of it faulting in its temporaries' fresh pages.  Smaller
+# teapots (the 118k one takes 30 ms) do not compile the kernels.
+KERNEL_MIN = 1_000_000
+
+
+def load_kernels(detail):
+    """Seconds spent loading (or compiling) kernels/tessellate.py if
+    tessellate(detail) will use it; 0.0 otherwise."""
+    patches, cps = load_patches()
+    if 2 * len(patches) * detail * detail < KERNEL_MIN:
+        return 0.0
+    import time
+    t0 = time.perf_counter()
+    _tessellate_parallel(_bernstein(np.linspace(0.0, 1.0, 3)), cps[patches].reshape(-1, 4, 4, 3),
+                         2, 1)
+    return time.perf_counter() - t0
+
+
+def _threads():
+    import numba
+    return numba.get_num_threads()
+
+
+def _tessellate_parallel(b, ctrl, detail, threads):
+    """tessellate's (vertices, faces, normals), the same bits, made by
+    kernels/tessellate.py on ``threads`` threads.  Only the patch edges'
+    points are computed in NumPy first (_surface_points on their (u, v)
+    pairs alone: the same sums), to weld them; the interior's go straight
+    to their welded rows."""
+    from functools import partial
+
+    from ..kernels.tessellate import face_normals, grid_faces, interior_normals, interior_points, seam_normals
+    from ..threads import run_on_threads, runs
+    n_patches, n1 = len(ctrl), detail + 1
+    edge = _seam_rows(1, n1)                  # the (u, v) pairs on a patch's edge
+    seam_pts = _surface_points(b, ctrl, at=edge)
+    seam_verts, seam_index = _weld_rows(seam_pts.reshape(-1, 3))
+    n_seam = len(seam_verts)
+    interior = n_patches * (n1 - 2) ** 2
+    welded = np.empty(n_patches * n1 * n1, np.int64)   # grid vertex -> its number
+    inside = np.ones(len(welded), bool)
+    seams = _seam_rows(n_patches, n1)
+    inside[seams] = False
+    welded[seams] = seam_index
+    welded[inside] = np.arange(n_seam, n_seam + interior)
+    verts = np.empty((n_seam + interior, 3))
+    verts[:n_seam] = seam_verts
+    weight, ctrl16 = _weights(b), _control_rows(ctrl)
+    patch_runs = runs(n_patches, threads)
+    faces = np.empty((2 * n_patches * detail * detail, 3), np.int64)
+
+    def points_and_faces(first, last):
+        interior_points(weight, ctrl16, n1, n_seam, first, last, verts)
+        grid_faces(welded, n1, first, last, faces)
+    run_on_threads([partial(points_and_faces, s, e) for s, e in patch_runs])
+    fn = np.empty(faces.shape)
+    run_on_threads([partial(face_normals, verts, faces, s, e, fn)
+                    for s, e in runs(len(faces), threads)])
+    normals = np.empty_like(verts)
+    run_on_threads([partial(seam_normals, fn, faces, n_seam, np.zeros((n_seam, 3)), normals)]
+                   + [partial(interior_normals, fn, n1, n_seam, s, e, normals)
+                      for s, e in patch_runs])
+    return verts, faces, normals
+
+
 _ROWS = 1024      # (u, v) pairs a block: 96 of them a pair, so 786 KB of float64 a block
 
 
-def _surface_points(b, ctrl):
-    """P(u, v) = sum_ij B_i(u) B_j(v) C_ij for every patch: (P, n+1, n+1, 3).
+def _weights(b):
+    """(n1 * n1, 16): B_i(u) B_j(v) for each (u, v) pair, ij = 4 i + j."""
+    n1 = len(b)
+    return (b[:, None, :, None] * b[None, :, None, :]).reshape(n1 * n1, 16)
+
+
+def _control_rows(ctrl):
+    """(16, patches * 3): control point ij of every patch, a row each."""
+    return ctrl.reshape(len(ctrl), 16, 3).transpose(1, 0, 2).reshape(16, len(ctrl) * 3)
+
+
+def _surface_points(b, ctrl, at=None):
+    """P(u, v) = sum_ij B_i(u) B_j(v) C_ij for every patch: (P, n+1, n+1, 3),
+    or with ``at`` (flat (u, v) indices) (P, len(at), 3).
 
     The sum of np.einsum("ui,vj,pijk->puvk", b, b, ctrl), term for term and
     in its order ((B_i(u) B_j(v)) C_ij, i then j, from 0.0), so the same
@@ -60,16 +141,20 @@ def _surface_points(b, ctrl):
     of an AMD EPYC Zen 1 (512 KB): 323 against 180 ms there.
     """
     n1, n_patches = len(b), len(ctrl)
-    weight = (b[:, None, :, None] * b[None, :, None, :]).reshape(n1 * n1, 16)
-    ctrl = ctrl.reshape(n_patches, 16, 3).transpose(1, 0, 2).reshape(16, n_patches * 3)
-    points = np.zeros((n1 * n1, n_patches * 3))
-    term = np.empty((min(_ROWS, n1 * n1), n_patches * 3))
-    for s in range(0, n1 * n1, _ROWS):
+    weight = _weights(b)
+    if at is not None:
+        weight = weight[at]
+    ctrl = _control_rows(ctrl)
+    points = np.zeros((len(weight), n_patches * 3))
+    term = np.empty((min(_ROWS, len(weight)), n_patches * 3))
+    for s in range(0, len(weight), _ROWS):
         block = points[s:s + _ROWS]
         t = term[:len(block)]
         for ij in range(16):
             np.multiply(weight[s:s + _ROWS, ij, None], ctrl[ij], out=t)
             block += t
+    if at is not None:
+        return points.reshape(len(weight), n_patches, 3).transpose(1, 0, 2)
     return points.reshape(n1, n1, n_patches, 3).transpose(2, 0, 1, 3)
 
 
@@ -87,25 +172,36 @@ def _weld(verts, faces, seams):
     Only the rows in ``seams`` (patch edges, 1.6% of the vertices at detail
     256) are compared: Newell's patches meet edge to edge, and a grid's
     interior vertices are its own.  Welding every row instead (np.unique on
-    6.3M rows) took 1 s of --detail 256's 2.6 s tessellation.
+    6.3M rows) took 1 s of --detail 256's 2.6 s tessellation.  Welded seam
+    vertices come first, then the interior ones in row order
+    (_vertex_normals relies on it).  Nothing else depends on the vertices'
+    order: faces keep theirs.
     """
-    # Each rounded row as one 24-byte value: np.unique then sorts bytes, not
-    # rows of floats; + 0.0 makes -0.0 equal 0.0.  Each group keeps its
-    # last vertex in row order; welded seam vertices come first, then the
-    # interior ones in row order (_vertex_normals relies on it).  Nothing
-    # else depends on the vertices' order: faces keep theirs.
-    key = np.ascontiguousarray(np.round(verts[seams], 9) + 0.0)
-    rows = key.view(np.dtype((np.void, key.itemsize * 3))).reshape(-1)
-    _, seam_index = np.unique(rows, return_inverse=True)
-    n_seam = int(seam_index.max()) + 1 if len(seam_index) else 0
+    welded, seam_index = _weld_rows(verts[seams])
+    n_seam = len(welded)
     inside = np.ones(len(verts), bool)
     inside[seams] = False
     inverse = np.empty(len(verts), np.int64)
-    inverse[seams] = seam_index.reshape(-1)
+    inverse[seams] = seam_index
     inverse[inside] = n_seam + np.arange(len(verts) - len(seams))
-    welded = np.empty((n_seam + len(verts) - len(seams), 3))
-    welded[inverse] = verts
+    welded = np.concatenate([welded, verts[inside]])
     return welded, inverse[faces], n_seam
+
+
+def _weld_rows(rows):
+    """(the distinct rows, each row's number among them): rows equal when
+    rounded to 9 decimals are one, whose value is the last of them.
+
+    Each rounded row as one 24-byte value: np.unique then sorts bytes, not
+    rows of floats; + 0.0 makes -0.0 equal 0.0.
+    """
+    key = np.ascontiguousarray(np.round(rows, 9) + 0.0)
+    keys = key.view(np.dtype((np.void, key.itemsize * 3))).reshape(-1)
+    _, index = np.unique(keys, return_inverse=True)
+    index = index.reshape(-1)
+    welded = np.empty((int(index.max()) + 1 if len(index) else 0, 3))
+    welded[index] = rows       # the last of each group is written last
+    return welded, index
 
 
 _CHUNK = 1 << 18
