@@ -97,3 +97,16 @@ def test_output_file_has_the_usual_permissions(run, tmp_path):
     mask = os.umask(0)
     os.umask(mask)
     assert (tmp_path / "perm.png").stat().st_mode & 0o777 == 0o666 & ~mask
+
+
+def test_a_big_teapots_tessellation_kernels_count_as_compile_time(run, monkeypatch):
+    """Their load (here a stand-in taking 0.5 s) goes to compile_s, not
+    load_s; KERNEL_MIN lowered so that --detail 2 takes the kernels."""
+    import time
+
+    import raytrace.scenes.teapot as teapot_module
+    teapot_module.load_kernels(125)    # compiled (or loaded) now: not in load_s below
+    monkeypatch.setattr(teapot_module, "KERNEL_MIN", 256)
+    monkeypatch.setattr(teapot_module, "load_kernels", lambda detail: time.sleep(0.5) or 0.5)
+    stats = json.loads(run("teapot", "--detail", "2", "--json", *SMALL).output)
+    assert stats["time"]["compile_s"] >= 0.5 > stats["time"]["load_s"]
