@@ -34,7 +34,7 @@ def tessellate(detail=4):
     patches, cps = load_patches()
     b = _bernstein(np.linspace(0.0, 1.0, detail + 1))
     ctrl = cps[patches].reshape(-1, 4, 4, 3)
-    if 2 * len(patches) * detail * detail >= KERNEL_MIN:
+    if _takes_kernels(len(patches), detail):
         return _tessellate_parallel(b, ctrl, detail, _threads())
     n1 = detail + 1
     verts = _surface_points(b, ctrl).reshape(-1, 3)
@@ -59,13 +59,18 @@ def load_kernels(detail):
     """Seconds spent loading (or compiling) kernels/tessellate.py if
     tessellate(detail) will use it; 0.0 otherwise."""
     patches, cps = load_patches()
-    if 2 * len(patches) * detail * detail < KERNEL_MIN:
+    if not _takes_kernels(len(patches), detail):
         return 0.0
     import time
     t0 = time.perf_counter()
     _tessellate_parallel(_bernstein(np.linspace(0.0, 1.0, 3)), cps[patches].reshape(-1, 4, 4, 3),
                          2, 1)
     return time.perf_counter() - t0
+
+
+def _takes_kernels(n_patches, detail):
+    """Whether tessellate(detail) runs kernels/tessellate.py."""
+    return 2 * n_patches * detail * detail >= KERNEL_MIN
 
 
 def _threads():
@@ -88,14 +93,9 @@ def _tessellate_parallel(b, ctrl, detail, threads):
     seam_pts = _surface_points(b, ctrl, at=edge)
     seam_verts, seam_index = _weld_rows(seam_pts.reshape(-1, 3))
     n_seam = len(seam_verts)
-    interior = n_patches * (n1 - 2) ** 2
-    welded = np.empty(n_patches * n1 * n1, np.int64)   # grid vertex -> its number
-    inside = np.ones(len(welded), bool)
-    seams = _seam_rows(n_patches, n1)
-    inside[seams] = False
-    welded[seams] = seam_index
-    welded[inside] = np.arange(n_seam, n_seam + interior)
-    verts = np.empty((n_seam + interior, 3))
+    # grid vertex -> its number
+    welded, _ = _vertex_numbers(n_patches * n1 * n1, _seam_rows(n_patches, n1), seam_index, n_seam)
+    verts = np.empty((n_seam + n_patches * (n1 - 2) ** 2, 3))
     verts[:n_seam] = seam_verts
     weight, ctrl16 = _weights(b), _control_rows(ctrl)
     patch_runs = runs(n_patches, threads)
@@ -179,13 +179,21 @@ def _weld(verts, faces, seams):
     """
     welded, seam_index = _weld_rows(verts[seams])
     n_seam = len(welded)
-    inside = np.ones(len(verts), bool)
-    inside[seams] = False
-    inverse = np.empty(len(verts), np.int64)
-    inverse[seams] = seam_index
-    inverse[inside] = n_seam + np.arange(len(verts) - len(seams))
+    inverse, inside = _vertex_numbers(len(verts), seams, seam_index, n_seam)
     welded = np.concatenate([welded, verts[inside]])
     return welded, inverse[faces], n_seam
+
+
+def _vertex_numbers(n_rows, seams, seam_index, n_seam):
+    """(each unwelded row's welded vertex number, which rows are not on a
+    seam): seam row k is welded vertex seam_index[k]; the others follow
+    the n_seam welded ones, in row order."""
+    inside = np.ones(n_rows, bool)
+    inside[seams] = False
+    numbers = np.empty(n_rows, np.int64)
+    numbers[seams] = seam_index
+    numbers[inside] = n_seam + np.arange(n_rows - len(seams))
+    return numbers, inside
 
 
 def _weld_rows(rows):
