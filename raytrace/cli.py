@@ -127,6 +127,14 @@ class _Progress:
             self.bar.__exit__(None, None, None)
 
 
+def _load_threads(options):
+    """--threads bounds loading's threads too (a big teapot's tessellation
+    runs on Numba's, scenes/teapot.py), not only the render's."""
+    if options.get("threads"):
+        import numba
+        numba.set_num_threads(options["threads"])
+
+
 def _view_options(view, up):
     """--view and --up as load_scene's keyword arguments."""
     opts = {}
@@ -433,6 +441,7 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
             if show_depth is not None:
                 from .structures import DEFAULT, get
                 get(options.get("accel", DEFAULT)).check_outline()
+            _load_threads(options)
             t_kernels = load_kernels(scene, detail)     # compile time, not loading's
             t_load = time.perf_counter()
             with _warnings_once():
@@ -582,6 +591,7 @@ def compare_cmd(ctx, scene, accel_list, detail, view, up, crease, flat, fov, rep
             from .stats import to_json
 
             entries = parse_entries(accel_list) if accel_list is not None else default_entries()
+            _load_threads(options)
             with _warnings_once():
                 sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
                                 crease=crease, flat=flat, **_view_options(view, up))

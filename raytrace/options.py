@@ -108,7 +108,7 @@ OPTIONS = (
     Option("spp", "int", 1, "camera rays per pixel (anti-aliasing)", lo=1, hi=4096, metavar="N"),
     Option("seed", "int", 0, "random seed: the same seed, the same image", lo=0, hi=2 ** 63 - 1,
            metavar="S"),
-    Option("threads", "int", None, "render threads", lo=1, hi=_max_threads,
+    Option("threads", "int", None, "load and render threads", lo=1, hi=_max_threads,
            default_text="all cores", metavar="N"),
 )
 BY_NAME = {o.name: o for o in OPTIONS}

@@ -99,6 +99,30 @@ def test_output_file_has_the_usual_permissions(run, tmp_path):
     assert (tmp_path / "perm.png").stat().st_mode & 0o777 == 0o666 & ~mask
 
 
+@pytest.mark.parametrize("command", [[], ["compare", "--accel", "bvh"]])
+def test_threads_bound_a_big_teapots_tessellation_too(run, monkeypatch, command):
+    """--threads 1 tessellates on one thread (KERNEL_MIN lowered so that
+    --detail 2 takes the kernels), not on every core."""
+    import numba
+
+    import raytrace.scenes.teapot as teapot_module
+    used = []
+    tessellate = teapot_module._tessellate_parallel
+
+    def spy(b, ctrl, detail, threads):
+        used.append(threads)
+        return tessellate(b, ctrl, detail, threads)
+
+    monkeypatch.setattr(teapot_module, "KERNEL_MIN", 256)
+    monkeypatch.setattr(teapot_module, "_tessellate_parallel", spy)
+    try:
+        r = run(*command, "teapot", "--detail", "2", "--threads", "1", *SMALL)
+    finally:
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    assert r.exit_code == 0, r.output
+    assert used[-1] == 1     # the scene's (load_kernels' own warm-up runs on one anyway)
+
+
 def test_a_big_teapots_tessellation_kernels_count_as_compile_time(run, monkeypatch):
     """Their load (here a stand-in taking 0.5 s) goes to compile_s, not
     load_s; KERNEL_MIN lowered so that --detail 2 takes the kernels."""
