@@ -11,7 +11,7 @@ import click
 
 from .errors import OptionError, RaytraceError, RaytraceWarning
 from .interrupt import raise_if_interrupted
-from .options import CREASE, DETAIL, FOV_RANGE, OPTIONS
+from .options import BY_NAME, CREASE, DETAIL, FOV_RANGE, OPTIONS
 
 
 class DefaultRenderGroup(click.Group):
@@ -130,9 +130,11 @@ class _Progress:
 def _load_threads(options):
     """--threads bounds loading's threads too (a big teapot's tessellation
     runs on Numba's, scenes/teapot.py), not only the render's."""
-    if options.get("threads"):
+    threads = options.get("threads")
+    if threads is not None:
+        BY_NAME["threads"].check(threads)      # a bad count is a bad option, as at render
         import numba
-        numba.set_num_threads(options["threads"])
+        numba.set_num_threads(threads)
 
 
 def _view_options(view, up):
