@@ -12,6 +12,7 @@ from raytrace.accel.bvh import (
     BOX,
     LINK,
     MAX_DEPTH,
+    box_rows,
     build_bvh,
     build_bvh_kernel,
     build_bvh_parallel,
@@ -325,8 +326,8 @@ def test_build_kernel_depth_reported():
     n = len(lo)
     nodes = (np.empty((2 * n, 3), BOX), np.empty((2 * n, 3), BOX), np.empty(2 * n, LINK),
              np.empty(2 * n, LINK))
-    rows, depth, tasks = build_bvh_kernel(lo, hi, np.arange(n), 0, n, 0, 4, *nodes, 0, 0,
-                                          np.empty((0, 4), np.int64))
+    rows, depth, tasks = build_bvh_kernel(box_rows(lo, hi), np.arange(n), 0, n, 0, 4, *nodes, 0,
+                                          0, np.empty((0, 4), np.int64))
     assert 0 < depth <= MAX_DEPTH and 0 < rows < 2 * n and tasks == 0
 
 
@@ -433,10 +434,9 @@ def test_box_bounds_are_outward_prim_bounds_bit_for_bit(threads):
     tris[40:45] *= 1e50                      # overflow float32: +-inf or its largest
     spheres = [((0.0, -0.0, 1e-30), 0.5), ((1e45, 0, 0), 1e44), ((0.1, 0.2, 0.3), 1e-3)]
     geo, _ = make_scene(tris, spheres=spheres)
-    want = outward(*prim_bounds(geo))
+    want = box_rows(*outward(*prim_bounds(geo)))
     got = box_bounds(geo, threads)
-    for a, b in zip(want, got):
-        assert a.dtype == b.dtype == BOX and a.tobytes() == b.tobytes()
+    assert want.dtype == got.dtype == BOX and want.tobytes() == got.tobytes()
 
 
 @pytest.mark.parametrize("threads", [1, 2, 3])
@@ -455,7 +455,7 @@ def test_parallel_build_gives_the_serial_tree(threads, split):
         lo, hi = outward(lo, hi)
         binary = build_bvh(lo, hi)
         serial = collapse_bvh4(*binary[:4]) + (binary[4],)
-        *binary, links = build_bvh_parallel(lo, hi, 4, threads=threads, split=split)
+        *binary, links = build_bvh_parallel(box_rows(lo, hi), 4, threads=threads, split=split)
         parallel = collapse_bvh4(*binary[:4], links) + (binary[4],)
         for a, b in zip(serial, parallel):
             assert np.array_equal(a, b)
@@ -471,7 +471,8 @@ def test_uneven_shares_split_a_subtree_and_keep_the_serial_tree():
     serial = collapse_bvh4(*binary[:4]) + (binary[4],)
     top_rows = {}
     for refine in (0, 4):
-        *binary, links = build_bvh_parallel(lo, hi, 4, threads=3, split=4, refine=refine)
+        *binary, links = build_bvh_parallel(box_rows(lo, hi), 4, threads=3, split=4,
+                                            refine=refine)
         top_rows[refine] = len(links[2])
         parallel = collapse_bvh4(*binary[:4], links) + (binary[4],)
         for a, b in zip(serial, parallel):

@@ -27,6 +27,7 @@ import numpy as np
 from numba import njit
 
 from ..buffers import n_bounded, prim_bounds
+from ..kernels.box8 import HALF, LANES, find_bins, grow_box, grow_centroids
 from ..kernels.f32 import f32_next
 from ..kernels.jit import BUILD, BUILD_STEP
 from ..threads import run_on_threads, runs
@@ -99,17 +100,22 @@ def _half_area(x0, y0, z0, x1, y1, z1):
 
 
 @njit(**BUILD_STEP)
-def _bin(centre, origin, scale):
-    """The bin of a centroid coordinate on an axis whose bins start at
-    ``origin``, ``scale`` bins per unit length; 0 on an axis that is not
-    binned (scale 0: no multiply, so an infinite centre makes no NaN)."""
-    if scale == 0.0:
-        return 0
-    return min(int((centre - origin) * scale), N_BINS - 1)
+def _corners(rows, i):
+    """Box row i (kernels/box8.py) as float64 (lo x, y, z, hi x, y, z)."""
+    return (np.float64(rows[i, 0]), np.float64(rows[i, 1]), np.float64(rows[i, 2]),
+            -np.float64(rows[i, HALF]), -np.float64(rows[i, HALF + 1]),
+            -np.float64(rows[i, HALF + 2]))
+
+
+@njit(**BUILD_STEP)
+def _row_area(rows, i):
+    """Half the surface area of box row i, in float64."""
+    x0, y0, z0, x1, y1, z1 = _corners(rows, i)
+    return _half_area(x0, y0, z0, x1, y1, z1)
 
 
 @njit(**dict(BUILD, nogil=True))
-def build_bvh_kernel(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, node_hi,
+def build_bvh_kernel(boxes, prim_ids, start, end, depth, max_leaf, node_lo, node_hi,
                      node_start, node_count, first, defer, tasks):
     """The binned-SAH tree over prim_ids[start:end] (reordered in place),
     its root at ``depth``, into node rows first, first + 1, ...
@@ -128,10 +134,18 @@ def build_bvh_kernel(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, nod
     on the float-to-int arithmetic (one count a primitive cost 14 ns
     inline, 6 ns with a precomputed address; Zen 1).  The sweeps skip
     empty bins.  Together: the same tree, 143-152 -> 118-124 ms for the
-    118k-triangle teapot on one thread (docs/design.md)."""
+    118k-triangle teapot on one thread (docs/design.md).
+
+    ``boxes``: the primitives' box rows (box_rows; kernels/box8.py).  A
+    node's box and centroid box and each bin grow 8 lanes at a time, and
+    a primitive's three bins are found together: the same trees, 0.62 ->
+    0.40 s for the 1M-triangle teapot on one thread (AVX-512 Xeon)."""
     bin_count = np.empty((3, N_BINS), np.int64)
-    bin_lo = np.empty((3, N_BINS, 3), BOX)   # exact: min and max of float32 boxes
-    bin_hi = np.empty((3, N_BINS, 3), BOX)
+    # Bin b of axis a: box row a * N_BINS + b (exact: minima of float32 rows).
+    bin_box = np.empty((3 * N_BINS, LANES), BOX)
+    # Scratch rows: the node's box, its centroids' (as lo + hi), and the
+    # sweeps' running union.
+    grown = np.empty((3, LANES), BOX)
     # right_cost[b] = N_R * A_R (half area) of bins b.. on the current axis.
     right_cost = np.empty(N_BINS, np.float64)
     bin_scale = np.empty(3, np.float64)  # bins per unit length on each axis
@@ -165,28 +179,17 @@ def build_bvh_kernel(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, nod
             n_tasks += 1
             node_count[node] = -1
         else:
-            # Node box and centroid box.
-            bx0 = by0 = bz0 = np.inf
-            bx1 = by1 = bz1 = -np.inf
-            cx0 = cy0 = cz0 = np.inf
-            cx1 = cy1 = cz1 = -np.inf
+            # Node box and centroid box.  A centroid is 0.5 (lo + hi):
+            # halving is exact, so the box of lo + hi is halved after.
+            grown[0:2, :] = np.inf
             for k in range(start, end):
                 p = prim_ids[k]
-                bx0 = min(bx0, lo[p, 0])
-                by0 = min(by0, lo[p, 1])
-                bz0 = min(bz0, lo[p, 2])
-                bx1 = max(bx1, hi[p, 0])
-                by1 = max(by1, hi[p, 1])
-                bz1 = max(bz1, hi[p, 2])
-                x = 0.5 * (lo[p, 0] + hi[p, 0])
-                y = 0.5 * (lo[p, 1] + hi[p, 1])
-                z = 0.5 * (lo[p, 2] + hi[p, 2])
-                cx0 = min(cx0, x)
-                cy0 = min(cy0, y)
-                cz0 = min(cz0, z)
-                cx1 = max(cx1, x)
-                cy1 = max(cy1, y)
-                cz1 = max(cz1, z)
+                grow_box(grown, 0, boxes, p)
+                grow_centroids(grown, 1, boxes, p)
+            bx0, by0, bz0, bx1, by1, bz1 = _corners(grown, 0)
+            cx0, cy0, cz0, cx1, cy1, cz1 = _corners(grown, 1)
+            cx0, cy0, cz0, cx1, cy1, cz1 = (0.5 * cx0, 0.5 * cy0, 0.5 * cz0, 0.5 * cx1,
+                                            0.5 * cy1, 0.5 * cz1)
             # A parent's largest magnitude is at least its children's, so padded
             # children stay inside padded parents (rounding is monotonic).
             pad = BOX_PAD * max(abs(bx0), abs(by0), abs(bz0), abs(bx1), abs(by1), abs(bz1))
@@ -210,29 +213,24 @@ def build_bvh_kernel(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, nod
                             bin_scale[a] = s
                 if bin_scale[0] > 0.0 or bin_scale[1] > 0.0 or bin_scale[2] > 0.0:
                     bin_count[:, :] = 0
-                    bin_lo[:, :, :] = np.inf
-                    bin_hi[:, :, :] = -np.inf
+                    bin_box[:, :] = np.inf
                     sx, sy, sz = bin_scale[0], bin_scale[1], bin_scale[2]
                     for k in range(start, end):
-                        p = prim_ids[k]
-                        bin_of[k - slot0, 0] = _bin(0.5 * (lo[p, 0] + hi[p, 0]), cx0, sx)
-                        bin_of[k - slot0, 1] = _bin(0.5 * (lo[p, 1] + hi[p, 1]), cy0, sy)
-                        bin_of[k - slot0, 2] = _bin(0.5 * (lo[p, 2] + hi[p, 2]), cz0, sz)
+                        find_bins(bin_of, k - slot0, boxes, prim_ids[k], cx0, cy0, cz0, sx, sy,
+                                  sz, N_BINS - 1)
                     # Every primitive into its bin on all three axes in one pass
                     # (an axis not binned fills bin 0, which its sweep skips).
                     for k in range(start, end):
                         p = prim_ids[k]
-                        l0, l1, l2 = lo[p, 0], lo[p, 1], lo[p, 2]
-                        h0, h1, h2 = hi[p, 0], hi[p, 1], hi[p, 2]
-                        for a in range(3):
-                            b = bin_of[k - slot0, a]
-                            bin_count[a, b] += 1
-                            bin_lo[a, b, 0] = min(bin_lo[a, b, 0], l0)
-                            bin_lo[a, b, 1] = min(bin_lo[a, b, 1], l1)
-                            bin_lo[a, b, 2] = min(bin_lo[a, b, 2], l2)
-                            bin_hi[a, b, 0] = max(bin_hi[a, b, 0], h0)
-                            bin_hi[a, b, 1] = max(bin_hi[a, b, 1], h1)
-                            bin_hi[a, b, 2] = max(bin_hi[a, b, 2], h2)
+                        b0 = bin_of[k - slot0, 0]
+                        b1 = bin_of[k - slot0, 1]
+                        b2 = bin_of[k - slot0, 2]
+                        bin_count[0, b0] += 1
+                        bin_count[1, b1] += 1
+                        bin_count[2, b2] += 1
+                        grow_box(bin_box, b0, boxes, p)
+                        grow_box(bin_box, N_BINS + b1, boxes, p)
+                        grow_box(bin_box, 2 * N_BINS + b2, boxes, p)
 
                     # Sweep: SAH sum A_L N_L + A_R N_R at each bin boundary.
                     # Past an empty bin a boundary has the previous one's
@@ -243,24 +241,17 @@ def build_bvh_kernel(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, nod
                     for a in range(3):
                         if bin_scale[a] == 0.0:
                             continue
-                        x0 = y0 = z0 = np.inf
-                        x1 = y1 = z1 = -np.inf
+                        grown[2, :] = np.inf
                         m = 0
                         cost_right = 0.0
                         for b in range(N_BINS - 1, 0, -1):
                             c = bin_count[a, b]
                             if c:
                                 m += c
-                                x0 = min(x0, bin_lo[a, b, 0])
-                                y0 = min(y0, bin_lo[a, b, 1])
-                                z0 = min(z0, bin_lo[a, b, 2])
-                                x1 = max(x1, bin_hi[a, b, 0])
-                                y1 = max(y1, bin_hi[a, b, 1])
-                                z1 = max(z1, bin_hi[a, b, 2])
-                                cost_right = m * _half_area(x0, y0, z0, x1, y1, z1)
+                                grow_box(grown, 2, bin_box, a * N_BINS + b)
+                                cost_right = m * _row_area(grown, 2)
                             right_cost[b] = cost_right
-                        x0 = y0 = z0 = np.inf
-                        x1 = y1 = z1 = -np.inf
+                        grown[2, :] = np.inf
                         m = 0
                         for b in range(1, N_BINS):
                             # split between bins b-1 and b
@@ -268,15 +259,10 @@ def build_bvh_kernel(lo, hi, prim_ids, start, end, depth, max_leaf, node_lo, nod
                             if c == 0:
                                 continue
                             m += c
-                            x0 = min(x0, bin_lo[a, b - 1, 0])
-                            y0 = min(y0, bin_lo[a, b - 1, 1])
-                            z0 = min(z0, bin_lo[a, b - 1, 2])
-                            x1 = max(x1, bin_hi[a, b - 1, 0])
-                            y1 = max(y1, bin_hi[a, b - 1, 1])
-                            z1 = max(z1, bin_hi[a, b - 1, 2])
+                            grow_box(grown, 2, bin_box, a * N_BINS + b - 1)
                             if m == count:
                                 continue
-                            cost = m * _half_area(x0, y0, z0, x1, y1, z1) + right_cost[b]
+                            cost = m * _row_area(grown, 2) + right_cost[b]
                             if cost < best_cost:
                                 best_cost = cost
                                 best_axis = a
@@ -479,11 +465,24 @@ def outward(lo, hi):
     return out
 
 
+def box_rows(lo, hi):
+    """BOX boxes (lo, hi) (from ``outward``) as the builder's box rows,
+    (n, LANES): lo x, y, z, 0, -hi x, y, z, 0 (kernels/box8.py)."""
+    lo, hi = np.asarray(lo).reshape(-1, 3), np.asarray(hi).reshape(-1, 3)
+    if lo.shape != hi.shape:
+        raise ValueError(f"box arrays differ in shape: {lo.shape} vs {hi.shape}")
+    rows = np.zeros((len(lo), LANES), BOX)
+    rows[:, :3] = lo
+    rows[:, HALF:HALF + 3] = -hi
+    return rows
+
+
 @njit(**dict(BUILD, nogil=True))
-def box_bounds_kernel(v0, v1, v2, centre, radius, start, end, lo, hi):
-    """Rows [start, end) of ``outward(*prim_bounds(geo))`` (unified ids:
-    triangles, then spheres) in one pass, into BOX arrays lo, hi: the
-    float64 boxes are never stored.  nogil, so threads fill disjoint rows."""
+def box_bounds_kernel(v0, v1, v2, centre, radius, start, end, boxes):
+    """Rows [start, end) of ``box_rows(*outward(*prim_bounds(geo)))``
+    (unified ids: triangles, then spheres) in one pass, into ``boxes``:
+    the float64 boxes are never stored.  nogil, so threads fill disjoint
+    rows."""
     n_tris = v0.shape[0]
     for p in range(start, end):
         for a in range(3):
@@ -493,21 +492,23 @@ def box_bounds_kernel(v0, v1, v2, centre, radius, start, end, lo, hi):
             else:
                 low = centre[p - n_tris, a] - radius[p - n_tris]
                 high = centre[p - n_tris, a] + radius[p - n_tris]
-            lo[p, a] = _round_down(low) + np.float32(0.0)     # as outward(): no -0.0
-            hi[p, a] = _round_up(high) + np.float32(0.0)
+            boxes[p, a] = _round_down(low) + np.float32(0.0)     # as outward(): no -0.0
+            boxes[p, HALF + a] = -(_round_up(high) + np.float32(0.0))
+        boxes[p, HALF - 1] = 0.0
+        boxes[p, LANES - 1] = 0.0
 
 
 def box_bounds(geo, threads):
-    """``outward(*prim_bounds(geo))`` on ``threads`` threads, for big
-    meshes (small ones do not compile it).  At 4.2M triangles the two steps
-    took 0.25-0.76 s in one test, this 0.03-0.09 s: 200 MB of float64 boxes
-    are never made, nor their pages faulted in."""
+    """``box_rows(*outward(*prim_bounds(geo)))`` on ``threads`` threads,
+    for big meshes (small ones do not compile it).  At 4.2M triangles the
+    two steps took 0.25-0.76 s in one test, this 0.03-0.09 s: 200 MB of
+    float64 boxes are never made, nor their pages faulted in."""
     n = n_bounded(geo)
-    lo, hi = np.empty((n, 3), BOX), np.empty((n, 3), BOX)
+    boxes = np.empty((n, LANES), BOX)
     args = (geo.tri_v0, geo.tri_v1, geo.tri_v2, geo.sph_center, geo.sph_radius)
-    run_on_threads([functools.partial(box_bounds_kernel, *args, s, e, lo, hi)
+    run_on_threads([functools.partial(box_bounds_kernel, *args, s, e, boxes)
                     for s, e in runs(n, threads)])
-    return lo, hi
+    return boxes
 
 
 def _parallel_threads(n_prims, bvh_build):
@@ -523,7 +524,7 @@ def load_big(n_prims, bvh_build="sah", **_):
     will use it (Structure.load: compile time is not build time)."""
     if _parallel_threads(n_prims, bvh_build):
         rows = np.zeros((0, 3))
-        box_bounds_kernel(rows, rows, rows, rows, np.zeros(0), 0, 0, *outward(rows, rows))
+        box_bounds_kernel(rows, rows, rows, rows, np.zeros(0), 0, 0, np.empty((0, LANES), BOX))
 
 
 def build_bvh(lo, hi, max_leaf=MAX_LEAF):
@@ -538,11 +539,8 @@ def build_bvh(lo, hi, max_leaf=MAX_LEAF):
     """
     if np.asarray(lo).dtype != BOX or np.asarray(hi).dtype != BOX:
         lo, hi = outward(lo, hi)
-    lo = np.ascontiguousarray(lo).reshape(-1, 3)
-    hi = np.ascontiguousarray(hi).reshape(-1, 3)
-    if lo.shape != hi.shape:
-        raise ValueError(f"box arrays differ in shape: {lo.shape} vs {hi.shape}")
-    n = len(lo)
+    boxes = box_rows(lo, hi)
+    n = len(boxes)
     # np.empty at the bound (a binary tree over n primitives in non-empty
     # leaves has at most 2n - 1 nodes): the rows never written cost no
     # memory, and views of those written are returned, not copies.
@@ -552,7 +550,7 @@ def build_bvh(lo, hi, max_leaf=MAX_LEAF):
     prim_ids = np.arange(n)
     if n == 0:
         return (*nodes, prim_ids)
-    n_nodes, _, _ = build_bvh_kernel(lo, hi, prim_ids, 0, n, 0, int(max_leaf), *nodes, 0, 0,
+    n_nodes, _, _ = build_bvh_kernel(boxes, prim_ids, 0, n, 0, int(max_leaf), *nodes, 0, 0,
                                      _NO_TASKS)
     return tuple(a[:n_nodes] for a in nodes) + (prim_ids,)
 
@@ -588,14 +586,14 @@ _NO_FIRST = np.empty(0, np.int64)
 # one run of rows.
 
 
-def build_bvh_parallel(lo, hi, max_leaf, threads=None, split=SPLIT, refine=REFINE):
+def build_bvh_parallel(boxes, max_leaf, threads=None, split=SPLIT, refine=REFINE):
     """(node_lo, node_hi, node_start, node_count, prim_ids, links) of the
-    serial builder's tree over BOX boxes lo, hi, built on ``threads``
+    serial builder's tree over box rows ``boxes`` (box_rows), built on ``threads``
     threads (default: Numba's); ``links`` is collapse_bvh4's (root, top,
     top_first, n_inner) for rows laid out as above.  ``refine``: how many
     tasks may be split to even out the threads' shares."""
     threads = threads or numba.get_num_threads()
-    n = len(lo)
+    n = len(boxes)
     top = 2 * n
     # The top's rows hold its nodes and placeholders, at most the serial
     # tree's 2 n - 1, and three a split task (its root, two placeholders).
@@ -605,7 +603,7 @@ def build_bvh_parallel(lo, hi, max_leaf, threads=None, split=SPLIT, refine=REFIN
     node_count = nodes[3]
     prim_ids = np.arange(n)
     tasks = np.empty((n, 4), np.int64)
-    top_end, _, n_tasks = build_bvh_kernel(lo, hi, prim_ids, 0, n, 0, max_leaf, *nodes, top,
+    top_end, _, n_tasks = build_bvh_kernel(boxes, prim_ids, 0, n, 0, max_leaf, *nodes, top,
                                            max(n // split, 1), tasks)
     tasks = tasks[:n_tasks].copy()   # the (n, 4) bound goes
     split_to = {}   # a split task's placeholder row -> its root's row in the top
@@ -617,7 +615,7 @@ def build_bvh_parallel(lo, hi, max_leaf, threads=None, split=SPLIT, refine=REFIN
             break
         more = np.empty((2, 4), np.int64)
         split_to[row] = top_end
-        top_end, _, n_more = build_bvh_kernel(lo, hi, prim_ids, s, e, depth, max_leaf, *nodes,
+        top_end, _, n_more = build_bvh_kernel(boxes, prim_ids, s, e, depth, max_leaf, *nodes,
                                               top_end, e - s - 1, more)
         tasks = np.concatenate([np.delete(tasks, k, axis=0), more[:n_more]])
         queues = _plan(tasks, threads)
@@ -629,7 +627,7 @@ def build_bvh_parallel(lo, hi, max_leaf, threads=None, split=SPLIT, refine=REFIN
     def work(queue):
         for k in queue:
             s, e, depth = (int(x) for x in tasks[k, 1:])
-            ends[k] = build_bvh_kernel(lo, hi, prim_ids, s, e, depth, max_leaf, *nodes, 2 * s,
+            ends[k] = build_bvh_kernel(boxes, prim_ids, s, e, depth, max_leaf, *nodes, 2 * s,
                                        0, no_tasks)[0]
     run_on_threads([functools.partial(work, q) for q in queues])
     # A top node's children are rows of the top, or placeholders (count -1)
@@ -676,8 +674,9 @@ def build(geo, obj_ranges, bvh_build="sah", leaf_size=MAX_LEAF, **_):
     links = None
     threads = _parallel_threads(n_bounded(geo), bvh_build)
     if threads:
-        lo, hi = box_bounds(geo, threads)
-        *binary, links = build_bvh_parallel(lo, hi, int(leaf_size), threads)
+        boxes = box_bounds(geo, threads)
+        *binary, links = build_bvh_parallel(boxes, int(leaf_size), threads)
+        del boxes   # the boxes go before the wide tree is made: 32 bytes a primitive
     else:
         lo, hi = outward(*prim_bounds(geo))   # the float64 boxes go at once
         if BUILDERS[bvh_build] is None:
@@ -686,8 +685,9 @@ def build(geo, obj_ranges, bvh_build="sah", leaf_size=MAX_LEAF, **_):
             import importlib
             binary = importlib.import_module(BUILDERS[bvh_build]).build_binary(lo, hi,
                                                                                int(leaf_size))
+        del lo, hi
     node_lo, node_hi, node_start, node_count, prim_ids = binary
-    del lo, hi, binary        # the boxes go before the wide tree is made: 24 bytes a primitive
+    del binary
     node_box, node_child, node_count4 = collapse_bvh4(node_lo, node_hi, node_start, node_count,
                                                       links)
     return BVH(node_box=node_box, node_child=node_child, node_count=node_count4, prim_ids=prim_ids,
