@@ -110,8 +110,14 @@ def load_kernels(name_or_path, detail=None):
     """Seconds spent loading (or compiling) the kernels that load_scene
     will run for this scene, so that loading's time is not compile time
     (the command's statistics); 0.0 if it runs none.  Only a big teapot
-    has any: its tessellation's (scenes/teapot.py)."""
-    if str(name_or_path) != "teapot" or not _detail_ok(detail):
+    has any, built in or in a scene file: its tessellation's
+    (scenes/teapot.py)."""
+    if scene_kind(name_or_path) == "toml":
+        from .io.scenefile import teapot_details
+        detail = max((d for d in teapot_details(name_or_path) if _detail_ok(d)), default=None)
+    elif str(name_or_path) != "teapot":
+        return 0.0
+    if not _detail_ok(detail):
         return 0.0
     from .scenes.teapot import load_kernels
     return load_kernels(detail)

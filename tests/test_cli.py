@@ -123,14 +123,35 @@ def test_threads_bound_a_big_teapots_tessellation_too(run, monkeypatch, command)
     assert used[-1] == 1     # the scene's (load_kernels' own warm-up runs on one anyway)
 
 
-def test_a_big_teapots_tessellation_kernels_count_as_compile_time(run, monkeypatch):
+TEAPOT_FILE = """
+[camera]
+position = [0, 2, 8]
+look_at = [0, 0.5, 0]
+
+[[objects]]
+type = "teapot"
+detail = 2
+"""
+
+
+@pytest.mark.parametrize("scene", ["builtin", "file"])
+def test_a_big_teapots_tessellation_kernels_count_as_compile_time(run, monkeypatch, tmp_path,
+                                                                   scene):
     """Their load (here a stand-in taking 0.5 s) goes to compile_s, not
-    load_s; KERNEL_MIN lowered so that --detail 2 takes the kernels."""
+    load_s, for the built-in teapot and a scene file's; KERNEL_MIN lowered
+    so that detail 2 takes the kernels."""
     import time
 
     import raytrace.scenes.teapot as teapot_module
     teapot_module.load_kernels(125)    # compiled (or loaded) now: not in load_s below
     monkeypatch.setattr(teapot_module, "KERNEL_MIN", 256)
     monkeypatch.setattr(teapot_module, "load_kernels", lambda detail: time.sleep(0.5) or 0.5)
-    stats = json.loads(run("teapot", "--detail", "2", "--json", *SMALL).output)
+    if scene == "file":
+        (tmp_path / "pot.toml").write_text(TEAPOT_FILE)
+        args = [str(tmp_path / "pot.toml")]
+    else:
+        args = ["teapot", "--detail", "2"]
+    r = run(*args, "--json", *SMALL)
+    assert r.exit_code == 0, r.output
+    stats = json.loads(r.output)
     assert stats["time"]["compile_s"] >= 0.5 > stats["time"]["load_s"]

@@ -6,7 +6,7 @@ import pytest
 from raytrace.driver import RenderOptions, light_buffers, validate
 from raytrace.errors import RaytraceError
 from raytrace.flatten import flatten
-from raytrace.io.scenefile import read_scene_file
+from raytrace.io.scenefile import read_scene_file, teapot_details
 from raytrace.load import load_scene
 from raytrace.scene import Mesh, Plane, Sphere
 from raytrace.scenes.assets import assets_dir
@@ -170,3 +170,22 @@ def test_unreadable_scene_files(tmp_path):
         read_scene_file(bad)
     with pytest.raises(RaytraceError, match="nope.toml: no such file"):
         read_scene_file(tmp_path / "nope.toml")
+
+
+def test_teapot_details_read_ahead_and_forgive_a_bad_file(tmp_path):
+    """The details the command loads tessellation kernels for before the
+    scene is read; a file it cannot read gives none (reading the scene
+    then names the problem)."""
+    good = tmp_path / "good.toml"
+    good.write_text('[camera]\nposition = [0, 1, 5]\nlook_at = [0, 0, 0]\n'
+                    '[[objects]]\ntype = "teapot"\ndetail = 130\n'
+                    '[[objects]]\ntype = "sphere"\nradius = 1\n'
+                    '[[objects]]\ntype = "teapot"\n')
+    assert teapot_details(good) == (130, 4)
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[camera\n")
+    assert teapot_details(bad) == ()
+    assert teapot_details(tmp_path / "missing.toml") == ()
+    odd = tmp_path / "odd.toml"
+    odd.write_text('objects = "teapot"\n')
+    assert teapot_details(odd) == ()

@@ -63,6 +63,21 @@ def parse_toml(path):
         raise RaytraceError(f"{path}: nested too deeply to be a scene file") from None
 
 
+def teapot_details(path):
+    """The detail each of the file's teapots asks for, as written (not yet
+    checked): load.load_kernels loads the big ones' kernels ahead, as
+    compile time.  () for a file that cannot be read; reading it for the
+    scene then names the problem."""
+    try:
+        objects = parse_toml(path).get("objects", [])
+    except RaytraceError:
+        return ()
+    if not isinstance(objects, list):
+        return ()
+    return tuple(o.get("detail", DETAIL.default) for o in objects
+                 if isinstance(o, dict) and o.get("type") == "teapot")
+
+
 def read_scene_file(path):
     """A Scene from a TOML scene file; mesh paths are relative to it."""
     try:
