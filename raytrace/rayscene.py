@@ -344,11 +344,11 @@ class RayScene:
 
     def _closest_points(self, q):
         p = self._built()
-        from .kernels.points import closest_points
+        from .kernels.points import CHUNK, closest_points
         n = len(q)
         point, prim = np.empty((n, 3)), np.empty(n, np.int64)
         u, v, d2 = np.empty(n), np.empty(n), np.empty(n)
-        closest_points(p.geo, p.bvh(), q, point, prim, u, v, d2, _blocks(n), _clock())
+        closest_points(p.geo, p.bvh(), q, point, prim, u, v, d2, _blocks(n, CHUNK), _clock())
         gid, face = p.ids(prim)
         tri = (prim >= 0) & (prim < p.n_tris)
         return {"point": point, "distance": np.sqrt(d2), "geometry_id": gid, "prim_id": face,
@@ -647,13 +647,14 @@ def kernel_array(a, dtype=np.float64):
     return a
 
 
-def _blocks(n):
+def _blocks(n, chunk=None):
     """Counter rows: one per thread (kernels/cast.py: each takes chunks of
-    rays by ticket), fewer when there are fewer chunks than threads."""
+    rays, or of points, by ticket), fewer when there are fewer chunks than
+    threads.  One block runs in the calling thread, without waking Numba's."""
     import numba
 
     from .kernels.cast import CHUNK
-    return max(1, min(numba.get_num_threads(), -(-n // CHUNK)))
+    return max(1, min(numba.get_num_threads(), -(-n // (chunk or CHUNK))))
 
 
 def _counter_rows(n):

@@ -116,6 +116,32 @@ def test_every_structure_same_answers_with_random_bounds(seed):
         assert np.array_equal(got[4][hit], np.ones(hit.sum(), bool))
 
 
+
+@pytest.mark.parametrize("accel", ["bvh", "grid"])
+def test_one_block_in_the_calling_thread_answers_as_the_threads_do(monkeypatch, accel):
+    """A query of one block runs without Numba's threads (kernels/cast.py):
+    every query, forced into one block and into three, gives the same
+    answers and the same counters."""
+    from raytrace import rayscene
+    rng = np.random.default_rng(5)
+    v, f = rng.normal(size=(90, 3)), rng.integers(0, 90, size=(60, 3))
+    n = 2500     # three chunks of rays; 40 of points (kernels/points.py)
+    o, d, q = rng.normal(size=(n, 3)) * 3, rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
+    runs = {}
+    for blocks in (1, 3):
+        monkeypatch.setattr(rayscene, "_blocks", lambda n, chunk=None, k=blocks: k)
+        s = RayScene((v, f), accel=accel)
+        h = s.cast_rays(o, d)
+        hits = s.list_intersections(o, d)
+        runs[blocks] = ([h[k] for k in h.FIELDS] + [s.occluded(o, d), s.count_intersections(o, d)]
+                        + [hits[k] for k in ("ray_splits", "t", "prim_id", "u", "v")]
+                        + list(s.closest_points(q).values()), h.stats, hits.stats)
+    one, three = runs[1], runs[3]
+    assert len(one[0]) == len(three[0])
+    for a, b in zip(one[0], three[0]):
+        assert np.array_equal(a, b, equal_nan=True)
+    assert one[1:] == three[1:] and one[1]["prim_tests"] > 0
+
 def test_same_answers_as_the_one_call_functions():
     rng = np.random.default_rng(4)
     v, f = rng.normal(size=(30, 3)), rng.integers(0, 30, size=(20, 3))

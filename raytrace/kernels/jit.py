@@ -25,6 +25,10 @@ from numba import njit
 
 JIT = dict(cache=True, error_model="numpy", _nrt=False, forceinline=True,
            no_cpython_wrapper=True, no_cfunc_wrapper=True)
+# A thread's share of a batch kernel (a loop over chunks of rays or points
+# taken by ticket): called once a thread a call, so it stays a call, and a
+# parallel kernel and its one-thread path share one compiled copy of it.
+BLOCK = dict(JIT, forceinline=False)
 # Kernels called from Python: the parallel batch kernels, and the serial
 # ray validation.
 ENTRY = dict(JIT, no_cpython_wrapper=False)

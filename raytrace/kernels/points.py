@@ -11,7 +11,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..accel.bvh import MAX_DEPTH, WIDTH
-from .jit import JIT, PARALLEL
+from .jit import BLOCK, JIT, PARALLEL
 from .lowlevel import frame_array, take_ticket
 
 STACK_SIZE = 3 * MAX_DEPTH + 4
@@ -147,7 +147,7 @@ def closest_point(geo, bvh, qx, qy, qz):
     return best
 
 
-@njit(**JIT)
+@njit(**BLOCK)
 def _points_block(geo, bvh, points, out_point, out_prim, out_u, out_v, out_d2, clock):
     n = points.shape[0]
     n_chunks = (n + CHUNK - 1) // CHUNK
@@ -171,5 +171,8 @@ def closest_points(geo, bvh, points, out_point, out_prim, out_u, out_v, out_d2, 
     """The surfaces' closest point to each query point, its primitive, its
     barycentric weights (triangles) and the squared distance; n_blocks
     threads take chunks of points by ticket from clock (0 at the call)."""
+    if n_blocks == 1:     # one chunk: in this thread, as kernels/cast.py's kernels
+        _points_block(geo, bvh, points, out_point, out_prim, out_u, out_v, out_d2, clock)
+        return
     for _block in prange(n_blocks):
         _points_block(geo, bvh, points, out_point, out_prim, out_u, out_v, out_d2, clock)
