@@ -96,3 +96,19 @@ def test_bins_are_the_scalar_bins():
         assert np.array_equal(got, want)
         assert got.min() >= 0 and got.max() <= N_BINS - 1
     assert (got[:, 1] == 0).all()       # an axis not binned
+
+
+def test_bins_of_centroids_beyond_float32_are_defined():
+    """A centroid of -inf + inf (NaN) takes bin 0 and one at +inf the last,
+    whatever the scale: the conversion is clamped first (LLVM's fptosi of
+    NaN or inf is poison).  Finite centroids keep the scalar bins."""
+    lo, hi = _awkward_boxes(np.random.default_rng(3), 400)
+    finite = np.isfinite(lo).all(axis=1) & np.isfinite(hi).all(axis=1)
+    cen = 0.5 * (lo[finite].astype(np.float64) + hi[finite])
+    origin = cen.min(axis=0)
+    scale = N_BINS / (cen.max(axis=0) - origin)
+    got = _find_all(box_rows(lo, hi), origin, scale)
+    assert np.array_equal(got[finite], _scalar_bins(lo[finite], hi[finite], origin, scale))
+    assert (got[-3:] == 0).all()                       # -1e39 .. 1e39: NaN on every axis
+    assert (got[-5:-3, 0] == N_BINS - 1).all()         # 1e39 .. 2e39 on x: +inf
+    assert got.min() >= 0 and got.max() <= N_BINS - 1

@@ -85,10 +85,10 @@ def grow_centroids(typingctx, dst, i, src, k):
 def find_bins(typingctx, bin_of, row, boxes, p, ox, oy, oz, sx, sy, sz, last):
     """bin_of[row, a] = the bin of box row p's centroid on axis a, for the
     3 axes at once: min(int((0.5 (lo + hi) - origin) * scale), last), or 0
-    where the axis's scale is 0 (not binned).  Lane for lane the scalar
-    form's arithmetic (lo + hi in float32, the rest in float64, truncated
-    to int64), so the bins are the same; the scalar form cost about a
-    third of the SAH build (1M triangles)."""
+    where the axis's scale is 0 (not binned) or the centroid is NaN.  Lane
+    for lane the scalar form's arithmetic (lo + hi in float32, the rest in
+    float64, truncated to int64), so the bins are the same; the scalar form
+    cost about a third of the SAH build (1M triangles)."""
     if not (_rows_ok(boxes) and isinstance(bin_of, types.Array) and bin_of.dtype == types.int8
             and bin_of.ndim == 2 and bin_of.layout == "C"
             and all(isinstance(x, types.Float) for x in (ox, oy, oz, sx, sy, sz))
@@ -115,12 +115,19 @@ def find_bins(typingctx, bin_of, row, boxes, p, ox, oy, oz, sx, sy, sz, last):
         scale = lanes(args[7:10], sig.args[7:10])
         centre = builder.fmul(builder.fpext(builder.fsub(lo, nhi), vec),
                               ir.Constant(vec, [0.5] * HALF))
-        k = builder.fptosi(builder.fmul(builder.fsub(centre, origin), scale), i64v)
-        last = builder.insert_element(ir.Constant(i64v, ir.Undefined),
-                                      context.cast(builder, args[10], sig.args[10], types.int64),
-                                      ir.Constant(i32, 0))
+        # Clamped to [0, last] before the conversion, so it is defined for
+        # every value (LLVM's fptosi of NaN or of an out-of-range value is
+        # poison): a NaN centroid (a box from -inf to +inf) takes bin 0, as
+        # x86's conversion gave it; any finite value, the bin truncation
+        # then min(., last) gives.
+        x = builder.fmul(builder.fsub(centre, origin), scale)
+        last = builder.sitofp(context.cast(builder, args[10], sig.args[10], types.int64), f64)
+        last = builder.insert_element(ir.Constant(vec, ir.Undefined), last, ir.Constant(i32, 0))
         last = builder.shuffle_vector(last, last, ir.Constant(ir.VectorType(i32, HALF), [0] * HALF))
-        k = builder.select(builder.icmp_signed("<", last, k), last, k)
+        x = builder.select(builder.fcmp_ordered(">", x, ir.Constant(vec, [0.0] * HALF)), x,
+                           ir.Constant(vec, [0.0] * HALF))
+        x = builder.select(builder.fcmp_ordered("<", x, last), x, last)
+        k = builder.fptosi(x, i64v)
         k = builder.select(builder.fcmp_ordered("==", scale, ir.Constant(vec, [0.0] * HALF)),
                            ir.Constant(i64v, [0] * HALF), k)
         a = context.make_array(sig.args[0])(context, builder, args[0])
