@@ -118,3 +118,25 @@ def test_scaling_table_reports_size_memory_and_whole_command():
         assert col in header
     assert len(md.splitlines()) == 4 + 2 * len(bench.HIERARCHICAL) + 2
     assert "details above 2 (3) one render each" in md
+
+
+def test_payload_is_what_a_worker_unpickles():
+    """bench/payload.py's size is the pickled Setup.payload() a Dask worker
+    receives: it holds every triangle's corners and the BVH, and unpickles
+    to the same arrays."""
+    import pickle
+
+    from click.testing import CliRunner
+
+    import payload
+    import raytrace
+    from raytrace.driver import options_with, prepare
+    out = CliRunner().invoke(payload.main, ["teapot", "--detail", "4"]).output
+    setup = prepare(raytrace.load_scene("teapot", detail=4),
+                    options_with(None, dict(accel="bvh", shadows="soft")), drop_meshes=True)
+    data = pickle.dumps(setup.payload(), protocol=pickle.HIGHEST_PROTOCOL)
+    n = setup.geo.tri_v0.shape[0]
+    assert f"{n:,} triangles, payload {len(data) / 1e6:,.1f} MB" in out
+    assert len(data) > n * 72 + setup.acc.node_box.nbytes      # corners and node boxes
+    geo = pickle.loads(data)[0]
+    assert np.array_equal(geo.tri_v0, setup.geo.tri_v0)
