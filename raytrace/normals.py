@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from .flatten import unit_rows
+from .flatten import cross_rows, unit_rows
 from .options import CREASE
 
 DEFAULT_CREASE = CREASE.default   # degrees; why 35: docs/design.md, "Smooth shading"
@@ -35,10 +35,7 @@ def _face_frame(vertices, faces):
     (atan2(0, 0) = 0)."""
     v0, v1, v2 = (vertices[faces[:, k]] for k in range(3))
     e1, e2, e3 = v1 - v0, v2 - v0, v2 - v1
-    cross = np.empty_like(e1)
-    for k in range(3):
-        i, j = (k + 1) % 3, (k + 2) % 3
-        cross[:, k] = e1[:, i] * e2[:, j] - e1[:, j] * e2[:, i]
+    cross = cross_rows(e1, e2)
     area2 = np.sqrt(np.einsum("ij,ij->i", cross, cross))
     dots = (np.einsum("ij,ij->i", e1, e2), -np.einsum("ij,ij->i", e1, e3),
             np.einsum("ij,ij->i", e2, e3))

@@ -185,8 +185,10 @@ class _Prepared:
             a, b, c = g.tri_v0[p], g.tri_v1[p], g.tri_v2[p]
             uu, vv = u[tri, None], v[tri, None]
             point[tri] = (1.0 - uu - vv) * a + uu * b + vv * c
-            from .flatten import unit_rows
-            normal[tri] = unit_rows(np.cross(b - a, c - a))
+            from .flatten import cross_rows, unit_rows
+            normal[tri] = unit_rows(cross_rows(b - a, c - a))
+        if n_sph + g.pl_normal.shape[0] == 0:    # triangles only: the usual scene
+            return normal, point
         sph = np.flatnonzero((prim >= n_tris) & (prim < n_tris + n_sph))
         if len(sph):
             k = prim[sph] - n_tris

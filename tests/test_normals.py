@@ -101,3 +101,15 @@ def test_shading_normals_choices():
     v, f, n = shading_normals(box.vertices, box.faces, normals=given)
     assert len(v) == 8 and np.allclose(np.linalg.norm(n, axis=1), 1)
     assert len(shading_normals(box.vertices, box.faces)[0]) == 24
+
+
+def test_cross_rows_are_np_cross_bit_for_bit():
+    from raytrace.flatten import cross_rows
+    rng = np.random.default_rng(7)
+    a = rng.normal(size=(500, 3)) * 10.0 ** rng.integers(-150, 150, (500, 1))
+    b = rng.normal(size=(500, 3)) * 10.0 ** rng.integers(-150, 150, (500, 1))
+    a[:5] = 0.0
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+        want, got = np.cross(a, b), cross_rows(a, b)
+    assert np.array_equal(got.view(np.int64), want.view(np.int64))
+    assert np.array_equal(cross_rows(a[:1], b).view(np.int64), np.cross(a[:1], b).view(np.int64))
