@@ -250,7 +250,39 @@ def run_case(detail, width, height, runs, peer_list):
             "s": s, "mrays_per_s": n_rays["primary"] / s / 1e6,
             "ratio_ours_api": (n_rays["primary"] / med[("primary", "api")]) / (n_rays["primary"] / s)}
         result["peers"][p["name"]] = entry
+    result["small_calls"] = small_calls(scene, {p["name"]: (p, peer_scenes[p["name"]][0])
+                                                for p in peer_list},
+                                        (po, pd), (so, sd, stm))
     return result
+
+
+SMALL_CALLS = (1, 1_024)    # rays a call: one, and one chunk (kernels/cast.py: one thread)
+
+
+def small_calls(scene, peer_scenes, primary, shadow, calls=200):
+    """Microseconds a call of a few rays (medians of ``calls`` calls, ours
+    and each peer's alternated a call at a time): what a user pays who casts
+    small batches, where a call's fixed costs (validation, thread start,
+    results) outweigh its rays."""
+    out = {}
+    for n in SMALL_CALLS:
+        o, d = (np.ascontiguousarray(a[:n]) for a in primary)
+        so, sd, st = (np.ascontiguousarray(a[:n]) for a in shadow)
+        tasks = {("ours", "primary"): lambda: scene.cast_rays(o, d),
+                 ("ours", "shadow"): lambda: scene.occluded(so, sd, t_max=st)}
+        for name, (p, sc) in peer_scenes.items():
+            o32, d32, so32, sd32, st32 = (a.astype(np.float32) for a in (o, d, so, sd, st))
+            tasks[(name, "primary")] = (lambda p=p, sc=sc, o=o32, d=d32: p["closest"](sc, o, d))
+            tasks[(name, "shadow")] = (lambda p=p, sc=sc, o=so32, d=sd32, t=st32:
+                                       p["occluded"](sc, o, d, t))
+        times = {k: [] for k in tasks}
+        for fn in tasks.values():
+            fn()
+        for _ in range(calls):
+            for k, fn in tasks.items():
+                times[k] += _time(fn, 1)
+        out[n] = {f"{who} {kind}": median(ts) * 1e6 for (who, kind), ts in times.items()}
+    return out
 
 
 def _read(fields, names):
@@ -435,6 +467,14 @@ def markdown(res):
                          f"{fmt_g(e['build_s'] * 1e3)} ms (medians of the rounds; one build "
                          f"each before them: ours {fmt_g(case['ours_first_build_s'] * 1e3)} ms, {name} "
                          f"{fmt_g(e['first_build_s'] * 1e3)} ms).")
+    for case in res["cases"]:
+        for n, us in case.get("small_calls", {}).items():
+            peers_us = "; ".join(f"{name} {fmt_g(us[name + ' primary'])} and "
+                                 f"{fmt_g(us[name + ' shadow'])} us" for name in case["peers"])
+            lines.append(f"- {case['triangles']:,} triangles, calls of {int(n):,} "
+                         f"ray{'s' if int(n) > 1 else ''} (medians of 200, alternated): "
+                         f"RayScene.cast_rays {fmt_g(us['ours primary'])} us, .occluded "
+                         f"{fmt_g(us['ours shadow'])} us; {peers_us}.")
     q = res.get("queries")
     if q:
         lines += ["", f"Queries on a closed mesh ({q['triangles']:,} triangles, a bumpy icosphere), "
