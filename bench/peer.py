@@ -268,8 +268,8 @@ def small_calls(scene, peer_scenes, primary, shadow, calls=200):
     for n in SMALL_CALLS:
         o, d = (np.ascontiguousarray(a[:n]) for a in primary)
         so, sd, st = (np.ascontiguousarray(a[:n]) for a in shadow)
-        tasks = {("ours", "primary"): lambda: scene.cast_rays(o, d),
-                 ("ours", "shadow"): lambda: scene.occluded(so, sd, t_max=st)}
+        tasks = {("ours", "primary"): lambda o=o, d=d: scene.cast_rays(o, d),
+                 ("ours", "shadow"): lambda so=so, sd=sd, st=st: scene.occluded(so, sd, t_max=st)}
         for name, (p, sc) in peer_scenes.items():
             o32, d32, so32, sd32, st32 = (a.astype(np.float32) for a in (o, d, so, sd, st))
             tasks[(name, "primary")] = (lambda p=p, sc=sc, o=o32, d=d32: p["closest"](sc, o, d))

@@ -126,9 +126,9 @@ def test_payload_is_what_a_worker_unpickles():
     to the same arrays."""
     import pickle
 
+    import payload
     from click.testing import CliRunner
 
-    import payload
     import raytrace
     from raytrace.driver import options_with, prepare
     out = CliRunner().invoke(payload.main, ["teapot", "--detail", "4"]).output
