@@ -20,10 +20,10 @@ threads still sweep the rays together.
 
 A call of one chunk or less (one counter row) runs in the calling thread:
 waking Numba's workqueue threads cost ~0.14 ms a call here, where one
-shadow ray costs ~0.06 us (1k teapot, RayScene.occluded: one ray 182 -> 18
-us a call, 1,024 rays 260 -> 86 us).  A thread's loop (``*_block``) is
-compiled as a function of its own (``BLOCK``), so the kernel's two paths
-share one copy of it and a first call compiles no more than before.
+shadow ray costs ~0.06 us (1k teapot, `bench.sh --sections peer`'s small
+calls of RayScene.occluded: one ray 197 -> 21 us, 1,024 rays 243 -> 71
+us).  A thread's loop (``*_block``) is compiled as a function of its own
+(``BLOCK``), so the kernel's two paths share one copy of it.
 
 Rays are checked as they are read (``ray_ok``): a bad one is not traced,
 its output is a miss, and it is counted in column BAD_RAYS of the counter
