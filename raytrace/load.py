@@ -28,7 +28,9 @@ def scene_kind(name):
 
 def unknown_scene_message(name):
     from .scenes.builtin import BUILTIN
-    return (f"unknown scene {str(name)!r} (built-in scenes: {', '.join(sorted(BUILTIN))}; "
+    what = (f"{name}: is a directory, not a scene or mesh file" if Path(str(name)).is_dir()
+            else f"unknown scene {str(name)!r}")
+    return (f"{what} (built-in scenes: {', '.join(sorted(BUILTIN))}; "
             f"or a .toml scene file, or a mesh file: {', '.join(MESH_EXTENSIONS)})")
 
 

@@ -84,6 +84,12 @@ def test_usage_errors(run, tmp_path, house, args, text):
     assert text in line
 
 
+def test_a_directory_is_named_as_one(run, tmp_path):
+    (tmp_path / "meshes").mkdir()
+    line = one_error_line(run("meshes", *SMALL), tmp_path, code=2)
+    assert line.startswith("Error: meshes: is a directory, not a scene or mesh file"), line
+
+
 def test_bad_mesh_files(run, tmp_path):
     d = tmp_path
     for name, (data, _) in bad_mesh_files(tmp_path / "..").items():
