@@ -25,6 +25,11 @@ calls of RayScene.occluded: one ray 197 -> 21 us, 1,024 rays 243 -> 71
 us).  A thread's loop (``*_block``) is compiled as a function of its own
 (``BLOCK``), so the kernel's two paths share one copy of it.
 
+Closest and any hit take the rays PACKET at a time: a structure with
+packet traversals (the BVH, kernels/bvh_packet.py) traces neighbouring rays
+together where they can go so, each ray getting the answer it gets alone;
+the rest, and every other structure, go one ray at a time.
+
 Rays are checked as they are read (``ray_ok``): a bad one is not traced,
 its output is a miss, and it is counted in column BAD_RAYS of the counter
 rows, after the declared counters, so the Python layer names the problem
@@ -36,29 +41,15 @@ Each kernel is compiled once per structure (query.py), on first use.
 import numpy as np
 from numba import njit, prange
 
-from ..io.mesh import MAX_COORD
 from .counters import N_COUNTERS
 from .jit import BLOCK, JIT, PARALLEL
-from .lowlevel import frame_array, take_rows, take_ticket
-from .query import closest_hit, count_hits, list_hits, occluded
-from .ray import make_crossing_ray, make_listing_ray, make_ray, no_hit
+from .lowlevel import PACKET, frame_array, take_rows, take_ticket
+from .query import closest_hit, closest_packet, count_hits, list_hits, occluded, occluded_packet
+from .ray import make_crossing_ray, make_listing_ray, make_ray, no_hit, ray_ok
 
 CHUNK = 1024
 BAD_RAYS = N_COUNTERS   # counter rows have N_COUNTERS + 1 columns
 COLUMNS = N_COUNTERS + 1
-
-
-@njit(**JIT)
-def ray_ok(origins, dirs, t_min, t_max, i):
-    """Whether ray i's origin and direction components are finite and within
-    MAX_COORD, its direction is not zero, and 0 <= t_min < t_max (t_max may
-    be inf).  Comparisons are written so that NaN fails them."""
-    ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
-    dx, dy, dz = dirs[i, 0], dirs[i, 1], dirs[i, 2]
-    return ((abs(ox) <= MAX_COORD) & (abs(oy) <= MAX_COORD) & (abs(oz) <= MAX_COORD)
-            & (abs(dx) <= MAX_COORD) & (abs(dy) <= MAX_COORD) & (abs(dz) <= MAX_COORD)
-            & ((dx != 0.0) | (dy != 0.0) | (dz != 0.0))
-            & (t_min[i] >= 0.0) & (t_min[i] < t_max[i]))
 
 
 @njit(**JIT)
@@ -74,16 +65,22 @@ def _closest_block(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u
     n_chunks = (n + CHUNK - 1) // CHUNK
     c = take_ticket(clock)
     while c < n_chunks:
-        for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
-            if ray_ok(origins, dirs, t_min, t_max, i):
-                hit = closest_hit(geo, acc, _ray(origins, dirs, t_min, i), t_max[i], cnt)
-            else:
-                cnt[BAD_RAYS] += 1
-                hit = no_hit()
-            out_t[i] = hit.t
-            out_prim[i] = hit.prim
-            out_u[i] = hit.u
-            out_v[i] = hit.v
+        end = min(n, (c + 1) * CHUNK)
+        for i0 in range(c * CHUNK, end, PACKET):
+            m = min(PACKET, end - i0)
+            if closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_t, out_prim,
+                              out_u, out_v, cnt):
+                continue
+            for i in range(i0, i0 + m):
+                if ray_ok(origins, dirs, t_min, t_max, i):
+                    hit = closest_hit(geo, acc, _ray(origins, dirs, t_min, i), t_max[i], cnt)
+                else:
+                    cnt[BAD_RAYS] += 1
+                    hit = no_hit()
+                out_t[i] = hit.t
+                out_prim[i] = hit.prim
+                out_u[i] = hit.u
+                out_v[i] = hit.v
         c = take_ticket(clock)
 
 
@@ -93,12 +90,17 @@ def _occluded_block(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt, clock):
     n_chunks = (n + CHUNK - 1) // CHUNK
     c = take_ticket(clock)
     while c < n_chunks:
-        for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
-            if ray_ok(origins, dirs, t_min, t_max, i):
-                out_hit[i] = occluded(geo, acc, _ray(origins, dirs, t_min, i), t_max[i], cnt)
-            else:
-                cnt[BAD_RAYS] += 1
-                out_hit[i] = False
+        end = min(n, (c + 1) * CHUNK)
+        for i0 in range(c * CHUNK, end, PACKET):
+            m = min(PACKET, end - i0)
+            if occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit, cnt):
+                continue
+            for i in range(i0, i0 + m):
+                if ray_ok(origins, dirs, t_min, t_max, i):
+                    out_hit[i] = occluded(geo, acc, _ray(origins, dirs, t_min, i), t_max[i], cnt)
+                else:
+                    cnt[BAD_RAYS] += 1
+                    out_hit[i] = False
         c = take_ticket(clock)
 
 

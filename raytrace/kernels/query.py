@@ -34,6 +34,19 @@ def register(layout, closest, any_hit, all_hits):
     _TRAVERSALS[layout] = (closest, any_hit, all_hits)
 
 
+# layout class -> (closest, occluded): compiled functions tracing a packet
+# of neighbouring rays together (kernels/bvh_packet.py), for the
+# structures that have them.
+_PACKETS = {}
+
+
+def register_packets(layout, closest, occluded):
+    """Give ``layout`` packet traversals: (geo, acc, origins, dirs, t_min,
+    t_max, i0, m, outputs..., cnt) -> whether rays i0 .. i0 + m - 1 went
+    as a packet (if not, nothing is written)."""
+    _PACKETS[layout] = (closest, occluded)
+
+
 def _traversal(acc):
     cls = getattr(acc, "instance_class", None)
     if cls is not None and cls not in _TRAVERSALS:
@@ -116,4 +129,65 @@ def _occluded(geo, acc, ray, t_max, cnt):
         if planes_occluded(geo, ray, t_max, cnt):
             return True
         return any_hit(geo, acc, ray, t_max, cnt).prim >= 0
+    return impl
+
+
+def closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_t, out_prim, out_u, out_v,
+                   cnt):
+    """Closest hits of rays i0 .. i0 + m - 1 as one packet, if the
+    structure traces packets and the rays can go as one; returns whether
+    they did (if not, nothing is written).  Compiled code only."""
+    raise NotImplementedError("compiled code only")
+
+
+def occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit, cnt):
+    """occluded() for rays i0 .. i0 + m - 1 as one packet, as
+    closest_packet.  Compiled code only."""
+    raise NotImplementedError("compiled code only")
+
+
+def _packets(acc):
+    """The layout's packet traversals, or None.  They live beside its
+    traversal, in ``kernels/<name>_packet.py`` (which imports the
+    traversal's module, so that module cannot import it), loaded here."""
+    _traversal(acc)
+    cls = acc.instance_class
+    if cls not in _PACKETS:
+        module = cls.__module__.replace(".accel.", ".kernels.", 1) + "_packet"
+        try:
+            importlib.import_module(module)
+        except ModuleNotFoundError as e:
+            if e.name != module:
+                raise
+    return _PACKETS.get(cls)
+
+
+@overload(closest_packet, jit_options=OVERLOAD)
+def _closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_t, out_prim, out_u, out_v,
+                    cnt):
+    packets = _packets(acc)
+    if packets is None:
+        def impl(geo, acc, origins, dirs, t_min, t_max, i0, m, out_t, out_prim, out_u, out_v,
+                 cnt):
+            return False
+        return impl
+    closest = packets[0]
+
+    def impl(geo, acc, origins, dirs, t_min, t_max, i0, m, out_t, out_prim, out_u, out_v, cnt):
+        return closest(geo, acc, origins, dirs, t_min, t_max, i0, m, out_t, out_prim, out_u,
+                       out_v, cnt)
+    return impl
+
+
+@overload(occluded_packet, jit_options=OVERLOAD)
+def _occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit, cnt):
+    packets = _packets(acc)
+    if packets is None:
+        def impl(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit, cnt):
+            return False
+        return impl
+    occluded = packets[1]
+
+    def impl(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit, cnt):
+        return occluded(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit, cnt)
     return impl

@@ -5,6 +5,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from ..io.mesh import MAX_COORD
 from .jit import JIT
 
 # A ray with the per-ray constants every test along it shares: the inverse
@@ -93,3 +94,16 @@ def closer(t, p, best):
     """Canonical order of hits: by distance, then by primitive id, so the
     answer does not depend on the order a structure tests primitives in."""
     return t < best.t or (t == best.t and p < best.prim)
+
+
+@njit(**JIT)
+def ray_ok(origins, dirs, t_min, t_max, i):
+    """Whether ray i's origin and direction components are finite and within
+    MAX_COORD, its direction is not zero, and 0 <= t_min < t_max (t_max may
+    be inf).  Comparisons are written so that NaN fails them."""
+    ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
+    dx, dy, dz = dirs[i, 0], dirs[i, 1], dirs[i, 2]
+    return ((abs(ox) <= MAX_COORD) & (abs(oy) <= MAX_COORD) & (abs(oz) <= MAX_COORD)
+            & (abs(dx) <= MAX_COORD) & (abs(dy) <= MAX_COORD) & (abs(dz) <= MAX_COORD)
+            & ((dx != 0.0) | (dy != 0.0) | (dz != 0.0))
+            & (t_min[i] >= 0.0) & (t_min[i] < t_max[i]))
