@@ -540,10 +540,30 @@ def _interval_end(name, value, n):
     except (TypeError, ValueError) as exc:
         raise RaytraceError(f"{name}: not convertible to float64 ({exc})") from None
     if a.ndim == 0:
-        return np.full(n, float(a))
+        return _filled(n, float(a))
     if a.shape != (n,):
         raise RaytraceError(f"{name}: expected a number or shape ({n},), got shape {a.shape}")
     return kernel_array(a)
+
+
+# Bounds given as numbers, filled out for the kernels and kept for the next
+# call with the same size: a fresh (n,) array faults its pages in on first
+# write (~0.4 ms a MB here), 0.5 ms of a 13 ms call of 307,200 rays at 118k
+# triangles.  The kernels only read them, and they are never handed out.
+_FILLED = {}
+_FILLED_BYTES = 32 << 20
+
+
+def _filled(n, value):
+    key = (n, value.hex())    # by bits: -0.0 is not 0.0, and NaN is NaN
+    a = _FILLED.get(key)
+    if a is None:
+        a = np.full(n, value)
+        if a.nbytes <= _FILLED_BYTES // 4:
+            if len(_FILLED) >= 4:
+                _FILLED.clear()
+            _FILLED[key] = a
+    return a
 
 
 def _rays(origins, directions, t_min, t_max):

@@ -245,3 +245,22 @@ def test_rays_from_matrices_match_the_pinhole_helper():
 def test_bad_camera_arguments(call, message):
     with pytest.raises(RaytraceError, match=message):
         call()
+
+
+def test_bounds_given_as_numbers_are_filled_once_for_each_size_and_value():
+    """Scalar t_min and t_max are filled out for the kernels and kept for
+    the next call of that size (rayscene._filled), by their bits."""
+    from raytrace.rayscene import _filled
+    a = _filled(1000, np.inf)
+    assert a is _filled(1000, np.inf) and (a == np.inf).all() and a.flags.writeable
+    assert _filled(999, np.inf) is not a and len(_filled(999, np.inf)) == 999
+    assert np.signbit(_filled(1000, -0.0)).all() and not np.signbit(_filled(1000, 0.0)).any()
+    assert np.isnan(_filled(7, np.nan)).all()
+    big = _filled(10_000_000, 1.0)
+    assert big is not _filled(10_000_000, 1.0)     # too large to keep
+    s = RayScene((SQUARE_V, SQUARE_F))
+    o = np.tile([0.5, 0.25, 1.0], (1000, 1))
+    for _ in range(2):
+        h = s.cast_rays(o, DOWN, t_min=0.5, t_max=2.0)
+        assert (h.t == 1.0).all()
+    assert (s.cast_rays(o, DOWN, t_min=1.0).t == np.inf).all()
