@@ -174,3 +174,28 @@ def test_a_packets_rows_are_make_ray_and_box_ray_bit_for_bit():
             np.abs(o).max(axis=1) > 2.0 ** 62).all()) else "within"] += 1
         assert rows == (next(iter(near)) if len(near) == 1 else (-1, -1, -1))
     assert min(shared.values()) > 0, shared
+
+
+def test_rays_in_strided_arrays_go_one_by_one_with_the_same_answers():
+    """The batch kernels take any layout of rays; a packet reads C rows
+    only, so other layouts compile the single-ray path alone."""
+    from raytrace.kernels.cast import COLUMNS, cast_closest, cast_occluded
+    prepared = RayScene(_octahedron(), accel="bvh")._built()
+    rays = create_rays_pinhole(40, [0, 0, 0], [0.5, 0.7, 3], [0, 1, 0], 32, 2).reshape(-1, 6)
+    wide = np.zeros((len(rays), 6))
+    wide[:, :3], wide[:, 3:] = rays[:, :3], rays[:, 3:]
+    n = len(rays)
+    answers = []
+    for o, d in ((np.ascontiguousarray(rays[:, :3]), np.ascontiguousarray(rays[:, 3:])),
+                 (wide[:, :3], wide[:, 3:])):
+        out = np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n)
+        hit = np.empty(n, np.bool_)
+        t_min, t_max = np.zeros(n), np.full(n, np.inf)
+        cast_closest(prepared.geo, prepared.acc, o, d, t_min, t_max, *out,
+                     np.zeros((1, COLUMNS), np.int64), np.zeros(1, np.int64))
+        cast_occluded(prepared.geo, prepared.acc, o, d, t_min, t_max, hit,
+                      np.zeros((1, COLUMNS), np.int64), np.zeros(1, np.int64))
+        answers.append(out + (hit,))
+    assert (answers[0][1] >= 0).sum() > n // 4
+    for a, b in zip(*answers):
+        assert np.array_equal(a, b)

@@ -146,11 +146,15 @@ def occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit, cnt):
     raise NotImplementedError("compiled code only")
 
 
-def _packets(acc):
+def _packets(acc, origins, dirs):
     """The layout's packet traversals, or None.  They live beside its
     traversal, in ``kernels/<name>_packet.py`` (which imports the
-    traversal's module, so that module cannot import it), loaded here."""
+    traversal's module, so that module cannot import it), loaded here.
+    A packet reads its rays' rows as one block: rays in arrays that are
+    not C-contiguous (the API always passes C arrays) go one by one."""
     _traversal(acc)
+    if getattr(origins, "layout", None) != "C" or getattr(dirs, "layout", None) != "C":
+        return None
     cls = acc.instance_class
     if cls not in _PACKETS:
         module = cls.__module__.replace(".accel.", ".kernels.", 1) + "_packet"
@@ -165,7 +169,7 @@ def _packets(acc):
 @overload(closest_packet, jit_options=OVERLOAD)
 def _closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_t, out_prim, out_u, out_v,
                     cnt):
-    packets = _packets(acc)
+    packets = _packets(acc, origins, dirs)
     if packets is None:
         def impl(geo, acc, origins, dirs, t_min, t_max, i0, m, out_t, out_prim, out_u, out_v,
                  cnt):
@@ -181,7 +185,7 @@ def _closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_t, out_pri
 
 @overload(occluded_packet, jit_options=OVERLOAD)
 def _occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit, cnt):
-    packets = _packets(acc)
+    packets = _packets(acc, origins, dirs)
     if packets is None:
         def impl(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit, cnt):
             return False
