@@ -167,6 +167,16 @@ def _leaf_lanes(geo, ray, prim_ids, k, end):
     return (m | spheres) & inside
 
 
+@njit(**JIT)
+def tally(cnt, n_inner, n_leaves, n_tests, n_hits):
+    """Add a traversal's counts, kept in locals, to its counter row: each
+    inner node tests WIDTH boxes."""
+    cnt[BOX_TESTS] += WIDTH * n_inner
+    cnt[NODES_VISITED] += n_inner + n_leaves
+    cnt[PRIM_TESTS] += n_tests
+    cnt[PRIM_HITS] += n_hits
+
+
 def _traversal(mode):
     @njit(**JIT)
     def traverse(geo, acc, ray, t_max, cnt):
@@ -215,10 +225,7 @@ def _traversal(mode):
                     sp -= 1
                     if stack_t[sp] <= best.t:
                         entry = stack[sp]
-        cnt[BOX_TESTS] += WIDTH * n_inner
-        cnt[NODES_VISITED] += n_inner + n_leaves
-        cnt[PRIM_TESTS] += n_tests
-        cnt[PRIM_HITS] += n_hits
+        tally(cnt, n_inner, n_leaves, n_tests, n_hits)
         return best
     return traverse
 
@@ -302,10 +309,7 @@ def _count_traverse(geo, acc, ray, t_max, cnt):
         if sp > 0:
             sp -= 1
             node = stack[sp]
-    cnt[BOX_TESTS] += WIDTH * n_inner
-    cnt[NODES_VISITED] += n_inner + n_leaves
-    cnt[PRIM_TESTS] += n_tests
-    cnt[PRIM_HITS] += n_hits
+    tally(cnt, n_inner, n_leaves, n_tests, n_hits)
     return no_hit()
 
 

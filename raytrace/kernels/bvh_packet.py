@@ -37,8 +37,7 @@ from numba import njit
 from numba.cpython.unsafe.numbers import trailing_zeros
 
 from ..accel.bvh import BVH, WIDTH
-from .bvh import _DONE, _LANE_BITS, BOX32_MARGIN, BOX32_RANGE, NEAR_LIMIT, STACK_SIZE
-from .counters import BOX_TESTS, NODES_VISITED, PRIM_HITS, PRIM_TESTS
+from .bvh import _DONE, _LANE_BITS, BOX32_MARGIN, BOX32_RANGE, NEAR_LIMIT, STACK_SIZE, tally
 from .jit import JIT
 from .lowlevel import PACKET, frame_array, packet_aabb4, packet_rays, packet_triangle, popcount
 from .prims import planes_closest, planes_occluded, test_prim
@@ -210,10 +209,7 @@ def _packet_traversal(mode):
                     rays &= _within(stack_t[sp], best_t, rays)
                 if rays:
                     entry = stack[sp]
-        cnt[BOX_TESTS] += WIDTH * n_inner
-        cnt[NODES_VISITED] += n_inner + n_leaves
-        cnt[PRIM_TESTS] += n_tests
-        cnt[PRIM_HITS] += n_hits
+        tally(cnt, n_inner, n_leaves, n_tests, n_hits)
         return alive
     return traverse
 
@@ -242,10 +238,6 @@ def _within(entry_t, best_t, rays):
     return keep
 
 
-_closest_traversal = _packet_traversal(CLOSEST)
-_any_traversal = _packet_traversal(ANY_HIT)
-
-
 @njit(**JIT)
 def _negative(x):
     """Whether x's sign bit is set (-0.0 too: its inverse is -inf)."""
@@ -269,55 +261,66 @@ def _packet(origins, dirs, t_min, t_max, i0, m):
     return ok
 
 
+def _packet_query(mode):
+    traverse = _packet_traversal(mode)
+
+    @njit(**JIT)
+    def query(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
+        """Rays i0 .. i0 + m - 1 as a packet, if they can go as one, their
+        answers written into ``outs`` (closest: t, prim, u, v; any hit:
+        the blocked flags); returns whether they went."""
+        if not _packet(origins, dirs, t_min, t_max, i0, m):
+            return False
+        pk = Packet(frame_array(_FIELD_ROWS, np.float64), frame_array(_AXIS_ROWS, np.int64),
+                    frame_array(_CONST_ROWS, np.float32), frame_array(PACKET, np.float32),
+                    frame_array(PACKET, np.float64), frame_array(PACKET, np.float64),
+                    frame_array(PACKET, np.int64), frame_array(PACKET, np.float64),
+                    frame_array(PACKET, np.float64))
+        nx, ny, nz = _load(acc, origins, dirs, t_min, t_max, i0, pk)
+        if nx < 0:
+            return False
+        if mode == CLOSEST:
+            traverse(geo, acc, pk, nx, ny, nz, (1 << PACKET) - 1, cnt)
+            for r in range(PACKET):
+                hit = planes_closest(geo, _ray(pk, r), pk.far[r],
+                                     Hit(pk.best_t[r], pk.best_prim[r], pk.best_u[r],
+                                         pk.best_v[r]), cnt)
+                outs[0][i0 + r] = hit.t
+                outs[1][i0 + r] = hit.prim
+                outs[2][i0 + r] = hit.u
+                outs[3][i0 + r] = hit.v
+        else:
+            # Planes first, as the single-ray path: a blocked ray leaves
+            # the packet.
+            alive = 0
+            for r in range(PACKET):
+                alive |= (not planes_occluded(geo, _ray(pk, r), pk.far[r], cnt)) << r
+            if alive:
+                alive = traverse(geo, acc, pk, nx, ny, nz, alive, cnt)
+            for r in range(PACKET):
+                outs[0][i0 + r] = not ((alive >> r) & 1)
+        return True
+    return query
+
+
+_closest_query = _packet_query(CLOSEST)
+_occluded_query = _packet_query(ANY_HIT)
+
+
 @njit(**JIT)
 def closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_t, out_prim, out_u, out_v,
                    cnt):
     """Closest hits of rays i0 .. i0 + m - 1 as cast_closest writes them,
     if they go as a packet; returns whether they did."""
-    if not _packet(origins, dirs, t_min, t_max, i0, m):
-        return False
-    pk = Packet(frame_array(_FIELD_ROWS, np.float64), frame_array(_AXIS_ROWS, np.int64),
-                frame_array(_CONST_ROWS, np.float32), frame_array(PACKET, np.float32),
-                frame_array(PACKET, np.float64), frame_array(PACKET, np.float64),
-                frame_array(PACKET, np.int64), frame_array(PACKET, np.float64),
-                frame_array(PACKET, np.float64))
-    nx, ny, nz = _load(acc, origins, dirs, t_min, t_max, i0, pk)
-    if nx < 0:
-        return False
-    _closest_traversal(geo, acc, pk, nx, ny, nz, (1 << PACKET) - 1, cnt)
-    for r in range(PACKET):
-        hit = planes_closest(geo, _ray(pk, r), pk.far[r],
-                             Hit(pk.best_t[r], pk.best_prim[r], pk.best_u[r], pk.best_v[r]), cnt)
-        out_t[i0 + r] = hit.t
-        out_prim[i0 + r] = hit.prim
-        out_u[i0 + r] = hit.u
-        out_v[i0 + r] = hit.v
-    return True
+    return _closest_query(geo, acc, origins, dirs, t_min, t_max, i0, m,
+                          (out_t, out_prim, out_u, out_v), cnt)
 
 
 @njit(**JIT)
 def occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit, cnt):
     """Whether rays i0 .. i0 + m - 1 are blocked, as cast_occluded writes
     it, if they go as a packet; returns whether they did."""
-    if not _packet(origins, dirs, t_min, t_max, i0, m):
-        return False
-    pk = Packet(frame_array(_FIELD_ROWS, np.float64), frame_array(_AXIS_ROWS, np.int64),
-                frame_array(_CONST_ROWS, np.float32), frame_array(PACKET, np.float32),
-                frame_array(PACKET, np.float64), frame_array(PACKET, np.float64),
-                frame_array(PACKET, np.int64), frame_array(PACKET, np.float64),
-                frame_array(PACKET, np.float64))
-    nx, ny, nz = _load(acc, origins, dirs, t_min, t_max, i0, pk)
-    if nx < 0:
-        return False
-    # Planes first, as the single-ray path: a blocked ray leaves the packet.
-    alive = 0
-    for r in range(PACKET):
-        alive |= (not planes_occluded(geo, _ray(pk, r), pk.far[r], cnt)) << r
-    if alive:
-        alive = _any_traversal(geo, acc, pk, nx, ny, nz, alive, cnt)
-    for r in range(PACKET):
-        out_hit[i0 + r] = not ((alive >> r) & 1)
-    return True
+    return _occluded_query(geo, acc, origins, dirs, t_min, t_max, i0, m, (out_hit,), cnt)
 
 
 register_packets(BVH, closest_packet, occluded_packet)

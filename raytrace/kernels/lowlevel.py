@@ -247,6 +247,20 @@ PACKET = 16   # rays a packet: one <16 x float> a box plane (AVX-512; two <8 x f
 _F32_ROW = types.Array(types.float32, 1, "C")
 
 
+def _splat(builder, vec, x):
+    """Scalar x in every lane of vector type ``vec``."""
+    v = builder.insert_element(ir.Constant(vec, ir.Undefined), x, ir.Constant(ir.IntType(32), 0))
+    return builder.shuffle_vector(v, ir.Constant(vec, ir.Undefined), ir.Constant(
+        ir.VectorType(ir.IntType(32), vec.count), [0] * vec.count))
+
+
+def _packet_row(builder, data, k, vec):
+    """Row k of a packet's rows (PACKET values from k * PACKET on) as one
+    vector of type ``vec``."""
+    p = builder.gep(data, [ir.Constant(ir.IntType(64), k * PACKET)])
+    return builder.load(builder.bitcast(p, vec.as_pointer()), align=4)
+
+
 @intrinsic
 def packet_aabb4(typingctx, node_box, node, nx, ny, nz, consts, t_far):
     """ray_aabb4 for a packet of PACKET rays at once: the rays in SIMD
@@ -283,17 +297,8 @@ def packet_aabb4(typingctx, node_box, node, nx, ny, nz, consts, t_far):
         rows = context.make_array(sig.args[5])(context, builder, value=llargs[5]).data
         far = context.make_array(sig.args[6])(context, builder, value=llargs[6]).data
 
-        def row(ptr, k):
-            p = builder.gep(ptr, [ir.Constant(i64, k * PACKET)])
-            return builder.load(builder.bitcast(p, vec.as_pointer()), align=4)
-
-        def splat(x):
-            v = builder.insert_element(ir.Constant(vec, ir.Undefined), x, ir.Constant(i32, 0))
-            return builder.shuffle_vector(v, ir.Constant(vec, ir.Undefined),
-                                          ir.Constant(ir.VectorType(i32, PACKET), [0] * PACKET))
-
-        consts = [row(rows, k) for k in range(12)]
-        t_far = row(far, 0)
+        consts = [_packet_row(builder, rows, k, vec) for k in range(12)]
+        t_far = _packet_row(builder, far, 0, vec)
         base = builder.mul(node, ir.Constant(i64, 6 * WIDTH))
         axes = [(nx, 3), (ny, 5), (nz, 7)]
         near_rows = [builder.mul(a, ir.Constant(i64, WIDTH)) for a, _ in axes]
@@ -307,7 +312,7 @@ def packet_aabb4(typingctx, node_box, node, nx, ny, nz, consts, t_far):
         for child in range(WIDTH):
             def plane(r, child=child):
                 p = builder.gep(data, [builder.add(base, builder.add(r, ir.Constant(i64, child)))])
-                return splat(builder.load(p))
+                return _splat(builder, vec, builder.load(p))
             t0, t1 = zero, t_far
             for a in range(3):
                 tn = builder.fmul(builder.fsub(plane(near_rows[a]), consts[a]), consts[6 + a])
@@ -433,7 +438,6 @@ def packet_triangle(typingctx, v0, v1, v2, p, kx, ky, kz, fields, far):
 
     def codegen(context, builder, sig, llargs):
         i64 = ir.IntType(64)
-        i32 = ir.IntType(32)
         f64 = ir.DoubleType()
         vec = ir.VectorType(f64, PACKET)
         data = [context.make_array(sig.args[k])(context, builder, value=llargs[k]).data
@@ -443,22 +447,14 @@ def packet_triangle(typingctx, v0, v1, v2, p, kx, ky, kz, fields, far):
         rows = context.make_array(sig.args[7])(context, builder, value=llargs[7]).data
         far_data = context.make_array(sig.args[8])(context, builder, value=llargs[8]).data
 
-        def row(ptr, k):
-            q = builder.gep(ptr, [ir.Constant(i64, k * PACKET)])
-            return builder.load(builder.bitcast(q, vec.as_pointer()), align=8)
-
-        def splat(x):
-            v = builder.insert_element(ir.Constant(vec, ir.Undefined), x, ir.Constant(i32, 0))
-            return builder.shuffle_vector(v, ir.Constant(vec, ir.Undefined),
-                                          ir.Constant(ir.VectorType(i32, PACKET), [0] * PACKET))
-
-        sx, sy, sz, okx, oky, okz, t_min = [row(rows, k) for k in range(9, 16)]
-        t_max = row(far_data, 0)
+        sx, sy, sz, okx, oky, okz, t_min = [_packet_row(builder, rows, k, vec)
+                                            for k in range(9, 16)]
+        t_max = _packet_row(builder, far_data, 0, vec)
         base = builder.mul(p, ir.Constant(i64, 3))
 
         def coordinate(vertices, axis, origin):
             x = builder.load(builder.gep(vertices, [builder.add(base, axis)]))
-            return builder.fsub(splat(x), origin)
+            return builder.fsub(_splat(builder, vec, x), origin)
 
         corners = []
         for vertices in data:
@@ -543,11 +539,6 @@ def packet_rays(typingctx, origins, dirs, i0, tree_bounded, box_range, near_limi
         def const(ty, x):
             return ir.Constant(ty, [x] * n)
 
-        def splat(ty, x):
-            v = builder.insert_element(ir.Constant(ty, ir.Undefined), x, ir.Constant(i32, 0))
-            return builder.shuffle_vector(v, ir.Constant(ty, ir.Undefined),
-                                          ir.Constant(ir.VectorType(i32, n), [0] * n))
-
         def columns(data):
             block = builder.load(builder.bitcast(builder.gep(data, [start]),
                                                  ir.VectorType(f64, 3 * n).as_pointer()), align=8)
@@ -604,12 +595,12 @@ def packet_rays(typingctx, origins, dirs, i0, tree_bounded, box_range, near_limi
         # box_ray: the tree's and the origin's reach ...
         reach = builder.select(gt(">", fabs(o[1]), fabs(o[0])), fabs(o[1]), fabs(o[0]))
         reach = builder.select(gt(">", fabs(o[2]), reach), fabs(o[2]), reach)
-        bounded = builder.and_(gt("<=", reach, splat(vd, box_range)),
-                               splat(vb, tree_ok))
+        bounded = builder.and_(gt("<=", reach, _splat(builder, vd, box_range)),
+                               _splat(builder, vb, tree_ok))
         # ... and box_ray_f32's constants, axis by axis.
-        scale_near = builder.fsub(one, splat(vd, margin))
-        scale_far = builder.fadd(one, splat(vd, margin))
-        limit_v = splat(vd, limit)
+        scale_near = builder.fsub(one, _splat(builder, vd, margin))
+        scale_far = builder.fadd(one, _splat(builder, vd, margin))
+        limit_v = _splat(builder, vd, limit)
         sign = const(vi, 1 << 63)
         near_o, far_o, near_i, far_i = [], [], [], []
         usable = bounded
