@@ -73,9 +73,12 @@ def test_packets_of_rays_through_edges_and_vertices_hit_as_brute_force():
     targets += [(v[a] + v[b]) / 2 for a, b, _ in f] + [(v[b] + v[c]) / 2 for _, b, c in f]
     targets += [v[tri].mean(axis=0) for tri in f]
     targets = np.array(targets * 4)[: (len(targets) * 4) // PACKET * PACKET]
-    for direction in ([0.0, 0.0, -1.0], [0.3, -0.2, -1.0], [-0.0, 0.5, -1.0]):
+    for direction, back in (([0.0, 0.0, -1.0], 3), ([0.3, -0.2, -1.0], 3),
+                            ([-0.0, 0.5, -1.0], 3), ([0.0, 0.0, -1.0], 1e19)):
+        # From 1e19 away the rays lie beyond the float32 box test's range:
+        # their packets enter every box, as each ray alone does.
         d = np.broadcast_to(direction, targets.shape)
-        o = targets - 3 * d
+        o = targets - back * d
         bvh, brute = RayScene((v, f), accel="bvh"), RayScene((v, f), accel="none")
         h = bvh.cast_rays(o, d)
         _same(h, brute.cast_rays(o, d))
