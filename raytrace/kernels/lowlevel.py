@@ -243,7 +243,7 @@ def box_ray_f32(typingctx, ox, oy, oz, ix, iy, iz, near_limit, margin, bounded):
     return sig, codegen
 
 
-PACKET = 16   # rays a packet: one <16 x float> a box plane (AVX-512; two <8 x float> on AVX2)
+PACKET = 16   # rays a packet: a <16 x float> is one AVX-512 register; 8 and 32 measured slower
 _F32_ROW = types.Array(types.float32, 1, "C")
 
 
@@ -264,7 +264,7 @@ def _packet_row(builder, data, k, vec):
 @intrinsic
 def packet_aabb4(typingctx, node_box, node, nx, ny, nz, consts, t_far):
     """ray_aabb4 for a packet of PACKET rays at once: the rays in SIMD
-    lanes, one <8 x float> per box plane and child (Wald, Slusallek,
+    lanes, one <PACKET x float> per box plane and child (Wald, Slusallek,
     Benthin & Wagner 2001, "Interactive Rendering with Coherent Ray
     Tracing": a packet shares the node's loads and the traversal's
     branches).  Each ray's arithmetic is ray_aabb4's, operation for
@@ -420,7 +420,7 @@ _F64_ROW = types.Array(types.float64, 1, "C")
 def packet_triangle(typingctx, v0, v1, v2, p, kx, ky, kz, fields, far):
     """The watertight triangle test (intersect._triangle, not the crossing
     variant) of triangle p against a packet's PACKET rays at once, in
-    <8 x double>, where the rays share their axes kx, ky, kz: each lane's
+    <PACKET x double>, where the rays share their axes kx, ky, kz: each lane's
     arithmetic is the scalar test's, operation for operation (no fused
     multiply-adds), so a lane hits exactly where the scalar test hits.
 
@@ -499,7 +499,7 @@ def packet_triangle(typingctx, v0, v1, v2, p, kx, ky, kz, fields, far):
 def packet_rays(typingctx, origins, dirs, i0, tree_bounded, box_range, near_limit, margin, fields,
                 axes, consts):
     """make_ray and box_ray (kernels/ray.py, kernels/bvh.py) for rays
-    i0 .. i0 + PACKET - 1 at once, in <16 x double>: each lane's arithmetic
+    i0 .. i0 + PACKET - 1 at once, in <PACKET x double>: each lane's arithmetic
     and choices are the scalar functions', operation for operation, so the
     rows hold the same bits.  Writes rows 0-14 of ``fields`` (ox, oy, oz,
     dx, dy, dz, the inverses, sx, sy, sz, okx, oky, okz), ``axes`` (kx, ky,
