@@ -551,7 +551,8 @@ def _interval_end(name, value, n):
 # write (~0.4 ms a MB here), 0.5 ms of a 13 ms call of 307,200 rays at 118k
 # triangles.  The kernels only read them, and they are never handed out.
 _FILLED = {}
-_FILLED_BYTES = 32 << 20
+_FILLED_MAX = 4                  # arrays kept
+_FILLED_MAX_BYTES = 8 << 20      # each
 
 
 def _filled(n, value):
@@ -559,8 +560,8 @@ def _filled(n, value):
     a = _FILLED.get(key)
     if a is None:
         a = np.full(n, value)
-        if a.nbytes <= _FILLED_BYTES // 4:
-            if len(_FILLED) >= 4:
+        if a.nbytes <= _FILLED_MAX_BYTES:
+            if len(_FILLED) >= _FILLED_MAX:
                 _FILLED.clear()
             _FILLED[key] = a
     return a

@@ -15,6 +15,33 @@ from numba.np.numpy_support import from_dtype
 from ..accel.bvh import BOX, WIDTH
 
 
+def _splat(builder, vec, x):
+    """Scalar x in every lane of vector type ``vec``."""
+    v = builder.insert_element(ir.Constant(vec, ir.Undefined), x, ir.Constant(ir.IntType(32), 0))
+    return builder.shuffle_vector(v, ir.Constant(vec, ir.Undefined), ir.Constant(
+        ir.VectorType(ir.IntType(32), vec.count), [0] * vec.count))
+
+
+def _edge_functions(builder, corners, shear_x, shear_y):
+    """intersect._triangle's shear and 2D edge functions, lane by lane and
+    operation for operation: ``corners``, each vertex's (x, y, z) less the
+    ray's origin on the ray's axes kx, ky, kz.  Returns (e0, e1, e2) and
+    the lanes whose signs are mixed (the test's first rejection)."""
+    (ax, ay), (bx, by), (cx, cy) = [
+        (builder.fsub(x, builder.fmul(shear_x, z)), builder.fsub(y, builder.fmul(shear_y, z)))
+        for x, y, z in corners]
+    edges = (builder.fsub(builder.fmul(bx, cy), builder.fmul(by, cx)),
+             builder.fsub(builder.fmul(cx, ay), builder.fmul(cy, ax)),
+             builder.fsub(builder.fmul(ax, by), builder.fmul(ay, bx)))
+    zero = ir.Constant(edges[0].type, [0.0] * edges[0].type.count)
+
+    def any_edge(op):
+        e0, e1, e2 = [builder.fcmp_ordered(op, e, zero) for e in edges]
+        return builder.or_(builder.or_(e0, e1), e2)
+
+    return edges, builder.and_(any_edge("<"), any_edge(">"))
+
+
 @intrinsic
 def frame_array(typingctx, size, dtype):
     """A (size,) array in the calling function's stack frame (alloca).
@@ -115,10 +142,7 @@ def ray_aabb4(typingctx, node_box, node, nx, ny, nz, onx, ony, onz, ofx, ofy, of
         i32 = ir.IntType(32)
 
         def splat(x):
-            v = ir.Constant(vec, ir.Undefined)
-            for k in range(WIDTH):
-                v = builder.insert_element(v, x, ir.Constant(i32, k))
-            return v
+            return _splat(builder, vec, x)
 
         base = builder.mul(node, ir.Constant(i64, 6 * WIDTH))
 
@@ -197,12 +221,6 @@ def box_ray_f32(typingctx, ox, oy, oz, ix, iy, iz, near_limit, margin, bounded):
                 v = builder.insert_element(v, x, ir.Constant(i32, k))
             return v
 
-        def splat(ty, x):
-            v = ir.Constant(ty, ir.Undefined)
-            for k in range(4):
-                v = builder.insert_element(v, x, ir.Constant(i32, k))
-            return v
-
         def fabs(v, ity, mask):
             return builder.bitcast(builder.and_(builder.bitcast(v, ity),
                                                 ir.Constant(ity, [mask] * 4)), v.type)
@@ -216,12 +234,12 @@ def box_ray_f32(typingctx, ox, oy, oz, ix, iy, iz, near_limit, margin, bounded):
         negative = builder.fcmp_ordered("<", inv, ir.Constant(v64, [0.0] * 4))
         near_o = builder.select(negative, down, up)
         far_o = builder.select(negative, up, down)
-        one = splat(v64, ir.Constant(f64, 1.0))
-        margin = splat(v64, margin)
+        one = _splat(builder, v64, ir.Constant(f64, 1.0))
+        margin = _splat(builder, v64, margin)
         near = builder.fmul(inv, builder.fsub(one, margin))
         far = builder.fmul(inv, builder.fadd(one, margin))
         size = fabs(near, i64x4, 0x7FFFFFFFFFFFFFFF)
-        limit = splat(v64, limit)
+        limit = _splat(builder, v64, limit)
         cut = builder.and_(builder.fcmp_ordered(">", size, limit),
                            builder.fcmp_ordered("<", size, ir.Constant(v64, [float("inf")] * 4)))
         sign = builder.and_(builder.bitcast(near, i64x4), ir.Constant(i64x4, [1 << 63] * 4))
@@ -232,7 +250,7 @@ def box_ray_f32(typingctx, ox, oy, oz, ix, iy, iz, near_limit, margin, bounded):
             context.cast(builder, llargs[8], sig.args[8], types.boolean),
             builder.icmp_unsigned("==", builder.bitcast(vanishing, ir.IntType(4)),
                                   ir.Constant(ir.IntType(4), 0)))
-        bounded = splat(ir.VectorType(ir.IntType(1), 4), bounded)
+        bounded = _splat(builder, ir.VectorType(ir.IntType(1), 4), bounded)
         big = float(np.finfo(np.float32).max)
         columns = [builder.select(bounded, v, ir.Constant(v32, [x] * 4)) for v, x in (
             (near_o, big), (far_o, -big), (builder.fptrunc(near, v32), float("inf")),
@@ -245,13 +263,6 @@ def box_ray_f32(typingctx, ox, oy, oz, ix, iy, iz, near_limit, margin, bounded):
 
 PACKET = 16   # rays a packet: a <16 x float> is one AVX-512 register; 8 and 32 measured slower
 _F32_ROW = types.Array(types.float32, 1, "C")
-
-
-def _splat(builder, vec, x):
-    """Scalar x in every lane of vector type ``vec``."""
-    v = builder.insert_element(ir.Constant(vec, ir.Undefined), x, ir.Constant(ir.IntType(32), 0))
-    return builder.shuffle_vector(v, ir.Constant(vec, ir.Undefined), ir.Constant(
-        ir.VectorType(ir.IntType(32), vec.count), [0] * vec.count))
 
 
 def _packet_row(builder, data, k, vec):
@@ -376,12 +387,6 @@ def edge_mask4(typingctx, v0, v1, v2, r0, r1, r2, r3, kx, ky, kz, okx, oky, okz,
         okx, oky, okz, sx, sy = [context.cast(builder, llargs[10 + k], sig.args[10 + k],
                                               types.float64) for k in range(5)]
 
-        def splat(x):
-            v = ir.Constant(vec, ir.Undefined)
-            for j in range(4):
-                v = builder.insert_element(v, x, ir.Constant(i32, j))
-            return v
-
         def coordinate(vertices, axis):
             """Component ``axis`` of the 4 triangles' vertex, one per lane."""
             v = ir.Constant(vec, ir.Undefined)
@@ -390,25 +395,12 @@ def edge_mask4(typingctx, v0, v1, v2, r0, r1, r2, r3, kx, ky, kz, okx, oky, okz,
                 v = builder.insert_element(v, builder.load(p), ir.Constant(i32, j))
             return v
 
-        origin = [splat(okx), splat(oky), splat(okz)]
-        shear_x, shear_y = splat(sx), splat(sy)
-        corners = []
-        for vertices in data:
-            x, y, z = [builder.fsub(coordinate(vertices, axes[a]), origin[a]) for a in range(3)]
-            corners.append((builder.fsub(x, builder.fmul(shear_x, z)),
-                            builder.fsub(y, builder.fmul(shear_y, z))))
-        (ax, ay), (bx, by), (cx, cy) = corners
-        edges = (builder.fsub(builder.fmul(bx, cy), builder.fmul(by, cx)),
-                 builder.fsub(builder.fmul(cx, ay), builder.fmul(cy, ax)),
-                 builder.fsub(builder.fmul(ax, by), builder.fmul(ay, bx)))
-        zero = ir.Constant(vec, [0.0] * 4)
-
-        def any_edge(op):
-            e0, e1, e2 = [builder.fcmp_ordered(op, e, zero) for e in edges]
-            return builder.or_(builder.or_(e0, e1), e2)
-
-        keep = builder.not_(builder.and_(any_edge("<"), any_edge(">")))
-        return builder.zext(builder.bitcast(keep, ir.IntType(4)), i64)
+        origin = [_splat(builder, vec, x) for x in (okx, oky, okz)]
+        corners = [[builder.fsub(coordinate(vertices, axes[a]), origin[a]) for a in range(3)]
+                   for vertices in data]
+        _, mixed = _edge_functions(builder, corners, _splat(builder, vec, sx),
+                                   _splat(builder, vec, sy))
+        return builder.zext(builder.bitcast(builder.not_(mixed), ir.IntType(4)), i64)
 
     return sig, codegen
 
@@ -456,27 +448,16 @@ def packet_triangle(typingctx, v0, v1, v2, p, kx, ky, kz, fields, far):
             x = builder.load(builder.gep(vertices, [builder.add(base, axis)]))
             return builder.fsub(_splat(builder, vec, x), origin)
 
-        corners = []
-        for vertices in data:
-            x = coordinate(vertices, kx, okx)
-            y = coordinate(vertices, ky, oky)
-            z = coordinate(vertices, kz, okz)
-            corners.append((builder.fsub(x, builder.fmul(sx, z)),
-                            builder.fsub(y, builder.fmul(sy, z)), z))
-        (ax, ay, az), (bx, by, bz), (cx, cy, cz) = corners
-        e0 = builder.fsub(builder.fmul(bx, cy), builder.fmul(by, cx))
-        e1 = builder.fsub(builder.fmul(cx, ay), builder.fmul(cy, ax))
-        e2 = builder.fsub(builder.fmul(ax, by), builder.fmul(ay, bx))
+        corners = [(coordinate(vertices, kx, okx), coordinate(vertices, ky, oky),
+                    coordinate(vertices, kz, okz)) for vertices in data]
+        (e0, e1, e2), mixed = _edge_functions(builder, corners, sx, sy)
+        (_, _, az), (_, _, bz), (_, _, cz) = corners
         zero = ir.Constant(vec, [0.0] * PACKET)
 
         def cmp(op, a, b):
             return builder.fcmp_ordered(op, a, b)
 
-        def any3(op):
-            return builder.or_(builder.or_(cmp(op, e0, zero), cmp(op, e1, zero)),
-                               cmp(op, e2, zero))
-
-        keep = builder.not_(builder.and_(any3("<"), any3(">")))
+        keep = builder.not_(mixed)
         det = builder.fadd(builder.fadd(e0, e1), e2)
         keep = builder.and_(keep, builder.not_(cmp("==", det, zero)))
         t_scaled = builder.fadd(builder.fadd(builder.fmul(e0, builder.fmul(az, sz)),
