@@ -139,6 +139,7 @@ class _Prepared:
         self.accel = accel
         self.acc, self.build_s = build_structure(accel, self.geo, self.obj_ranges)
         self.n_tris = self.geo.tri_v0.shape[0]
+        self._counting = None
         self._bvh = None
         self._bounds = None
 
@@ -156,6 +157,14 @@ class _Prepared:
                         lo[k], hi[k] = min(lo[k], c.min()), max(hi[k], c.max())
             self._bounds = (lo, hi) if lo[0] <= hi[0] else ()
         return self._bounds or None
+
+    def counting(self):
+        """The layout that counts and lists every hit (made on first use:
+        the BVH's holds a copy of the triangles, structures.counting_layout)."""
+        if self._counting is None:
+            from .structures import get
+            self._counting = get(self.accel).counting_layout(self.acc, self.geo)
+        return self._counting
 
     def bvh(self):
         """The BVH that point queries use, whatever structure casts rays."""
@@ -287,7 +296,9 @@ class RayScene:
         parity of the count still says inside or outside.  max_hits: stop
         counting there (default: no limit).  One traversal per ray, which
         never narrows its interval (the grid scans every primitive: it
-        cannot tell a primitive met in two cells from two crossings)."""
+        cannot tell a primitive met in two cells from two crossings).  On
+        a BVH the first count or listing copies the triangles in the
+        tree's leaf order (72 bytes a triangle, kept with the scene)."""
         rays = _rays(origins, directions, t_min, t_max)
         p = self._built()
         return np.minimum(_counts(p, rays), _max_hits(max_hits, p))
@@ -417,7 +428,7 @@ def _counts(prepared, rays):
     from .kernels.cast import cast_counts
     counts = np.empty(len(rays[0]), np.int64)
     cnt = _counter_rows(len(counts))
-    cast_counts(prepared.geo, prepared.acc, *rays, counts, cnt, _clock())
+    cast_counts(prepared.geo, prepared.counting(), *rays, counts, cnt, _clock())
     _check_rays(cnt, rays)
     return counts
 
@@ -467,8 +478,8 @@ def _run_listing(prepared, rays, rows, start=None):
     # Slabs of at most a quarter of a thread's share, so that no thread's
     # first slab leaves the others without rows.
     slab = max(1, min(SLAB, rows // (4 * len(cnt))))
-    cast_listing(prepared.geo, prepared.acc, *rays, start, fixed, slab, *out, found, cnt,
-                 np.zeros(2, np.int64))
+    cast_listing(prepared.geo, prepared.counting(), *rays, start, fixed, slab, *out, found,
+                 cnt, np.zeros(2, np.int64))
     _check_rays(cnt, rays)
     return start[:n], found, out, cnt.sum(axis=0)
 

@@ -5,8 +5,10 @@ CreateAccelerator).
 A structure ``x`` is two modules and the line below:
 ``raytrace/accel/x.py`` defines its layout (a namedtuple class),
 ``build(geo, obj_ranges)``, ``statistics(layout, n_prims)`` and, to be drawn
-(--show-structure), ``outline(layout, depth)``; ``raytrace/kernels/x.py`` its traversal,
-registered for the layout (kernels/query.py).  Nothing is imported, built
+(--show-structure), ``outline(layout, depth)``, and to count every hit
+on a layout of its own, ``for_counting(layout, geo)``;
+``raytrace/kernels/x.py`` its traversal, registered for the layout
+(kernels/query.py).  Nothing is imported, built
 or compiled for a structure the run does not use.
 """
 import functools
@@ -48,6 +50,14 @@ class Structure:
         t0 = time.perf_counter()
         layout = builder.build(geo, obj_ranges, **options)
         return layout, time.perf_counter() - t0
+
+    def counting_layout(self, layout, geo):
+        """The layout that counts and lists every hit: what the accel
+        module's ``for_counting(layout, geo)`` makes, if it has one (the
+        BVH's, with its triangles in leaf order), else ``layout``."""
+        builder = importlib.import_module(f"raytrace.accel.{self.module}")
+        make = getattr(builder, "for_counting", None)
+        return layout if make is None else make(layout, geo)
 
     def check_outline(self):
         """RaytraceError unless the structure can be drawn (outline)."""

@@ -1,18 +1,20 @@
 """The LLVM-level pieces: ray_aabb4 (float32) must enter every box the
 exact ray enters, at an entry no later than the exact one, and few others,
-since the BVH's bit-identical images rest on it; edge_mask4 must reject
-exactly the triangles the scalar triangle test rejects first; and the
+since the BVH's bit-identical images rest on it; crossing_mask4 must
+decide each triangle as the scalar crossing test does, or leave it to it;
+and the
 frame stack array must behave as an ordinary array."""
 from fractions import Fraction
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from numba import njit, prange
 
-from raytrace.accel.bvh import BOX, BVH, WIDTH, box_bound
+from raytrace.accel.bvh import BOX, BVH, WIDTH, box_bound, for_counting
 from raytrace.kernels.bvh import BOX32_RANGE, NEAR_LIMIT, box_ray, child_boxes
-from raytrace.kernels.intersect import ray_triangle, ray_triangle_crossing
-from raytrace.kernels.lowlevel import edge_mask4, frame_array, take_rows, take_ticket
+from raytrace.kernels.intersect import ray_triangle_crossing
+from raytrace.kernels.lowlevel import crossing_mask4, frame_array, take_rows, take_ticket
 from raytrace.kernels.ray import make_crossing_ray, make_ray
 
 
@@ -244,39 +246,39 @@ def test_t_max_and_behind():
 
 
 @njit(error_model="numpy")
-def edge_masks(v0, v1, v2, origins, dirs):
-    """For every ray and every group of 4 triangles (rows 4g..4g+3): the
-    edge_mask4 bits, as (n_rays, n_tris) booleans; the ray's watertight
-    constants (kx, ky, kz, sx, sy, okx, oky, okz); and whether the scalar
-    tests, plain and crossing, hit each triangle."""
-    n, m = origins.shape[0], v0.shape[0]
-    bits = np.empty((n, m), np.bool_)
+def crossing_masks(leaf_tris, v0, v1, v2, origins, dirs, t_min, t_max):
+    """For every ray and every column of leaf_tris (4 at a time): the
+    crossing_mask4 hit and unsure bits, as (n_rays, n_columns) booleans;
+    the ray's watertight constants (kx, ky, kz, sx, sy, okx, oky, okz);
+    and the scalar crossing test's distance to each of the triangles v0,
+    v1, v2 (inf: a miss)."""
+    n, m = origins.shape[0], leaf_tris.shape[1] - 3
+    hits = np.empty((n, m), np.bool_)
+    unsure = np.empty((n, m), np.bool_)
     consts = np.empty((n, 8))
-    hit = np.empty((n, m), np.bool_)
-    hit_crossing = np.empty((n, m), np.bool_)
+    scalar = np.empty((n, v0.shape[0]))
     for i in range(n):
-        ray = make_ray(origins[i, 0], origins[i, 1], origins[i, 2],
-                       dirs[i, 0], dirs[i, 1], dirs[i, 2])
-        crossing = make_crossing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
-                                     dirs[i, 0], dirs[i, 1], dirs[i, 2], 0.0)
+        ray = make_crossing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
+                                dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i])
         consts[i, 0], consts[i, 1], consts[i, 2] = ray.kx, ray.ky, ray.kz
         consts[i, 3], consts[i, 4] = ray.sx, ray.sy
         consts[i, 5], consts[i, 6], consts[i, 7] = ray.okx, ray.oky, ray.okz
         for g in range(0, m, 4):
-            mask = edge_mask4(v0, v1, v2, g, g + 1, g + 2, g + 3, ray.kx, ray.ky, ray.kz,
-                              ray.okx, ray.oky, ray.okz, ray.sx, ray.sy)
-            for j in range(4):
-                bits[i, g + j] = (mask >> j) & 1
-        for p in range(m):
-            hit[i, p] = ray_triangle(ray, v0, v1, v2, p, np.inf)[0] < np.inf
-            hit_crossing[i, p] = ray_triangle_crossing(crossing, v0, v1, v2, p, np.inf)[0] < np.inf
-    return bits, consts, hit, hit_crossing
+            mask = crossing_mask4(leaf_tris, g, ray.kx, ray.ky, ray.kz, ray.okx, ray.oky,
+                                  ray.okz, ray.sx, ray.sy, ray.sz, ray.t_min, t_max[i])
+            for j in range(min(4, m - g)):
+                hits[i, g + j] = (mask >> j) & 1
+                unsure[i, g + j] = (mask >> (4 + j)) & 1
+        for p in range(v0.shape[0]):
+            scalar[i, p] = ray_triangle_crossing(ray, v0, v1, v2, p, t_max[i])[0]
+    return hits, unsure, consts, scalar
 
 
-def first_rejection(v0, v1, v2, consts):
-    """The scalar test's first rejection written out in NumPy (the same
+def edge_signs(v0, v1, v2, consts):
+    """The scalar test's edge functions written out in NumPy (the same
     operations in the same order; NumPy fuses no multiply-adds): (n_rays,
-    n_tris) True where the edge functions have mixed signs."""
+    n_tris) True where their signs are mixed (the first rejection), and
+    where all three share a strict sign."""
     kx, ky, kz = (consts[:, k, None].astype(int) for k in range(3))
     sx, sy, okx, oky, okz = (consts[:, k, None] for k in range(3, 8))
     rows = np.arange(len(v0))[None, :]
@@ -286,17 +288,22 @@ def first_rejection(v0, v1, v2, consts):
         corners.append((x - sx * z, y - sy * z))
     (ax, ay), (bx, by), (cx, cy) = corners
     e = (bx * cy - by * cx, cx * ay - cy * ax, ax * by - ay * bx)
-    return (((e[0] < 0) | (e[1] < 0) | (e[2] < 0))
-            & ((e[0] > 0) | (e[1] > 0) | (e[2] > 0)))
+    neg = (e[0] < 0) | (e[1] < 0) | (e[2] < 0)
+    pos = (e[0] > 0) | (e[1] > 0) | (e[2] > 0)
+    strict = ((e[0] > 0) & (e[1] > 0) & (e[2] > 0)) | ((e[0] < 0) & (e[1] < 0) & (e[2] < 0))
+    return neg & pos, strict
 
 
 @pytest.mark.parametrize("scale", [1.0, 1e-6, 1e8])
-def test_edge_mask4_rejects_as_the_scalar_test(scale):
+def test_crossing_mask4_decides_as_the_scalar_test(scale):
     """Rays aimed exactly at vertices and edge midpoints of a grid of
     triangles (edge functions exactly 0), near them, and at random; axis
-    directions; degenerate triangles (a point, a segment): every lane
-    agrees with the scalar first rejection, and no triangle the scalar
-    tests hit is rejected."""
+    directions; rays at the triangles' centroids; degenerate triangles (a
+    point, a segment); each hit again with its interval cut at its exact
+    distance and just past it, at either end.  Columns in leaf order (for_counting), two of them spheres.
+    Every lane with strictly signed edge functions hits exactly where the
+    scalar crossing test hits; a lane with mixed signs is a miss; every
+    other lane, and a sphere's, is left to the scalar test."""
     rng = np.random.default_rng(5)
     g = np.arange(4.0)
     x, y = np.meshgrid(g, g)
@@ -304,10 +311,16 @@ def test_edge_mask4_rejects_as_the_scalar_test(scale):
     quads = [(i, i + 1, i + 5, i + 4) for i in range(11) if i % 4 != 3]
     tris = [(a[p], a[q], a[r]) for p, q, r, s in quads] + [(a[p], a[r], a[s]) for p, q, r, s in quads]
     tris += [(a[0], a[0], a[0]), (a[0], a[5], a[10]), tuple(rng.standard_normal((3, 3)))]
-    tris += [tuple(rng.standard_normal((3, 3))) for _ in range(-len(tris) % 4)]
     t = np.array(tris) * scale
     v0, v1, v2 = (np.ascontiguousarray(t[:, k]) for k in range(3))
-    targets = np.concatenate([a, 0.5 * (a[:-1] + a[1:]), 0.5 * (a[:-4] + a[4:])]) * scale
+    n_tris = len(t)
+    # Slots in a shuffled order, with two spheres' ids (n_tris and above).
+    prim_ids = rng.permutation(n_tris + 2)
+    geo = SimpleNamespace(tri_v0=v0, tri_v1=v1, tri_v2=v2)
+    leaf_tris = for_counting(BVH(None, None, None, prim_ids, 0.0), geo).leaf_tris
+    assert leaf_tris.shape == (9, n_tris + 5) and np.isnan(leaf_tris[:, -3:]).all()
+    targets = np.concatenate([a, 0.5 * (a[:-1] + a[1:]), 0.5 * (a[:-4] + a[4:]),
+                              t.mean(axis=1) / scale]) * scale
     n = len(targets)
     o = targets + rng.integers(-4, 5, (n, 3)) * scale + np.array([0.0, 0.0, 3.0]) * scale
     d = targets - o
@@ -317,10 +330,41 @@ def test_edge_mask4_rejects_as_the_scalar_test(scale):
     d3 = targets * (1 + 1e-12) + 1e-13 * scale - o    # just beside them
     origins = np.concatenate([o, o2, o])
     dirs = np.concatenate([d, d2, d3])
-    bits, consts, hit, hit_crossing = edge_masks(v0, v1, v2, origins, dirs)
-    assert np.array_equal(bits, ~first_rejection(v0, v1, v2, consts))
-    assert not (hit & ~bits).any() and not (hit_crossing & ~bits).any()
-    assert hit[:n].any() and (~bits).any() and bits[:n].sum() > hit[:n].sum()
+    t_min = np.zeros(len(origins))
+    t_max = np.full(len(origins), np.inf)
+
+    def check(origins, dirs, t_min, t_max):
+        hits, unsure, consts, t_hit = crossing_masks(leaf_tris, v0, v1, v2, origins, dirs,
+                                                     t_min, t_max)
+        tri = prim_ids < n_tris
+        assert unsure[:, ~tri].all() and not hits[:, ~tri].any()
+        hits, unsure = hits[:, tri], unsure[:, tri]
+        order = prim_ids[tri]
+        scalar = t_hit[:, order] < np.inf
+        mixed, strict = edge_signs(v0[order], v1[order], v2[order], consts)
+        assert not (hits & unsure).any()
+        assert np.array_equal(hits, scalar & strict)
+        assert np.array_equal(unsure, ~mixed & ~strict)
+        assert not (scalar & mixed).any()
+        return hits, unsure, strict, t_hit[:, order]
+
+    hits, unsure, strict, t_hit = check(origins, dirs, t_min, t_max)
+    # Every kind of lane occurs: strict hits and misses, edge and vertex
+    # lanes both ways.
+    scalar = t_hit < np.inf
+    assert hits.any() and (strict & ~hits).any()
+    assert (unsure & scalar).any() and (unsure & ~scalar).any()
+    # Each strict hit again, its interval ending exactly at its distance
+    # (a miss) or just beyond (a hit), or starting there (a miss) or just
+    # before (a hit).
+    ray, lane = np.nonzero(hits)
+    d_hit = t_hit[ray, lane]
+    zero, inf = np.zeros_like(d_hit), np.full_like(d_hit, np.inf)
+    cuts = [(zero, d_hit, False), (zero, d_hit * (1 + 1e-9), True),
+            (d_hit, inf, False), (d_hit * (1 - 1e-9), inf, True)]
+    for lo, hi, kept in cuts:
+        hits2 = check(origins[ray], dirs[ray], lo, hi)[0]
+        assert np.array_equal(hits2[np.arange(len(ray)), lane], np.full(len(ray), kept))
 
 
 @njit

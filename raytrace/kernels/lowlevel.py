@@ -1,6 +1,6 @@
 """What the kernels need that Numba cannot say in Python: an array in the
-caller's stack frame, a 4-wide box test in SIMD, the first step of the
-triangle test for 4 triangles at once, and an atomic counter.
+caller's stack frame, a 4-wide box test in SIMD, the crossing triangle
+test for 4 triangles at once, packets of rays, and an atomic counter.
 
 Each is a Numba intrinsic that emits LLVM IR directly.
 """
@@ -355,52 +355,80 @@ _VERTICES = types.Array(types.float64, 2, "C")
 
 
 @intrinsic
-def edge_mask4(typingctx, v0, v1, v2, r0, r1, r2, r3, kx, ky, kz, okx, oky, okz, sx, sy):
-    """The watertight triangle test's first step (intersect._triangle: the
-    vertices moved to the ray's origin, permuted by kx, ky, kz and sheared,
-    then the three 2D edge functions) for the triangles in rows r0..r3 of
-    the (n, 3) vertex arrays v0, v1, v2 at once, in <4 x double>.
+def crossing_mask4(typingctx, leaf_tris, k, kx, ky, kz, okx, oky, okz, sx, sy, sz, t_min, t_max):
+    """The crossing triangle test (intersect._triangle with ``crossing``)
+    of one ray against the 4 triangles in columns k .. k + 3 of
+    ``leaf_tris`` (accel/bvh.py's CountingBVH: row 3 * corner + axis), in
+    <4 x double>: 4 contiguous loads a row, no gather.
 
-    Returns a 4-bit mask: bit j is clear where triangle rj's edge functions
-    have mixed signs, the test's first rejection (the ray's line passes
-    outside the triangle), and set otherwise.  Each lane's arithmetic is
-    the scalar test's, operation for operation (no fused multiply-adds), so
-    a lane is rejected exactly where the scalar test rejects it; a set bit
-    still needs the full test.
+    Returns two 4-bit masks, hits in bits 0-3 and "unsure" in bits 4-7:
+    - a lane whose three edge functions share a strict sign takes the
+      scalar test's remaining steps (det, the scaled distance against 0
+      and t_max * det, t = t_scaled * (1 / det) against t_min and t_max),
+      each lane operation for operation as the scalar test (no fused
+      multiply-adds), so its hit bit is set exactly where the scalar test
+      hits;
+    - a lane with mixed signs is a miss, as in the scalar test;
+    - any other lane (an edge function exactly 0, where the crossing rule
+      decides which triangle owns the edge, or NaN: a column that holds
+      no triangle) is unsure: the caller runs the scalar test on it.
     """
-    arrays, ints, floats = (v0, v1, v2), (r0, r1, r2, r3, kx, ky, kz), (okx, oky, okz, sx, sy)
-    if any(a != _VERTICES for a in arrays) or not all(isinstance(a, types.Integer) for a in ints) \
+    floats = (okx, oky, okz, sx, sy, sz, t_min, t_max)
+    if leaf_tris != _VERTICES or not all(isinstance(a, types.Integer) for a in (k, kx, ky, kz)) \
             or not all(isinstance(a, types.Float) for a in floats):
         return None
-    sig = types.int64(*arrays, *ints, *floats)
+    sig = types.int64(leaf_tris, k, kx, ky, kz, *floats)
 
     def codegen(context, builder, sig, llargs):
         i64 = ir.IntType(64)
-        i32 = ir.IntType(32)
         vec = ir.VectorType(ir.DoubleType(), 4)
-        data = [context.make_array(sig.args[k])(context, builder, value=llargs[k]).data
-                for k in range(3)]
-        rows = [builder.mul(context.cast(builder, llargs[3 + j], sig.args[3 + j], types.int64),
-                            ir.Constant(i64, 3)) for j in range(4)]
-        axes = [context.cast(builder, llargs[7 + a], sig.args[7 + a], types.int64)
-                for a in range(3)]
-        okx, oky, okz, sx, sy = [context.cast(builder, llargs[10 + k], sig.args[10 + k],
-                                              types.float64) for k in range(5)]
+        rows = context.make_array(sig.args[0])(context, builder, value=llargs[0])
+        stride = builder.extract_value(rows.shape, 1)
+        k, kx, ky, kz = [context.cast(builder, llargs[j], sig.args[j], types.int64)
+                         for j in range(1, 5)]
+        okx, oky, okz, sx, sy, sz, t_min, t_max = [
+            _splat(builder, vec, context.cast(builder, llargs[j], sig.args[j], types.float64))
+            for j in range(5, 13)]
 
-        def coordinate(vertices, axis):
-            """Component ``axis`` of the 4 triangles' vertex, one per lane."""
-            v = ir.Constant(vec, ir.Undefined)
-            for j in range(4):
-                p = builder.gep(vertices, [builder.add(rows[j], axis)])
-                v = builder.insert_element(v, builder.load(p), ir.Constant(i32, j))
-            return v
+        def coordinate(corner, axis):
+            """Component ``axis`` of the 4 triangles' corner, one per lane."""
+            row = builder.add(ir.Constant(i64, 3 * corner), axis)
+            p = builder.gep(rows.data, [builder.add(builder.mul(row, stride), k)])
+            return builder.load(builder.bitcast(p, vec.as_pointer()), align=8)
 
-        origin = [_splat(builder, vec, x) for x in (okx, oky, okz)]
-        corners = [[builder.fsub(coordinate(vertices, axes[a]), origin[a]) for a in range(3)]
-                   for vertices in data]
-        _, mixed = _edge_functions(builder, corners, _splat(builder, vec, sx),
-                                   _splat(builder, vec, sy))
-        return builder.zext(builder.bitcast(builder.not_(mixed), ir.IntType(4)), i64)
+        corners = [[builder.fsub(coordinate(c, axis), origin)
+                    for axis, origin in ((kx, okx), (ky, oky), (kz, okz))] for c in range(3)]
+        edges, mixed = _edge_functions(builder, corners, sx, sy)
+        zero = ir.Constant(vec, [0.0] * 4)
+
+        def every_edge(op):
+            e0, e1, e2 = [builder.fcmp_ordered(op, e, zero) for e in edges]
+            return builder.and_(builder.and_(e0, e1), e2)
+
+        positive = every_edge(">")
+        strict = builder.or_(positive, every_edge("<"))
+        e0, e1, e2 = edges
+        det = builder.fadd(builder.fadd(e0, e1), e2)
+        az, bz, cz = [builder.fmul(corner[2], sz) for corner in corners]
+        t_scaled = builder.fadd(builder.fadd(builder.fmul(e0, az), builder.fmul(e1, bz)),
+                                builder.fmul(e2, cz))
+        far = builder.fmul(t_max, det)
+        # det > 0 where every edge is positive: 0 < t_scaled < t_max * det;
+        # det < 0: the same, mirrored.
+        ahead = builder.select(
+            positive,
+            builder.and_(builder.fcmp_ordered(">", t_scaled, zero),
+                         builder.fcmp_ordered("<", t_scaled, far)),
+            builder.and_(builder.fcmp_ordered("<", t_scaled, zero),
+                         builder.fcmp_ordered(">", t_scaled, far)))
+        t = builder.fmul(t_scaled, builder.fdiv(ir.Constant(vec, [1.0] * 4), det))
+        within = builder.and_(builder.fcmp_ordered(">", t, t_min), builder.fcmp_ordered("<", t, t_max))
+        hit = builder.and_(strict, builder.and_(ahead, within))
+        unsure = builder.and_(builder.not_(mixed), builder.not_(strict))
+        i4 = ir.IntType(4)
+        return builder.or_(builder.zext(builder.bitcast(hit, i4), i64),
+                           builder.shl(builder.zext(builder.bitcast(unsure, i4), i64),
+                                       ir.Constant(i64, 4)))
 
     return sig, codegen
 

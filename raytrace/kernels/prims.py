@@ -82,6 +82,21 @@ def _choose_test_prim(geo, ray, p, t_max):
     return impl
 
 
+def records_hits(ray):
+    """Whether test_prim writes the ray's hits down (a ListingRay): a
+    compile-time constant.  Compiled code only."""
+    raise NotImplementedError("compiled code only")
+
+
+@overload(records_hits, jit_options=OVERLOAD)
+def _records_hits(ray):
+    listing = ray.instance_class is ListingRay
+
+    def impl(ray):
+        return listing
+    return impl
+
+
 @njit(**JIT)
 def test_and_keep(geo, ray, p, t_max, best, cnt, keep):
     """Test bounded primitive p and count it; returns the closer of its hit

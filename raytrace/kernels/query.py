@@ -23,6 +23,7 @@ from .ray import no_hit
 # hit (never stop, never narrow the interval: each hit is counted in
 # cnt[PRIM_HITS] and none kept).
 CLOSEST, ANY_HIT, ALL_HITS = 0, 1, 2
+MODES = ("closest-hit", "any-hit", "every-hit")
 
 # layout class -> (closest, any_hit, all_hits): compiled functions (geo,
 # acc, ray, t_max, cnt) -> Hit made from one loop each (MODES order).
@@ -30,7 +31,10 @@ _TRAVERSALS = {}
 
 
 def register(layout, closest, any_hit, all_hits):
-    """Make ``layout`` (a structure's namedtuple class) queryable."""
+    """Make ``layout`` (a structure's namedtuple class) queryable.  None:
+    the layout does not answer that question; a structure may count on a
+    layout of its own (the BVH: accel.bvh.for_counting, by way of
+    structures.counting_layout)."""
     _TRAVERSALS[layout] = (closest, any_hit, all_hits)
 
 
@@ -47,7 +51,8 @@ def register_packets(layout, closest, occluded):
     _PACKETS[layout] = (closest, occluded)
 
 
-def _traversal(acc):
+def _traversal(acc, mode):
+    """The traversal registered for acc's layout in ``mode`` (MODES order)."""
     cls = getattr(acc, "instance_class", None)
     if cls is not None and cls not in _TRAVERSALS:
         # A layout unpickled in another process (a Dask worker's scene) comes
@@ -57,7 +62,11 @@ def _traversal(acc):
             importlib.import_module(module)
     if cls not in _TRAVERSALS:
         raise TypingError(f"no traversal registered for structure layout {acc}")
-    return _TRAVERSALS[cls]
+    traversal = _TRAVERSALS[cls][mode]
+    if traversal is None:
+        raise TypingError(f"structure layout {cls.__name__} has no {MODES[mode]} traversal"
+                          + (" (count on structures.counting_layout)" if mode == ALL_HITS else ""))
+    return traversal
 
 
 def closest_hit(geo, acc, ray, t_max, cnt):
@@ -75,7 +84,7 @@ def occluded(geo, acc, ray, t_max, cnt):
 
 @overload(closest_hit, jit_options=OVERLOAD)
 def _closest_hit(geo, acc, ray, t_max, cnt):
-    closest = _traversal(acc)[0]
+    closest = _traversal(acc, CLOSEST)
 
     def impl(geo, acc, ray, t_max, cnt):
         return planes_closest(geo, ray, t_max, closest(geo, acc, ray, t_max, cnt), cnt)
@@ -91,7 +100,7 @@ def count_hits(geo, acc, ray, t_max, cnt):
 
 @overload(count_hits, jit_options=OVERLOAD)
 def _count_hits(geo, acc, ray, t_max, cnt):
-    all_hits = _traversal(acc)[2]
+    all_hits = _traversal(acc, ALL_HITS)
 
     def impl(geo, acc, ray, t_max, cnt):
         before = cnt[PRIM_HITS]
@@ -111,7 +120,7 @@ def list_hits(geo, acc, ray, t_max, cnt):
 
 @overload(list_hits, jit_options=OVERLOAD)
 def _list_hits(geo, acc, ray, t_max, cnt):
-    all_hits = _traversal(acc)[2]
+    all_hits = _traversal(acc, ALL_HITS)
 
     def impl(geo, acc, ray, t_max, cnt):
         all_hits(geo, acc, ray, t_max, cnt)
@@ -122,7 +131,7 @@ def _list_hits(geo, acc, ray, t_max, cnt):
 
 @overload(occluded, jit_options=OVERLOAD)
 def _occluded(geo, acc, ray, t_max, cnt):
-    any_hit = _traversal(acc)[1]
+    any_hit = _traversal(acc, ANY_HIT)
 
     def impl(geo, acc, ray, t_max, cnt):
         # Planes first: one test each, and the ground blocks many shadow rays.
@@ -152,7 +161,7 @@ def _packets(acc, origins, dirs):
     traversal's module, so that module cannot import it), loaded here.
     A packet reads its rays' rows as one block: rays in arrays that are
     not C-contiguous (the API always passes C arrays) go one by one."""
-    _traversal(acc)
+    _traversal(acc, CLOSEST)
     if getattr(origins, "layout", None) != "C" or getattr(dirs, "layout", None) != "C":
         return None
     cls = acc.instance_class
