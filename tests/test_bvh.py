@@ -324,6 +324,25 @@ def test_build_accel_fields():
     assert seconds >= 0
 
 
+def test_counting_layout_copies_leaf_triangles_and_packs_lanes():
+    """for_counting: column k of leaf_tris holds slot k's triangle (NaN for
+    a sphere's slot and the 3 columns of padding); each lane word unpacks
+    to the lane's child and count, unused lanes' -1 child included."""
+    rng = np.random.default_rng(2)
+    geo, ranges = make_scene(random_soup(rng, 50, 0.1), spheres=[((0, 0, 0), 0.3)])
+    acc, _ = build_accel("bvh", geo, ranges)
+    c = get_structure("bvh").counting_layout(acc, geo)
+    assert c.prim_ids is acc.prim_ids and c.node_box is acc.node_box
+    tri = acc.prim_ids < 50
+    for corner, v in enumerate((geo.tri_v0, geo.tri_v1, geo.tri_v2)):
+        rows = c.leaf_tris[3 * corner:3 * corner + 3]
+        assert np.array_equal(rows[:, :-3][:, tri], v[acc.prim_ids[tri]].T)
+    assert np.isnan(c.leaf_tris[:, :-3][:, ~tri]).all() and np.isnan(c.leaf_tris[:, -3:]).all()
+    assert np.array_equal(c.lanes >> 32, acc.node_child.ravel())
+    assert np.array_equal(c.lanes & 0xFFFFFFFF, acc.node_count.ravel())
+    assert (acc.node_child == -1).any()
+
+
 def test_build_kernel_depth_reported():
     lo, hi = outward(*boxes_of(random_soup(np.random.default_rng(2), 1000, 0.01)))
     n = len(lo)

@@ -317,7 +317,8 @@ def test_crossing_mask4_decides_as_the_scalar_test(scale):
     # Slots in a shuffled order, with two spheres' ids (n_tris and above).
     prim_ids = rng.permutation(n_tris + 2)
     geo = SimpleNamespace(tri_v0=v0, tri_v1=v1, tri_v2=v2)
-    leaf_tris = for_counting(BVH(None, None, None, prim_ids, 0.0), geo).leaf_tris
+    no_nodes = np.zeros((0, WIDTH), np.int64)
+    leaf_tris = for_counting(BVH(None, no_nodes, no_nodes, prim_ids, 0.0), geo).leaf_tris
     assert leaf_tris.shape == (9, n_tris + 5) and np.isnan(leaf_tris[:, -3:]).all()
     targets = np.concatenate([a, 0.5 * (a[:-1] + a[1:]), 0.5 * (a[:-4] + a[4:]),
                               t.mean(axis=1) / scale]) * scale

@@ -41,11 +41,14 @@ from ..threads import run_on_threads, runs
 # range), which bounds the float32 box test's distances (kernels/bvh.py).
 BVH = namedtuple("BVH", ["node_box", "node_child", "node_count", "prim_ids", "box_bound"])
 # The layout counting and listing every hit read (for_counting): the BVH's
-# fields and leaf_tris, (9, len(prim_ids) + 3) float64, column k the
-# corners of the triangle in slot k of prim_ids, row 3 * corner + axis; NaN
-# where a slot holds a sphere, and in the 3 columns past the end, so a leaf
-# loads 4 columns at a time (kernels/lowlevel.crossing_mask4).
-CountingBVH = namedtuple("CountingBVH", BVH._fields + ("leaf_tris",))
+# fields, and
+# - leaf_tris, (9, len(prim_ids) + 3) float64: column k the corners of
+#   the triangle in slot k of prim_ids, row 3 * corner + axis; NaN where a
+#   slot holds a sphere, and in the 3 columns past the end, so a leaf
+#   loads 4 columns at a time (kernels/lowlevel.crossing_mask4);
+# - lanes, (m * 4,) int64: each lane's node_child << 32 | node_count, one
+#   load where a lane took two (a leaf's is its queue entry as it stands).
+CountingBVH = namedtuple("CountingBVH", BVH._fields + ("leaf_tris", "lanes"))
 # The nodes' box type, binary and wide: float32, each the padded float64
 # box rounded outwards (build_bvh_kernel, collapse_bvh4).
 BOX = np.float32
@@ -711,11 +714,11 @@ def box_bound(node_box):
 
 def for_counting(bvh, geo):
     """The CountingBVH of ``bvh``: its triangles' corners copied in leaf
-    order, 72 bytes a triangle, made on a scene's first count or listing
-    (rayscene.py), never for a render.  Counting loads a leaf's triangles
-    as 4 contiguous columns where it gathered 9 coordinates from 3 arrays
-    for each: count_intersections 89.9 -> 79.4 ms (200,000 random rays,
-    20k triangles, docs/benchmarks.md)."""
+    order (72 bytes a triangle) and its lanes packed (8 bytes a lane), made
+    on a scene's first count or listing (rayscene.py), never for a render.
+    Counting loads a leaf's triangles as 4 contiguous columns where it
+    gathered 9 coordinates from 3 arrays for each (docs/design.md,
+    "Counting decides 4 triangles at once")."""
     ids = bvh.prim_ids
     leaf_tris = np.full((9, len(ids) + 3), np.nan)
     slots = np.flatnonzero(ids < geo.tri_v0.shape[0])
@@ -723,7 +726,8 @@ def for_counting(bvh, geo):
     for corner, v in enumerate((geo.tri_v0, geo.tri_v1, geo.tri_v2)):
         for axis in range(3):
             leaf_tris[3 * corner + axis, slots] = v[tris, axis]
-    return CountingBVH(*bvh, leaf_tris)
+    lanes = ((bvh.node_child << 32) | bvh.node_count).ravel()
+    return CountingBVH(*bvh, leaf_tris, lanes)
 
 
 def _levels(bvh):

@@ -237,27 +237,29 @@ def _count_leaf(geo, ray, leaf_tris, prim_ids, k, end, t_max):
 
 
 @njit(**JIT)
-def _push_inner(node_child, node_count, node, mask, stack, sp):
-    """Push node's entered inner children without a branch (each lane
-    written, the stack pointer advanced by its bit); returns (the new stack
-    pointer, the mask of its entered leaves)."""
-    leaves = 0
-    for lane in range(WIDTH):
-        is_leaf = node_count[node, lane] > 0
-        leaves |= is_leaf << lane
-        stack[sp] = node_child[node, lane]
-        sp += ((mask >> lane) & 1) & (not is_leaf)
-    return sp, leaves & mask
+def _unsigned(i):
+    """Index i as Numba indexes without a sign test: a signed index is
+    first wrapped (a negative one counts from the end), a test and an add
+    at every access.  For indices that cannot be negative."""
+    return np.uint64(i)
 
 
 @njit(**JIT)
-def _queue_leaves(node_child, node_count, node, leaves, queue, qn):
-    """Append node's leaves in mask ``leaves`` to the queue without a
-    branch, each as (first slot << 32 | count); returns the queue's length."""
+def _sort_lanes(lanes, node, mask, stack, sp, queue, qn):
+    """Push node's entered inner children and queue its entered leaves
+    (as their lane words: first slot << 32 | count), without a branch:
+    every lane is written to both, and each pointer advanced by the
+    lane's bit.  Returns the two pointers."""
+    base = node * WIDTH
     for lane in range(WIDTH):
-        queue[qn] = (node_child[node, lane] << 32) | node_count[node, lane]
-        qn += (leaves >> lane) & 1
-    return qn
+        word = lanes[_unsigned(base + lane)]
+        entered = (mask >> lane) & 1
+        is_leaf = (word & 0xFFFFFFFF) > 0
+        stack[_unsigned(sp)] = word >> 32
+        sp += entered & (not is_leaf)
+        queue[_unsigned(qn)] = word
+        qn += entered & is_leaf
+    return sp, qn
 
 
 @njit(**JIT)
@@ -270,8 +272,7 @@ def _count_traverse(geo, acc, ray, t_max, cnt):
     nothing).  Entered leaves wait in a queue, tested when it is nearly
     full or the tree is done, in one loop of predictable length, instead of
     a loop of 0 to 8 leaves a round (1.07x faster)."""
-    node_box, node_child, node_count, prim_ids = (acc.node_box, acc.node_child,
-                                                  acc.node_count, acc.prim_ids)
+    node_box, lanes, prim_ids = acc.node_box, acc.lanes, acc.prim_ids
     if node_box.shape[0] == 0:
         return no_hit()
     stack = frame_array(STACK_SIZE, np.int64)
@@ -286,21 +287,19 @@ def _count_traverse(geo, acc, ray, t_max, cnt):
     sp = 0
     while node >= 0:
         two = sp > 0
-        other = stack[sp - 1] if two else node    # no second node: its mask stays 0
+        other = stack[_unsigned(sp - 1)] if two else node   # no second node: its mask stays 0
         sp -= two
         n_inner += 1 + two
         mask, _ = child_boxes(node_box, node, br, t_max)
         mask2 = 0
         if two:   # only then: a masked test of the first node again cost short rays most
             mask2, _ = child_boxes(node_box, other, br, t_max)
-        sp, leaves = _push_inner(node_child, node_count, node, mask, stack, sp)
-        sp, leaves2 = _push_inner(node_child, node_count, other, mask2, stack, sp)
-        qn = _queue_leaves(node_child, node_count, node, leaves, queue, qn)
-        qn = _queue_leaves(node_child, node_count, other, leaves2, queue, qn)
+        sp, qn = _sort_lanes(lanes, node, mask, stack, sp, queue, qn)
+        sp, qn = _sort_lanes(lanes, other, mask2, stack, sp, queue, qn)
         node = -1
         if sp > 0:
             sp -= 1
-            node = stack[sp]
+            node = stack[_unsigned(sp)]
         if qn > QUEUE_SIZE - 2 * WIDTH or node < 0:
             n_leaves += qn
             for i in range(qn):
