@@ -422,7 +422,8 @@ def crossing_mask4(typingctx, leaf_tris, k, kx, ky, kz, okx, oky, okz, sx, sy, s
             builder.and_(builder.fcmp_ordered("<", t_scaled, zero),
                          builder.fcmp_ordered(">", t_scaled, far)))
         t = builder.fmul(t_scaled, builder.fdiv(ir.Constant(vec, [1.0] * 4), det))
-        within = builder.and_(builder.fcmp_ordered(">", t, t_min), builder.fcmp_ordered("<", t, t_max))
+        within = builder.and_(builder.fcmp_ordered(">", t, t_min),
+                              builder.fcmp_ordered("<", t, t_max))
         hit = builder.and_(strict, builder.and_(ahead, within))
         unsure = builder.and_(builder.not_(mixed), builder.not_(strict))
         i4 = ir.IntType(4)
