@@ -1,6 +1,6 @@
 """The LLVM-level pieces: ray_aabb4 (float32) must enter every box the
 exact ray enters, at an entry no later than the exact one, and few others,
-since the BVH's bit-identical images rest on it; crossing_mask4 must
+since the BVH's bit-identical images rest on it; crossing_mask must
 decide each triangle as the scalar crossing test does, or leave it to it;
 and the
 frame stack array must behave as an ordinary array."""
@@ -14,7 +14,7 @@ from numba import njit, prange
 from raytrace.accel.bvh import BOX, BVH, WIDTH, box_bound, for_counting
 from raytrace.kernels.bvh import BOX32_RANGE, NEAR_LIMIT, box_ray, child_boxes
 from raytrace.kernels.intersect import ray_triangle_crossing
-from raytrace.kernels.lowlevel import crossing_mask4, frame_array, take_rows, take_ticket
+from raytrace.kernels.lowlevel import crossing_mask, frame_array, take_rows, take_ticket
 from raytrace.kernels.ray import make_crossing_ray, make_ray
 
 
@@ -246,15 +246,16 @@ def test_t_max_and_behind():
 
 
 @njit(error_model="numpy")
-def crossing_masks(leaf_tris, v0, v1, v2, origins, dirs, t_min, t_max):
-    """For every ray and every column of leaf_tris (4 at a time): the
-    crossing_mask4 hit and unsure bits, as (n_rays, n_columns) booleans;
-    the ray's watertight constants (kx, ky, kz, sx, sy, okx, oky, okz);
-    and the scalar crossing test's distance to each of the triangles v0,
-    v1, v2 (inf: a miss)."""
+def crossing_masks(leaf_tris, v0, v1, v2, origins, dirs, t_min, t_max, partner):
+    """For every ray and every column of leaf_tris: the crossing_mask hit
+    and unsure bits, as (n_rays, n_columns) booleans, once from each half
+    of the test (chunk g of 4 columns first, with chunk partner[g] second;
+    then every chunk as a second); the ray's watertight constants (kx, ky,
+    kz, sx, sy, okx, oky, okz); and the scalar crossing test's distance to
+    each of the triangles v0, v1, v2 (inf: a miss)."""
     n, m = origins.shape[0], leaf_tris.shape[1] - 3
-    hits = np.empty((n, m), np.bool_)
-    unsure = np.empty((n, m), np.bool_)
+    hits = np.zeros((2, n, m), np.bool_)
+    unsure = np.zeros((2, n, m), np.bool_)
     consts = np.empty((n, 8))
     scalar = np.empty((n, v0.shape[0]))
     for i in range(n):
@@ -263,12 +264,16 @@ def crossing_masks(leaf_tris, v0, v1, v2, origins, dirs, t_min, t_max):
         consts[i, 0], consts[i, 1], consts[i, 2] = ray.kx, ray.ky, ray.kz
         consts[i, 3], consts[i, 4] = ray.sx, ray.sy
         consts[i, 5], consts[i, 6], consts[i, 7] = ray.okx, ray.oky, ray.okz
-        for g in range(0, m, 4):
-            mask = crossing_mask4(leaf_tris, g, ray.kx, ray.ky, ray.kz, ray.okx, ray.oky,
-                                  ray.okz, ray.sx, ray.sy, ray.sz, ray.t_min, t_max[i])
-            for j in range(min(4, m - g)):
-                hits[i, g + j] = (mask >> j) & 1
-                unsure[i, g + j] = (mask >> (4 + j)) & 1
+        for c in range(partner.shape[0]):
+            chunks = (4 * c, 4 * partner[c])
+            mask = crossing_mask(leaf_tris, chunks[0], chunks[1], ray.kx, ray.ky, ray.kz,
+                                 ray.okx, ray.oky, ray.okz, ray.sx, ray.sy, ray.sz, ray.t_min,
+                                 t_max[i])
+            for half in range(2):
+                g = chunks[half]
+                for j in range(min(4, m - g)):
+                    hits[half, i, g + j] = (mask >> (4 * half + j)) & 1
+                    unsure[half, i, g + j] = (mask >> (8 + 4 * half + j)) & 1
         for p in range(v0.shape[0]):
             scalar[i, p] = ray_triangle_crossing(ray, v0, v1, v2, p, t_max[i])[0]
     return hits, unsure, consts, scalar
@@ -295,12 +300,14 @@ def edge_signs(v0, v1, v2, consts):
 
 
 @pytest.mark.parametrize("scale", [1.0, 1e-6, 1e8])
-def test_crossing_mask4_decides_as_the_scalar_test(scale):
+def test_crossing_mask_decides_as_the_scalar_test(scale):
     """Rays aimed exactly at vertices and edge midpoints of a grid of
     triangles (edge functions exactly 0), near them, and at random; axis
     directions; rays at the triangles' centroids; degenerate triangles (a
     point, a segment); each hit again with its interval cut at its exact
-    distance and just past it, at either end.  Columns in leaf order (for_counting), two of them spheres.
+    distance and just past it, at either end.  Columns in leaf order
+    (for_counting), two of them spheres; each chunk of 4 tested as the
+    first half of the 8 lanes and as the second, beside another chunk.
     Every lane with strictly signed edge functions hits exactly where the
     scalar crossing test hits; a lane with mixed signs is a miss; every
     other lane, and a sphere's, is left to the scalar test."""
@@ -334,9 +341,14 @@ def test_crossing_mask4_decides_as_the_scalar_test(scale):
     t_min = np.zeros(len(origins))
     t_max = np.full(len(origins), np.inf)
 
+    n_chunks = (n_tris + 2 + 3) // 4
+    partner = rng.permutation(n_chunks)     # every chunk once as each half
+
     def check(origins, dirs, t_min, t_max):
-        hits, unsure, consts, t_hit = crossing_masks(leaf_tris, v0, v1, v2, origins, dirs,
-                                                     t_min, t_max)
+        both, unsure2, consts, t_hit = crossing_masks(leaf_tris, v0, v1, v2, origins, dirs,
+                                                      t_min, t_max, partner)
+        assert np.array_equal(both[0], both[1]) and np.array_equal(unsure2[0], unsure2[1])
+        hits, unsure = both[0], unsure2[0]
         tri = prim_ids < n_tris
         assert unsure[:, ~tri].all() and not hits[:, ~tri].any()
         hits, unsure = hits[:, tri], unsure[:, tri]

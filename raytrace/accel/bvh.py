@@ -45,7 +45,7 @@ BVH = namedtuple("BVH", ["node_box", "node_child", "node_count", "prim_ids", "bo
 # - leaf_tris, (9, len(prim_ids) + 3) float64: column k the corners of
 #   the triangle in slot k of prim_ids, row 3 * corner + axis; NaN where a
 #   slot holds a sphere, and in the 3 columns past the end, so a leaf
-#   loads 4 columns at a time (kernels/lowlevel.crossing_mask4);
+#   loads 4 columns at a time (kernels/lowlevel.crossing_mask);
 # - lanes, (m * 4,) int64: each lane's node_child << 32 | node_count, one
 #   load where a lane took two (a leaf's is its queue entry as it stands).
 CountingBVH = namedtuple("CountingBVH", BVH._fields + ("leaf_tris", "lanes"))

@@ -1,6 +1,6 @@
 """What the kernels need that Numba cannot say in Python: an array in the
 caller's stack frame, a 4-wide box test in SIMD, the crossing triangle
-test for 4 triangles at once, packets of rays, and an atomic counter.
+test for 8 triangles at once, packets of rays, and an atomic counter.
 
 Each is a Numba intrinsic that emits LLVM IR directly.
 """
@@ -354,14 +354,20 @@ def packet_aabb4(typingctx, node_box, node, nx, ny, nz, consts, t_far):
 _VERTICES = types.Array(types.float64, 2, "C")
 
 
-@intrinsic
-def crossing_mask4(typingctx, leaf_tris, k, kx, ky, kz, okx, oky, okz, sx, sy, sz, t_min, t_max):
-    """The crossing triangle test (intersect._triangle with ``crossing``)
-    of one ray against the 4 triangles in columns k .. k + 3 of
-    ``leaf_tris`` (accel/bvh.py's CountingBVH: row 3 * corner + axis), in
-    <4 x double>: 4 contiguous loads a row, no gather.
+CROSSING_LANES = 8    # crossing_mask's lanes: two chunks of 4 columns
 
-    Returns two 4-bit masks, hits in bits 0-3 and "unsure" in bits 4-7:
+
+@intrinsic
+def crossing_mask(typingctx, leaf_tris, k, k2, kx, ky, kz, okx, oky, okz, sx, sy, sz, t_min,
+                  t_max):
+    """The crossing triangle test (intersect._triangle with ``crossing``)
+    of one ray against 8 triangles at once, in <8 x double>: columns k ..
+    k + 3 and k2 .. k2 + 3 of ``leaf_tris`` (accel/bvh.py's CountingBVH:
+    row 3 * corner + axis), two contiguous loads of 4 a row, no gather.
+    Two chunks, so that two small leaves share a test.
+
+    Returns two 8-bit masks, hits in bits 0-7 (lanes k.., then k2..) and
+    "unsure" in bits 8-15:
     - a lane whose three edge functions share a strict sign takes the
       scalar test's remaining steps (det, the scaled distance against 0
       and t_max * det, t = t_scaled * (1 / det) against t_min and t_max),
@@ -374,32 +380,37 @@ def crossing_mask4(typingctx, leaf_tris, k, kx, ky, kz, okx, oky, okz, sx, sy, s
       no triangle) is unsure: the caller runs the scalar test on it.
     """
     floats = (okx, oky, okz, sx, sy, sz, t_min, t_max)
-    if leaf_tris != _VERTICES or not all(isinstance(a, types.Integer) for a in (k, kx, ky, kz)) \
+    if leaf_tris != _VERTICES or not all(isinstance(a, types.Integer) for a in (k, k2, kx, ky, kz)) \
             or not all(isinstance(a, types.Float) for a in floats):
         return None
-    sig = types.int64(leaf_tris, k, kx, ky, kz, *floats)
+    sig = types.int64(leaf_tris, k, k2, kx, ky, kz, *floats)
+    lanes = CROSSING_LANES
 
     def codegen(context, builder, sig, llargs):
         i64 = ir.IntType(64)
-        vec = ir.VectorType(ir.DoubleType(), 4)
+        chunk = ir.VectorType(ir.DoubleType(), lanes // 2)
+        vec = ir.VectorType(ir.DoubleType(), lanes)
+        both = ir.Constant(ir.VectorType(ir.IntType(32), lanes), list(range(lanes)))
         rows = context.make_array(sig.args[0])(context, builder, value=llargs[0])
         stride = builder.extract_value(rows.shape, 1)
-        k, kx, ky, kz = [context.cast(builder, llargs[j], sig.args[j], types.int64)
-                         for j in range(1, 5)]
+        k, k2, kx, ky, kz = [context.cast(builder, llargs[j], sig.args[j], types.int64)
+                             for j in range(1, 6)]
         okx, oky, okz, sx, sy, sz, t_min, t_max = [
             _splat(builder, vec, context.cast(builder, llargs[j], sig.args[j], types.float64))
-            for j in range(5, 13)]
+            for j in range(6, 14)]
 
         def coordinate(corner, axis):
-            """Component ``axis`` of the 4 triangles' corner, one per lane."""
-            row = builder.add(ir.Constant(i64, 3 * corner), axis)
-            p = builder.gep(rows.data, [builder.add(builder.mul(row, stride), k)])
-            return builder.load(builder.bitcast(p, vec.as_pointer()), align=8)
+            """Component ``axis`` of the 8 triangles' corner, one per lane."""
+            row = builder.mul(builder.add(ir.Constant(i64, 3 * corner), axis), stride)
+            halves = [builder.load(builder.bitcast(builder.gep(rows.data, [builder.add(row, c)]),
+                                                   chunk.as_pointer()), align=8)
+                      for c in (k, k2)]
+            return builder.shuffle_vector(halves[0], halves[1], both)
 
         corners = [[builder.fsub(coordinate(c, axis), origin)
                     for axis, origin in ((kx, okx), (ky, oky), (kz, okz))] for c in range(3)]
         edges, mixed = _edge_functions(builder, corners, sx, sy)
-        zero = ir.Constant(vec, [0.0] * 4)
+        zero = ir.Constant(vec, [0.0] * lanes)
 
         def every_edge(op):
             e0, e1, e2 = [builder.fcmp_ordered(op, e, zero) for e in edges]
@@ -421,15 +432,15 @@ def crossing_mask4(typingctx, leaf_tris, k, kx, ky, kz, okx, oky, okz, sx, sy, s
                          builder.fcmp_ordered("<", t_scaled, far)),
             builder.and_(builder.fcmp_ordered("<", t_scaled, zero),
                          builder.fcmp_ordered(">", t_scaled, far)))
-        t = builder.fmul(t_scaled, builder.fdiv(ir.Constant(vec, [1.0] * 4), det))
+        t = builder.fmul(t_scaled, builder.fdiv(ir.Constant(vec, [1.0] * lanes), det))
         within = builder.and_(builder.fcmp_ordered(">", t, t_min),
                               builder.fcmp_ordered("<", t, t_max))
         hit = builder.and_(strict, builder.and_(ahead, within))
         unsure = builder.and_(builder.not_(mixed), builder.not_(strict))
-        i4 = ir.IntType(4)
-        return builder.or_(builder.zext(builder.bitcast(hit, i4), i64),
-                           builder.shl(builder.zext(builder.bitcast(unsure, i4), i64),
-                                       ir.Constant(i64, 4)))
+        bits = ir.IntType(lanes)
+        return builder.or_(builder.zext(builder.bitcast(hit, bits), i64),
+                           builder.shl(builder.zext(builder.bitcast(unsure, bits), i64),
+                                       ir.Constant(i64, lanes)))
 
     return sig, codegen
 
