@@ -324,23 +324,46 @@ def test_build_accel_fields():
     assert seconds >= 0
 
 
-def test_counting_layout_copies_leaf_triangles_and_packs_lanes():
+@pytest.mark.parametrize("n_tris", [5, 50, 700])
+def test_counting_layout_copies_leaf_triangles_and_packs_lanes(n_tris):
     """for_counting: column k of leaf_tris holds slot k's triangle (NaN for
     a sphere's slot and the 3 columns of padding); each lane word unpacks
-    to the lane's child and count, unused lanes' -1 child included."""
+    to the lane's child and count, unused lanes' -1 child included, but
+    for an inner lane whose subtree holds at most COUNT_LEAF primitives,
+    which is a leaf over exactly that subtree's slots."""
+    from raytrace.accel.bvh import COUNT_LEAF
     rng = np.random.default_rng(2)
-    geo, ranges = make_scene(random_soup(rng, 50, 0.1), spheres=[((0, 0, 0), 0.3)])
+    geo, ranges = make_scene(random_soup(rng, n_tris, 0.1), spheres=[((0, 0, 0), 0.3)])
     acc, _ = build_accel("bvh", geo, ranges)
     c = get_structure("bvh").counting_layout(acc, geo)
     assert c.prim_ids is acc.prim_ids and c.node_box is acc.node_box
-    tri = acc.prim_ids < 50
+    tri = acc.prim_ids < n_tris
     for corner, v in enumerate((geo.tri_v0, geo.tri_v1, geo.tri_v2)):
         rows = c.leaf_tris[3 * corner:3 * corner + 3]
         assert np.array_equal(rows[:, :-3][:, tri], v[acc.prim_ids[tri]].T)
     assert np.isnan(c.leaf_tris[:, :-3][:, ~tri]).all() and np.isnan(c.leaf_tris[:, -3:]).all()
-    assert np.array_equal(c.lanes >> 32, acc.node_child.ravel())
-    assert np.array_equal(c.lanes & 0xFFFFFFFF, acc.node_count.ravel())
-    assert (acc.node_child == -1).any()
+
+    def slots(node):
+        """The slots of the leaves under node, in the tree as built."""
+        out = []
+        for child, count in zip(acc.node_child[node], acc.node_count[node]):
+            out += list(range(child, child + count)) if count else (
+                slots(child) if child >= 0 else [])
+        return out
+
+    child, count = c.lanes >> 32, c.lanes & 0xFFFFFFFF
+    kept = (acc.node_count.ravel() > 0) | (acc.node_child.ravel() < 0)
+    assert np.array_equal(child[kept], acc.node_child.ravel()[kept])
+    assert np.array_equal(count[kept], acc.node_count.ravel()[kept])
+    merged = 0
+    for lane in np.flatnonzero(~kept):
+        below = slots(acc.node_child.ravel()[lane])
+        if len(below) <= COUNT_LEAF:
+            merged += 1
+            assert list(range(child[lane], child[lane] + count[lane])) == sorted(below)
+        else:
+            assert child[lane] == acc.node_child.ravel()[lane] and count[lane] == 0
+    assert (acc.node_child == -1).any() and (merged > 0 or n_tris < 50)
 
 
 def test_build_kernel_depth_reported():

@@ -47,8 +47,14 @@ BVH = namedtuple("BVH", ["node_box", "node_child", "node_count", "prim_ids", "bo
 #   slot holds a sphere, and in the 3 columns past the end, so a leaf
 #   loads 4 columns at a time (kernels/lowlevel.crossing_mask);
 # - lanes, (m * 4,) int64: each lane's node_child << 32 | node_count, one
-#   load where a lane took two (a leaf's is its queue entry as it stands).
+#   load where a lane took two (a leaf's is its queue entry as it stands),
+#   where an inner lane whose subtree holds at most COUNT_LEAF primitives
+#   is a leaf over them (its slots are contiguous: the tree is built depth
+#   first), so counting tests them at once instead of visiting its nodes.
 CountingBVH = namedtuple("CountingBVH", BVH._fields + ("leaf_tris", "lanes"))
+# One 8-lane crossing test (kernels/lowlevel.CROSSING_LANES): 6% faster
+# counts than the tree's own leaves, 10 and 16 no faster (docs/design.md).
+COUNT_LEAF = 8
 # The nodes' box type, binary and wide: float32, each the padded float64
 # box rounded outwards (build_bvh_kernel, collapse_bvh4).
 BOX = np.float32
@@ -726,8 +732,30 @@ def for_counting(bvh, geo):
     for corner, v in enumerate((geo.tri_v0, geo.tri_v1, geo.tri_v2)):
         for axis in range(3):
             leaf_tris[3 * corner + axis, slots] = v[tris, axis]
-    lanes = ((bvh.node_child << 32) | bvh.node_count).ravel()
-    return CountingBVH(*bvh, leaf_tris, lanes)
+    child, count = bvh.node_child, bvh.node_count
+    inner = (count == 0) & (child >= 0)
+    below = np.where(inner, child, 0)
+    first, end = _subtree_slots(bvh)
+    small = inner & (end[below] - first[below] <= COUNT_LEAF)
+    child = np.where(small, first[below], child)
+    count = np.where(small, end[below] - first[below], count)
+    return CountingBVH(*bvh, leaf_tris, ((child << 32) | count).ravel())
+
+
+def _subtree_slots(bvh):
+    """Each wide node's slots of prim_ids, [first, end): contiguous, since
+    the binary tree is built depth first and collapsing keeps subtrees."""
+    m = len(bvh.node_child)
+    first, end = np.zeros(m, np.int64), np.zeros(m, np.int64)
+    levels = list(_levels(bvh)) if m else []           # an empty tree has no root
+    for _, rows, _ in reversed(levels):                 # the deepest nodes first
+        child, count = bvh.node_child[rows], bvh.node_count[rows]
+        inner = (count == 0) & (child >= 0)
+        below = np.where(inner, child, 0)
+        none = np.iinfo(np.int64).max          # an unused lane holds no slot
+        first[rows] = np.where(count > 0, child, np.where(inner, first[below], none)).min(axis=1)
+        end[rows] = np.where(count > 0, child + count, np.where(inner, end[below], -1)).max(axis=1)
+    return first, end
 
 
 def _levels(bvh):
