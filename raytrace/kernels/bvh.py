@@ -48,7 +48,7 @@ from .ray import Hit, closer, no_hit
 
 STACK_SIZE = 3 * MAX_DEPTH + 4
 # Entered leaves waiting for their tests (_count_traverse): a round adds at
-# most 2 * WIDTH.  Random rays through a closed mesh enter 13.5 leaves.
+# most 2 * WIDTH.  Random rays through a closed mesh enter ~12 leaves.
 QUEUE_SIZE = 64
 CHUNK = CROSSING_LANES // 2   # slots of a leaf a crossing test takes at once
 _LANE_BITS = WIDTH.bit_length() - 1   # a leaf's stack entry is ~(node << 2 | lane)
@@ -215,7 +215,7 @@ def _count_chunks(geo, ray, leaf_tris, prim_ids, k, n, k2, n2, t_max):
     (n, n2 <= 4), tested at once (crossing_mask): a lane it cannot decide
     (an edge function exactly 0, a sphere) takes the scalar test, as does
     every hit of a ListingRay, whose test writes the hit down.  Counting
-    tests 35 triangles a ray and hits 2.7 (random rays through a bumpy
+    tests 49 triangles a ray and hits 2.7 (random rays through a bumpy
     20k-triangle sphere): the scalar test of the ~5 a ray whose edge
     functions agree cost a quarter of the count when only the edge
     functions were in SIMD (docs/design.md)."""
@@ -303,7 +303,8 @@ def _count_traverse(geo, acc, ray, t_max, cnt):
     first's (1.2x faster, the same nodes and counts; three a round gained
     nothing).  Entered leaves wait in a queue, tested when it is nearly
     full or the tree is done, in one loop of predictable length, instead of
-    a loop of 0 to 8 leaves a round (1.07x faster)."""
+    a loop of 0 to 8 leaves a round (1.07x faster).  A subtree of at most
+    COUNT_LEAF primitives is one leaf here (accel/bvh.py, for_counting)."""
     node_box, lanes, prim_ids = acc.node_box, acc.lanes, acc.prim_ids
     if node_box.shape[0] == 0:
         return no_hit()
