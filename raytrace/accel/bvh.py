@@ -49,8 +49,8 @@ BVH = namedtuple("BVH", ["node_box", "node_child", "node_count", "prim_ids", "bo
 # - lanes, (m * 4,) int64: each lane's node_child << 32 | node_count, one
 #   load where a lane took two (a leaf's is its queue entry as it stands),
 #   where an inner lane whose subtree holds at most COUNT_LEAF primitives
-#   is a leaf over them (its slots are contiguous: the tree is built depth
-#   first), so counting tests them at once instead of visiting its nodes.
+#   in contiguous slots (every builder's subtrees do) is a leaf over them,
+#   so counting tests them at once instead of visiting its nodes.
 CountingBVH = namedtuple("CountingBVH", BVH._fields + ("leaf_tris", "lanes"))
 # One 8-lane crossing test (kernels/lowlevel.CROSSING_LANES): 6% faster
 # counts than the tree's own leaves, 10 and 16 no faster (docs/design.md).
@@ -735,18 +735,20 @@ def for_counting(bvh, geo):
     child, count = bvh.node_child, bvh.node_count
     inner = (count == 0) & (child >= 0)
     below = np.where(inner, child, 0)
-    first, end = _subtree_slots(bvh)
-    small = inner & (end[below] - first[below] <= COUNT_LEAF)
+    first, end, total = _subtree_slots(bvh)
+    # A subtree is one leaf where its slots run without a gap: every
+    # builder here partitions prim_ids in place, so they always do.
+    small = inner & (total[below] <= COUNT_LEAF) & (end[below] - first[below] == total[below])
     child = np.where(small, first[below], child)
-    count = np.where(small, end[below] - first[below], count)
+    count = np.where(small, total[below], count)
     return CountingBVH(*bvh, leaf_tris, ((child << 32) | count).ravel())
 
 
 def _subtree_slots(bvh):
-    """Each wide node's slots of prim_ids, [first, end): contiguous, since
-    the binary tree is built depth first and collapsing keeps subtrees."""
+    """Each wide node's first and last slot of prim_ids, [first, end), and
+    how many primitives lie below it."""
     m = len(bvh.node_child)
-    first, end = np.zeros(m, np.int64), np.zeros(m, np.int64)
+    first, end, total = np.zeros(m, np.int64), np.zeros(m, np.int64), np.zeros(m, np.int64)
     levels = list(_levels(bvh)) if m else []           # an empty tree has no root
     for _, rows, _ in reversed(levels):                 # the deepest nodes first
         child, count = bvh.node_child[rows], bvh.node_count[rows]
@@ -755,7 +757,8 @@ def _subtree_slots(bvh):
         none = np.iinfo(np.int64).max          # an unused lane holds no slot
         first[rows] = np.where(count > 0, child, np.where(inner, first[below], none)).min(axis=1)
         end[rows] = np.where(count > 0, child + count, np.where(inner, end[below], -1)).max(axis=1)
-    return first, end
+        total[rows] = np.where(inner, total[below], count).sum(axis=1)
+    return first, end, total
 
 
 def _levels(bvh):
