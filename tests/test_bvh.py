@@ -12,6 +12,7 @@ from raytrace.accel.bvh import (
     BOX,
     LINK,
     MAX_DEPTH,
+    WIDTH,
     box_rows,
     build_bvh,
     build_bvh_kernel,
@@ -368,6 +369,76 @@ def test_counting_layout_copies_leaf_triangles_and_packs_lanes(n_tris, bvh_build
     # its smallest inner lanes hold 10 or more primitives: none is merged.
     assert merged > 0 or n_tris < 50 or bvh_build == "median"
     assert (acc.node_child == -1).any() or bvh_build == "median"
+
+
+def _rounds_that_pile_up(levels):
+    """A 4-wide tree (node_child, node_count rows) on which each round of
+    the counting traversal (three nodes: the top entry and the two below)
+    leaves 9 inner nodes on the stack: a chain node whose lanes 0, 2 and 3
+    are fans (4 twigs each; a twig is a node with one leaf of one
+    primitive) and lane 1 the next chain node, so the chain node and two
+    fans are popped together and the next chain node is third from the
+    top.  Returns the rows and the number of leaves."""
+    child, count = [], []
+    leaves = 0
+
+    def node():
+        child.append([-1] * WIDTH)
+        count.append([0] * WIDTH)
+        return len(child) - 1
+
+    def twig():
+        nonlocal leaves
+        t = node()
+        child[t][0], count[t][0] = leaves, 1
+        leaves += 1
+        return t
+
+    def fan():
+        f = node()
+        for lane in range(WIDTH):
+            child[f][lane] = twig()
+        return f
+
+    chain = node()
+    for level in range(levels):
+        if level == levels - 1:
+            for lane in range(WIDTH):
+                child[chain][lane] = twig()
+            break
+        lanes = [fan(), node(), fan(), fan()]
+        child[chain] = lanes
+        chain = lanes[1]
+    return np.array(child), np.array(count), leaves
+
+
+def test_counting_stack_holds_the_deepest_rounds():
+    """COUNT_STACK_SIZE: on a tree as deep as the layout allows, built so
+    that every round leaves 9 pending nodes (_rounds_that_pile_up: 500
+    and more at once, where the single-ray bound STACK_SIZE is 184), a ray
+    through every box and the one triangle all the leaves hold counts
+    each leaf once."""
+    from raytrace.accel.bvh import CountingBVH
+    from raytrace.kernels.bvh import COUNT_STACK_SIZE, STACK_SIZE
+    levels = MAX_DEPTH - 3           # its twigs lie MAX_DEPTH - 1 levels down
+    child, count, n = _rounds_that_pile_up(levels)
+    tri = np.array([[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [0.0, 1.0, 0.0]])
+    geo, _ = make_scene(np.tile(tri, (n, 1, 1)))
+    used = child >= 0
+    node_box = np.full((len(child), 6, WIDTH), np.inf, BOX)
+    node_box[:, :3, :] = np.where(used[:, None, :], -2.0, np.inf)
+    node_box[:, 3:, :] = np.where(used[:, None, :], 2.0, np.inf)
+    prim_ids = np.arange(n)
+    leaf_tris = np.full((9, n + 3), np.nan)
+    leaf_tris[:, :n] = tri.reshape(9, 1)
+    acc = CountingBVH(node_box, child, count, prim_ids, 2.0, leaf_tris,
+                      ((child << 32) | count).ravel())
+    assert 9 * (levels - 1) > STACK_SIZE and 9 * levels < COUNT_STACK_SIZE
+    o = np.array([[0.1, 0.0, 1.0], [1.5, 1.5, 1.0]])
+    d = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, -1.0]])
+    (c, k) = counts(geo, acc, o, d, np.full(2, np.inf))
+    assert list(c) == [n, 0]
+    assert k[NODES_VISITED] == 2 * len(child) + 2 * n
 
 
 def test_build_kernel_depth_reported():
