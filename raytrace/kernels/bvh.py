@@ -51,9 +51,10 @@ STACK_SIZE = 3 * MAX_DEPTH + 4
 # and pushes their entered inner children above what is left.  What one
 # round leaves below the next round's pushes is at most 4 * ROUND - ROUND
 # entries, and each such layer's shallowest node lies deeper than the
-# layer's below it (its nodes are children of nodes popped from above
-# that layer), so at most MAX_DEPTH - 1 layers: the stack never holds more
-# than COUNT_STACK_SIZE entries.
+# shallowest of the layer below (its nodes are children of nodes popped
+# from that layer or from layers above it, all at least as deep), so
+# there are at most MAX_DEPTH - 1 layers: the stack never holds more than
+# COUNT_STACK_SIZE entries.
 ROUND = 3
 COUNT_STACK_SIZE = 3 * ROUND * (MAX_DEPTH - 1) + WIDTH * ROUND
 # Entered leaves waiting for their tests (_count_traverse): a round adds at
