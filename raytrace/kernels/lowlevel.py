@@ -42,6 +42,35 @@ def _edge_functions(builder, corners, shear_x, shear_y):
     return edges, builder.and_(any_edge("<"), any_edge(">"))
 
 
+def _within_interval(builder, edges, corners, sz, t_min, t_max):
+    """intersect._triangle's steps after the edge functions' signs, lane by
+    lane and operation for operation: the lanes whose determinant is not 0
+    and whose distance lies in t_min < t < t_max (tested scaled first,
+    against 0 and t_max * det, then divided out), as the scalar test
+    decides them.  ``corners`` as _edge_functions takes them; sz, t_min,
+    t_max splatted or per lane."""
+    e0, e1, e2 = edges
+    (_, _, az), (_, _, bz), (_, _, cz) = corners
+    zero = ir.Constant(e0.type, [0.0] * e0.type.count)
+    one = ir.Constant(e0.type, [1.0] * e0.type.count)
+
+    def cmp(op, a, b):
+        return builder.fcmp_ordered(op, a, b)
+
+    det = builder.fadd(builder.fadd(e0, e1), e2)
+    t_scaled = builder.fadd(builder.fadd(builder.fmul(e0, builder.fmul(az, sz)),
+                                         builder.fmul(e1, builder.fmul(bz, sz))),
+                            builder.fmul(e2, builder.fmul(cz, sz)))
+    bound = builder.fmul(t_max, det)
+    out_neg = builder.or_(cmp(">=", t_scaled, zero), cmp("<=", t_scaled, bound))
+    out_pos = builder.or_(cmp("<=", t_scaled, zero), cmp(">=", t_scaled, bound))
+    out = builder.select(cmp("<", det, zero), out_neg, out_pos)
+    t = builder.fmul(t_scaled, builder.fdiv(one, det))
+    within = builder.and_(cmp(">", t, t_min), cmp("<", t, t_max))
+    return builder.and_(builder.and_(builder.not_(cmp("==", det, zero)), builder.not_(out)),
+                        within)
+
+
 @intrinsic
 def frame_array(typingctx, size, dtype):
     """A (size,) array in the calling function's stack frame (alloca).
@@ -416,26 +445,8 @@ def crossing_mask(typingctx, leaf_tris, k, k2, kx, ky, kz, okx, oky, okz, sx, sy
             e0, e1, e2 = [builder.fcmp_ordered(op, e, zero) for e in edges]
             return builder.and_(builder.and_(e0, e1), e2)
 
-        positive = every_edge(">")
-        strict = builder.or_(positive, every_edge("<"))
-        e0, e1, e2 = edges
-        det = builder.fadd(builder.fadd(e0, e1), e2)
-        az, bz, cz = [builder.fmul(corner[2], sz) for corner in corners]
-        t_scaled = builder.fadd(builder.fadd(builder.fmul(e0, az), builder.fmul(e1, bz)),
-                                builder.fmul(e2, cz))
-        far = builder.fmul(t_max, det)
-        # det > 0 where every edge is positive: 0 < t_scaled < t_max * det;
-        # det < 0: the same, mirrored.
-        ahead = builder.select(
-            positive,
-            builder.and_(builder.fcmp_ordered(">", t_scaled, zero),
-                         builder.fcmp_ordered("<", t_scaled, far)),
-            builder.and_(builder.fcmp_ordered("<", t_scaled, zero),
-                         builder.fcmp_ordered(">", t_scaled, far)))
-        t = builder.fmul(t_scaled, builder.fdiv(ir.Constant(vec, [1.0] * lanes), det))
-        within = builder.and_(builder.fcmp_ordered(">", t, t_min),
-                              builder.fcmp_ordered("<", t, t_max))
-        hit = builder.and_(strict, builder.and_(ahead, within))
+        strict = builder.or_(every_edge(">"), every_edge("<"))
+        hit = builder.and_(strict, _within_interval(builder, edges, corners, sz, t_min, t_max))
         unsure = builder.and_(builder.not_(mixed), builder.not_(strict))
         bits = ir.IntType(lanes)
         return builder.or_(builder.zext(builder.bitcast(hit, bits), i64),
@@ -490,27 +501,9 @@ def packet_triangle(typingctx, v0, v1, v2, p, kx, ky, kz, fields, far):
 
         corners = [(coordinate(vertices, kx, okx), coordinate(vertices, ky, oky),
                     coordinate(vertices, kz, okz)) for vertices in data]
-        (e0, e1, e2), mixed = _edge_functions(builder, corners, sx, sy)
-        (_, _, az), (_, _, bz), (_, _, cz) = corners
-        zero = ir.Constant(vec, [0.0] * PACKET)
-
-        def cmp(op, a, b):
-            return builder.fcmp_ordered(op, a, b)
-
-        keep = builder.not_(mixed)
-        det = builder.fadd(builder.fadd(e0, e1), e2)
-        keep = builder.and_(keep, builder.not_(cmp("==", det, zero)))
-        t_scaled = builder.fadd(builder.fadd(builder.fmul(e0, builder.fmul(az, sz)),
-                                             builder.fmul(e1, builder.fmul(bz, sz))),
-                                builder.fmul(e2, builder.fmul(cz, sz)))
-        bound = builder.fmul(t_max, det)
-        negative = cmp("<", det, zero)
-        out_neg = builder.or_(cmp(">=", t_scaled, zero), cmp("<=", t_scaled, bound))
-        out_pos = builder.or_(cmp("<=", t_scaled, zero), cmp(">=", t_scaled, bound))
-        keep = builder.and_(keep, builder.not_(builder.select(negative, out_neg, out_pos)))
-        one = ir.Constant(vec, [1.0] * PACKET)
-        t = builder.fmul(t_scaled, builder.fdiv(one, det))
-        keep = builder.and_(keep, builder.and_(cmp(">", t, t_min), cmp("<", t, t_max)))
+        edges, mixed = _edge_functions(builder, corners, sx, sy)
+        keep = builder.and_(builder.not_(mixed),
+                            _within_interval(builder, edges, corners, sz, t_min, t_max))
         return builder.zext(builder.bitcast(keep, ir.IntType(PACKET)), i64)
 
     return sig, codegen
