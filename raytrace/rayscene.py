@@ -598,7 +598,7 @@ def _check_rays(cnt, rays):
     """After a query kernel: raise RaytraceError naming the first bad ray
     if the kernel found any (kernels/cast.py checks each ray as it reads
     it, instead of a pass of its own before the call)."""
-    from .kernels.cast import BAD_RAYS
+    from .kernels.counters import BAD_RAYS
     if cnt[..., BAD_RAYS].any():
         _name_the_problem(*rays)
 

@@ -23,7 +23,7 @@ from raytrace.accel.bvh import (
 from raytrace.buffers import INDEX, prim_bounds
 from raytrace.flatten import flatten
 from raytrace.kernels.cast import COLUMNS, cast_closest, cast_counts, cast_occluded
-from raytrace.kernels.counters import BOX_TESTS, NODES_VISITED, PRIM_HITS, PRIM_TESTS
+from raytrace.kernels.counters import BAD_RAYS, BOX_TESTS, NODES_VISITED, PRIM_HITS, PRIM_TESTS
 from raytrace.scene import Camera, Mesh, Plane, Scene, Sphere
 from raytrace.structures import build_structure as build_accel
 from raytrace.structures import get as get_structure
@@ -439,6 +439,39 @@ def test_counting_stack_holds_the_deepest_rounds():
     (c, k) = counts(geo, acc, o, d, np.full(2, np.inf))
     assert list(c) == [n, 0]
     assert k[NODES_VISITED] == 2 * len(child) + 2 * n
+
+
+def test_count_stream_takes_the_rays_as_they_come():
+    """The BVH counts two rays in flight, each slot taking the next good
+    ray when its own is done (kernels/bvh.py, count_stream).  Bad rays
+    first, in runs, last, and a batch of nothing else, get 0 and are
+    counted; every good ray gets brute force's count (spheres' far roots
+    and planes included), and the batch the counters its rays have one at
+    a time."""
+    rng = np.random.default_rng(11)
+    geo, ranges = make_scene(random_soup(rng, 300, 0.2), [((0.3, 0.0, 0.1), 0.3)],
+                             planes=[((0, -0.5, 0), (0, 1, 0))])
+    bvh, _ = build_accel("bvh", geo, ranges)
+    counting = get_structure("bvh").counting_layout(bvh, geo)
+    brute, _ = build_accel("none", geo, ranges)
+    n = 2500                                   # three chunks of rays
+    o = rng.uniform(-1.2, 1.2, (n, 3))
+    d = random_dirs(rng, n)
+    t_max = np.where(rng.random(n) < 0.5, np.inf, rng.random(n) * 3)
+    bad = [0, 1, 2, 700, 1023, 1024, 1025, 1800, 1801, n - 2, n - 1]
+    o[bad[::3]] = np.nan
+    d[bad[1::3]] = 0.0
+    t_max[bad[2::3]] = 0.0                     # t_min 0 is not below it
+    (c, k), (c0, k0) = counts(geo, counting, o, d, t_max), counts(geo, brute, o, d, t_max)
+    assert k[BAD_RAYS] == k0[BAD_RAYS] == len(bad)
+    assert np.array_equal(c, c0) and not c[bad].any() and c.sum() > n
+    assert k[PRIM_HITS] == k0[PRIM_HITS]
+    one_at_a_time = sum(counts(geo, counting, o[i:i + 1], d[i:i + 1], t_max[i:i + 1])[1]
+                        for i in range(0, n, 7))
+    k7 = counts(geo, counting, o[::7], d[::7], t_max[::7])[1]
+    assert np.array_equal(k7, one_at_a_time)
+    c, k = counts(geo, counting, o[bad], d[bad], t_max[bad])
+    assert not c.any() and k[BAD_RAYS] == len(bad) and k[NODES_VISITED] == 0
 
 
 def test_build_kernel_depth_reported():

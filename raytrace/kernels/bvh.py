@@ -18,7 +18,8 @@ the interval nor stops, so the order of visits does not matter: its loop
 branching, queues the leaves it enters and tests their triangles 8 at a
 time (``crossing_mask``), from a copy of them in leaf order (the
 CountingBVH layout, made on a scene's first count): a count tests many
-triangles and hits few.
+triangles and hits few.  count_intersections traces two rays at once in
+that loop, a round of each in turn (``count_stream``).
 
 The stack lives in the function's frame (``frame_array``, an alloca), not
 in ``np.empty``: that would need the reference-counted runtime and a heap
@@ -39,12 +40,20 @@ from numba import njit
 from numba.cpython.unsafe.numbers import trailing_zeros  # llvm.cttz: a mask's lowest set bit
 
 from ..accel.bvh import BVH, MAX_DEPTH, WIDTH, CountingBVH
-from .counters import BOX_TESTS, NODES_VISITED, PRIM_HITS, PRIM_TESTS
+from .counters import BAD_RAYS, BOX_TESTS, NODES_VISITED, PRIM_HITS, PRIM_TESTS
 from .jit import JIT
-from .lowlevel import CROSSING_LANES, box_ray_f32, crossing_mask, frame_array, popcount, ray_aabb4
-from .prims import records_hits, test_prim
-from .query import ANY_HIT, CLOSEST, register
-from .ray import Hit, closer, no_hit
+from .lowlevel import (
+    CROSSING_LANES,
+    box_ray_f32,
+    crossing_mask,
+    frame_array,
+    popcount,
+    ray_aabb4,
+    take_ticket,
+)
+from .prims import count_unbounded_hits, records_hits, test_prim
+from .query import ANY_HIT, CLOSEST, register, register_count_stream
+from .ray import Hit, closer, make_crossing_ray, no_hit, ray_ok
 
 STACK_SIZE = 3 * MAX_DEPTH + 4
 # Counting takes ROUND nodes a round (_count_traverse, written out there)
@@ -304,64 +313,181 @@ def _sort_lanes(lanes, node, mask, stack, sp, queue, qn):
     return sp, qn
 
 
+# A counting traversal's state between rounds: the next node (-1 when the
+# tree is done), the stack and queue pointers, the ray's hits so far.
+CountState = namedtuple("CountState", ["node", "sp", "qn", "hits"])
+# The counts of every ray a loop has traced, added to the counter row once,
+# at the end (one ray's worth of counter updates cost 2% of a count).
+Tallies = namedtuple("Tallies", ["n_inner", "n_leaves", "n_tests", "n_hits"])
+
+
+@njit(**JIT)
+def _count_start(acc, has_ray):
+    """The state of a counting traversal about to begin (done at once on
+    an empty tree or without a ray)."""
+    return CountState(0 if has_ray and acc.node_box.shape[0] > 0 else -1, 0, 0, 0)
+
+
+@njit(**JIT)
+def _count_round(geo, acc, ray, br, t_max, stack, queue, s, t):
+    """One round of counting: ROUND (3) nodes where the stack holds them
+    (the other nodes' loads and box tests do not wait on the first's: two
+    a round were 1.2x faster than one, the same nodes and counts; three,
+    once the loop was trimmed, 1.08x faster again; four no faster).  A
+    node's entered inner children are pushed and its entered leaves
+    queued without a branch.  The queued leaves are tested when the queue
+    is nearly full or the tree is done, in one loop of predictable length,
+    instead of a loop of 0 to 8 leaves a round (1.07x faster).  Returns
+    the state and the tallies t after the round."""
+    node_box, lanes = acc.node_box, acc.lanes
+    node, sp, qn = s.node, s.sp, s.qn
+    # The round's other nodes, where the stack holds them (a missing one
+    # repeats node, and its mask stays 0).
+    two = sp > 0
+    second = stack[_unsigned(sp - 1)] if two else node
+    sp -= two
+    three = sp > 0
+    third = stack[_unsigned(sp - 1)] if three else node
+    sp -= three
+    mask, _ = child_boxes(node_box, node, br, t_max)
+    mask2 = 0
+    mask3 = 0
+    if two:   # only then: a masked test of the first node again cost short rays most
+        mask2, _ = child_boxes(node_box, second, br, t_max)
+    if three:
+        mask3, _ = child_boxes(node_box, third, br, t_max)
+    sp, qn = _sort_lanes(lanes, node, mask, stack, sp, queue, qn)
+    sp, qn = _sort_lanes(lanes, second, mask2, stack, sp, queue, qn)
+    sp, qn = _sort_lanes(lanes, third, mask3, stack, sp, queue, qn)
+    node = -1
+    if sp > 0:
+        sp -= 1
+        node = stack[_unsigned(sp)]
+    hits, n_leaves, n_tests, n_hits = s.hits, t.n_leaves, t.n_tests, t.n_hits
+    if qn > QUEUE_SIZE - ROUND * WIDTH or node < 0:
+        new = _count_queue(geo, ray, acc.leaf_tris, acc.prim_ids, queue, qn, t_max)
+        hits += new
+        n_hits += new
+        for i in range(qn):
+            n_tests += queue[i] & 0xFFFFFFFF
+        n_leaves += qn
+        qn = 0
+    return (CountState(node, sp, qn, hits),
+            Tallies(t.n_inner + 1 + two + three, n_leaves, n_tests, n_hits))
+
+
 @njit(**JIT)
 def _count_traverse(geo, acc, ray, t_max, cnt):
-    """Every hit (counting), on a CountingBVH: nothing narrows the ray, so
-    the order of visits does not matter.  A node's entered inner children
-    are pushed without a branch.  ROUND (3) nodes a round where the stack
-    holds them: the other nodes' loads and box tests do not wait on the
-    first's (two a round: 1.2x faster than one, the same nodes and counts;
-    three, once the loop was trimmed: 1.08x faster again; four no faster).
-    Entered leaves wait in a queue, tested when it is nearly full or the
-    tree is done, in one loop of predictable length, instead of a loop of
-    0 to 8 leaves a round (1.07x faster).  A subtree of at most COUNT_LEAF
-    primitives is one leaf here (accel/bvh.py, for_counting)."""
-    node_box, lanes, prim_ids = acc.node_box, acc.lanes, acc.prim_ids
-    if node_box.shape[0] == 0:
-        return no_hit()
+    """Every hit of one ray (counting; a ListingRay writes its hits down),
+    on a CountingBVH: nothing narrows the ray, so the order of visits does
+    not matter.  A subtree of at most COUNT_LEAF primitives is one leaf
+    here (accel/bvh.py, for_counting)."""
     stack = frame_array(COUNT_STACK_SIZE, np.int64)
     queue = frame_array(QUEUE_SIZE, np.int64)
     br = box_ray(acc, ray)
-    n_inner = 0
-    n_leaves = 0
-    n_tests = 0
-    n_hits = 0
-    qn = 0
-    node = 0
-    sp = 0
-    while node >= 0:
-        # The round's other nodes, where the stack holds them (a missing
-        # one repeats node, and its mask stays 0).
-        two = sp > 0
-        second = stack[_unsigned(sp - 1)] if two else node
-        sp -= two
-        three = sp > 0
-        third = stack[_unsigned(sp - 1)] if three else node
-        sp -= three
-        n_inner += 1 + two + three
-        mask, _ = child_boxes(node_box, node, br, t_max)
-        mask2 = 0
-        mask3 = 0
-        if two:   # only then: a masked test of the first node again cost short rays most
-            mask2, _ = child_boxes(node_box, second, br, t_max)
-        if three:
-            mask3, _ = child_boxes(node_box, third, br, t_max)
-        sp, qn = _sort_lanes(lanes, node, mask, stack, sp, queue, qn)
-        sp, qn = _sort_lanes(lanes, second, mask2, stack, sp, queue, qn)
-        sp, qn = _sort_lanes(lanes, third, mask3, stack, sp, queue, qn)
-        node = -1
-        if sp > 0:
-            sp -= 1
-            node = stack[_unsigned(sp)]
-        if qn > QUEUE_SIZE - ROUND * WIDTH or node < 0:
-            n_hits += _count_queue(geo, ray, acc.leaf_tris, prim_ids, queue, qn, t_max)
-            for i in range(qn):
-                n_tests += queue[i] & 0xFFFFFFFF
-            n_leaves += qn
-            qn = 0
-    tally(cnt, n_inner, n_leaves, n_tests, n_hits)
+    s = _count_start(acc, True)
+    t = Tallies(0, 0, 0, 0)
+    while s.node >= 0:
+        s, t = _count_round(geo, acc, ray, br, t_max, stack, queue, s, t)
+    tally(cnt, t.n_inner, t.n_leaves, t.n_tests, t.n_hits)
     return no_hit()
+
+
+@njit(**JIT)
+def _next_good_ray(origins, dirs, t_min, t_max, out, i, end, clock, chunk, cnt):
+    """(i, end): the first ray from i on that ray_ok passes, in the chunk
+    that ends at end or in the next chunks taken by ticket from clock (of
+    ``chunk`` rays), and the end of its chunk; i is the number of rays
+    when none is left.  Each bad ray passed over gets 0 and is counted in
+    cnt[BAD_RAYS]."""
+    n = origins.shape[0]
+    while i < n:
+        if i >= end:
+            i = min(take_ticket(clock) * chunk, n)
+            end = min(i + chunk, n)
+        elif ray_ok(origins, dirs, t_min, t_max, i):
+            break
+        else:
+            cnt[BAD_RAYS] += 1
+            out[i] = 0
+            i += 1
+    return i, end
+
+
+@njit(**JIT)
+def _crossing_ray(origins, dirs, t_min, t_max, i):
+    """Ray i as a CrossingRay and its t_max; past the last ray (a slot with
+    no ray left still holds one, never traced), the last one's."""
+    i = min(i, origins.shape[0] - 1)
+    ray = make_crossing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
+                            dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i])
+    return ray, t_max[i]
+
+
+@njit(**JIT)
+def _count_slot(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk, unbounded, i, ray,
+                tm, br, s, t, stack, queue, after, end):
+    """A round of the ray in one of count_stream's slots: ray i (below the
+    number of rays), its t_max tm, BoxRay br and state s; t the stream's
+    tallies.  When its traversal is done its count is written, with the
+    hits no tree holds if the scene has them (``unbounded``: planes,
+    spheres' far roots), and the slot takes the next good ray from
+    ``after`` on (_next_good_ray).  Returns (i, ray, tm, br, s, t, after,
+    end) for the next round."""
+    if s.node >= 0:
+        s, t = _count_round(geo, acc, ray, br, tm, stack, queue, s, t)
+    if s.node < 0:
+        out[i] = s.hits + (count_unbounded_hits(geo, ray, tm, cnt) if unbounded else 0)
+        i, end = _next_good_ray(origins, dirs, t_min, t_max, out, after, end, clock, chunk, cnt)
+        after = i + 1
+        ray, tm = _crossing_ray(origins, dirs, t_min, t_max, i)
+        br = box_ray(acc, ray)
+        s = _count_start(acc, i < origins.shape[0])
+    return i, ray, tm, br, s, t, after, end
+
+
+def count_stream(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
+    """query.count_rays on a CountingBVH: two rays in flight, a round of
+    one and then a round of the other, each slot taking the next ray when
+    its own is done.  A round's box tests and pushes wait on the loads
+    before them, and one ray's rounds on each other: the other ray's round
+    fills those waits (1.07-1.09x faster counts than one ray at a time;
+    two rays until both were done, 1.02x; three in flight no faster than
+    two, docs/design.md).  Rays come a chunk at a time by ticket, as in
+    kernels/cast.py, each slot taking the thread's next one.
+
+    Not decorated: query.count_rays compiles it as its own implementation
+    for the layout, so that no wrapper adds a level of calls (each level
+    compiles all the code below it again: a first count took 8.5 s
+    where it took 9.6 s with two levels more, docs/design.md)."""
+    n = origins.shape[0]
+    stack_a = frame_array(COUNT_STACK_SIZE, np.int64)
+    queue_a = frame_array(QUEUE_SIZE, np.int64)
+    stack_b = frame_array(COUNT_STACK_SIZE, np.int64)
+    queue_b = frame_array(QUEUE_SIZE, np.int64)
+    unbounded = geo.pl_point.shape[0] + geo.sph_center.shape[0] > 0
+    ia, end = _next_good_ray(origins, dirs, t_min, t_max, out, 0, 0, clock, chunk, cnt)
+    ib, end = _next_good_ray(origins, dirs, t_min, t_max, out, ia + 1, end, clock, chunk, cnt)
+    after = ib + 1
+    ray_a, tm_a = _crossing_ray(origins, dirs, t_min, t_max, ia)
+    ray_b, tm_b = _crossing_ray(origins, dirs, t_min, t_max, ib)
+    br_a = box_ray(acc, ray_a)
+    br_b = box_ray(acc, ray_b)
+    sa = _count_start(acc, ia < n)
+    sb = _count_start(acc, ib < n)
+    t = Tallies(0, 0, 0, 0)
+    while ia < n or ib < n:
+        if ia < n:
+            ia, ray_a, tm_a, br_a, sa, t, after, end = _count_slot(
+                geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk, unbounded,
+                ia, ray_a, tm_a, br_a, sa, t, stack_a, queue_a, after, end)
+        if ib < n:
+            ib, ray_b, tm_b, br_b, sb, t, after, end = _count_slot(
+                geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk, unbounded,
+                ib, ray_b, tm_b, br_b, sb, t, stack_b, queue_b, after, end)
+    tally(cnt, t.n_inner, t.n_leaves, t.n_tests, t.n_hits)
 
 
 register(BVH, _traversal(CLOSEST), _traversal(ANY_HIT), None)
 register(CountingBVH, None, None, _count_traverse)
+register_count_stream(CountingBVH, count_stream)

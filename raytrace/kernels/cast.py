@@ -41,15 +41,14 @@ Each kernel is compiled once per structure (query.py), on first use.
 import numpy as np
 from numba import njit, prange
 
-from .counters import N_COUNTERS
+from .counters import BAD_RAYS, N_COUNTERS
 from .jit import BLOCK, JIT, PARALLEL
 from .lowlevel import PACKET, frame_array, take_rows, take_ticket
-from .query import closest_hit, closest_packet, count_hits, list_hits, occluded, occluded_packet
-from .ray import make_crossing_ray, make_listing_ray, make_ray, no_hit, ray_ok
+from .query import closest_hit, closest_packet, count_rays, list_hits, occluded, occluded_packet
+from .ray import make_listing_ray, make_ray, no_hit, ray_ok
 
 CHUNK = 1024
-BAD_RAYS = N_COUNTERS   # counter rows have N_COUNTERS + 1 columns
-COLUMNS = N_COUNTERS + 1
+COLUMNS = N_COUNTERS + 1   # BAD_RAYS last
 
 
 @njit(**JIT)
@@ -230,31 +229,16 @@ def cast_listing(geo, acc, origins, dirs, t_min, t_max, start, fixed, slab, out_
                        out_u, out_v, found, cnt_rows[b], clock)
 
 
-@njit(**BLOCK)
-def _counts_block(geo, acc, origins, dirs, t_min, t_max, out_count, cnt, clock):
-    n = origins.shape[0]
-    n_chunks = (n + CHUNK - 1) // CHUNK
-    c = take_ticket(clock)
-    while c < n_chunks:
-        for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
-            if not ray_ok(origins, dirs, t_min, t_max, i):
-                cnt[BAD_RAYS] += 1
-                out_count[i] = 0
-                continue
-            ray = make_crossing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
-                                    dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i])
-            out_count[i] = count_hits(geo, acc, ray, t_max[i], cnt)
-        c = take_ticket(clock)
-
-
 @njit(**PARALLEL)
 def cast_counts(geo, acc, origins, dirs, t_min, t_max, out_count, cnt_rows, clock):
     """How many times ray i meets the surfaces with t_min[i] < t < t_max[i],
     each crossing of a closed surface once: one traversal that never
-    narrows the interval, with the crossing triangle test (CrossingRay)."""
+    narrows the interval, with the crossing triangle test (CrossingRay), a
+    chunk of rays at a time (query.count_rays: the BVH keeps two rays in
+    flight)."""
     n_blocks = cnt_rows.shape[0]
     if n_blocks == 1:
-        _counts_block(geo, acc, origins, dirs, t_min, t_max, out_count, cnt_rows[0], clock)
+        count_rays(geo, acc, origins, dirs, t_min, t_max, out_count, cnt_rows[0], clock, CHUNK)
         return
     for b in prange(n_blocks):
-        _counts_block(geo, acc, origins, dirs, t_min, t_max, out_count, cnt_rows[b], clock)
+        count_rays(geo, acc, origins, dirs, t_min, t_max, out_count, cnt_rows[b], clock, CHUNK)

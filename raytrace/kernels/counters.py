@@ -46,4 +46,7 @@ DECLARED = {
                       "rays refracted into or out of glass"),
 }
 N_COUNTERS = len(DECLARED)
+# Counter rows of ray queries have one more column: the rays found bad as
+# they were read (kernels/cast.py), so the Python layer can name the problem.
+BAD_RAYS = N_COUNTERS
 assert sorted(DECLARED) == list(range(N_COUNTERS)), "counter indices must be 0 .. N_COUNTERS - 1"

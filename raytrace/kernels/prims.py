@@ -14,7 +14,7 @@ from numba.extending import overload
 from .counters import PRIM_HITS, PRIM_TESTS
 from .intersect import ray_plane, ray_sphere, ray_triangle, ray_triangle_crossing, sphere_roots
 from .jit import JIT, OVERLOAD
-from .ray import CrossingRay, Hit, ListingRay, closer
+from .ray import CrossingRay, Hit, ListingRay, closer, no_hit
 
 
 @njit(**JIT)
@@ -130,6 +130,16 @@ def far_sphere_roots(geo, ray, t_max):
     for k in range(geo.sph_center.shape[0]):
         n += _far_root(geo, ray, k, t_max) < np.inf
     return n
+
+
+@njit(**JIT)
+def count_unbounded_hits(geo, ray, t_max, cnt):
+    """How many hits a ray has that no structure holds: planes (each hit
+    also counted in cnt[PRIM_HITS], as a traversal counts its own) and
+    spheres' far roots.  The ones record_unbounded_hits writes down."""
+    before = cnt[PRIM_HITS]
+    planes_closest(geo, ray, t_max, no_hit(), cnt)
+    return cnt[PRIM_HITS] - before + far_sphere_roots(geo, ray, t_max)
 
 
 @njit(**JIT)

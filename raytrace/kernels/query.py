@@ -13,10 +13,11 @@ import importlib
 from numba.core.errors import TypingError
 from numba.extending import overload
 
-from .counters import PRIM_HITS
+from .counters import BAD_RAYS, PRIM_HITS
 from .jit import OVERLOAD
-from .prims import far_sphere_roots, planes_closest, planes_occluded, record_unbounded_hits
-from .ray import no_hit
+from .lowlevel import take_ticket
+from .prims import count_unbounded_hits, planes_closest, planes_occluded, record_unbounded_hits
+from .ray import make_crossing_ray, ray_ok
 
 # What a traversal is made for, a compile-time constant of each structure's
 # one traversal loop: the closest hit; any hit (stop at the first); every
@@ -105,8 +106,53 @@ def _count_hits(geo, acc, ray, t_max, cnt):
     def impl(geo, acc, ray, t_max, cnt):
         before = cnt[PRIM_HITS]
         all_hits(geo, acc, ray, t_max, cnt)
-        planes_closest(geo, ray, t_max, no_hit(), cnt)
-        return cnt[PRIM_HITS] - before + far_sphere_roots(geo, ray, t_max)
+        return cnt[PRIM_HITS] - before + count_unbounded_hits(geo, ray, t_max, cnt)
+    return impl
+
+
+def count_rays(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
+    """out[i] = count_hits of ray i as a CrossingRay, for the rays in the
+    chunks of ``chunk`` rays this thread takes by ticket from clock
+    (kernels/cast.py); a bad ray (ray_ok) gets 0 and is counted in
+    cnt[BAD_RAYS].  Through the layout's count stream if it has one
+    (register_count_stream), else one ray at a time.  Compiled code only."""
+    raise NotImplementedError("compiled code only")
+
+
+# layout class -> count stream: a Python function with count_rays's
+# arguments that traces several rays at once (kernels/bvh.py), compiled as
+# count_rays itself, not called from a wrapper: every level of calls
+# compiles the code below it again, and a stream is large.
+_COUNT_STREAMS = {}
+
+
+def register_count_stream(layout, stream):
+    """Give ``layout`` a count stream (count_rays)."""
+    _COUNT_STREAMS[layout] = stream
+
+
+# Not inlined: the parallel kernel calls it from two places (one thread,
+# prange), which then share one copy.
+@overload(count_rays, jit_options=dict(OVERLOAD, forceinline=False))
+def _count_rays(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
+    _traversal(acc, ALL_HITS)
+    stream = _COUNT_STREAMS.get(acc.instance_class)
+    if stream is not None:
+        return stream
+
+    def impl(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
+        n = origins.shape[0]
+        c = take_ticket(clock)
+        while c * chunk < n:
+            for i in range(c * chunk, min(n, (c + 1) * chunk)):
+                if not ray_ok(origins, dirs, t_min, t_max, i):
+                    cnt[BAD_RAYS] += 1
+                    out[i] = 0
+                    continue
+                ray = make_crossing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
+                                        dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i])
+                out[i] = count_hits(geo, acc, ray, t_max[i], cnt)
+            c = take_ticket(clock)
     return impl
 
 
