@@ -297,8 +297,9 @@ class RayScene:
         counting there (default: no limit).  One traversal per ray, which
         never narrows its interval (the grid scans every primitive: it
         cannot tell a primitive met in two cells from two crossings).  On
-        a BVH the first count or listing copies the triangles in the
-        tree's leaf order (72 bytes a triangle, kept with the scene)."""
+        a BVH the first count or listing builds a tree of its own for
+        counting and copies the triangles in its leaf order (about 95 bytes
+        a triangle, kept with the scene; 11 ms at 20k triangles)."""
         rays = _rays(origins, directions, t_min, t_max)
         p = self._built()
         return np.minimum(_counts(p, rays), _max_hits(max_hits, p))

@@ -54,7 +54,8 @@ class Structure:
     def counting_layout(self, layout, geo):
         """The layout that counts and lists every hit: what the accel
         module's ``for_counting(layout, geo)`` makes, if it has one (the
-        BVH's, with its triangles in leaf order), else ``layout``."""
+        BVH's: a tree built for counting, its triangles in leaf order), else
+        ``layout``."""
         builder = importlib.import_module(f"raytrace.accel.{self.module}")
         make = getattr(builder, "for_counting", None)
         return layout if make is None else make(layout, geo)

@@ -3,6 +3,8 @@
 The BVH must give exactly (==) the brute-force answer: same t, primitive id
 and barycentrics for closest hits, same verdict for shadow rays.
 """
+import itertools
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -18,6 +20,7 @@ from raytrace.accel.bvh import (
     build_bvh_kernel,
     build_bvh_parallel,
     collapse_bvh4,
+    counting_copy,
     outward,
 )
 from raytrace.buffers import INDEX, prim_bounds
@@ -89,10 +92,13 @@ def assert_same_as_brute(geo, ranges, o, d, t_max_occ, name="bvh", **build_opts)
     h0, _ = occluded(geo, brute, o, d, t_max_occ)
     h1, _ = occluded(geo, bvh, o, d, t_max_occ)
     assert np.array_equal(h0, h1), f"{(h0 != h1).sum()} shadow rays differ"
-    # Every hit counted, on the layout that counts (the BVH's leaf-ordered
-    # triangles, tested 4 at a time).
-    counting = get_structure(name).counting_layout(bvh, geo)
-    for t_max in (np.full(len(o), np.inf), t_max_occ):
+    # Every hit counted, on the layout that counts (the BVH's: a tree built
+    # for counting, its triangles copied in leaf order, tested 8 at a
+    # time), and for the BVH on this builder's own tree copied the same way.
+    layouts = [get_structure(name).counting_layout(bvh, geo)]
+    if name == "bvh":
+        layouts.append(counting_copy(bvh, geo))
+    for counting, t_max in itertools.product(layouts, (np.full(len(o), np.inf), t_max_occ)):
         (c0, k0), (c1, k1) = counts(geo, brute, o, d, t_max), counts(geo, counting, o, d, t_max)
         assert np.array_equal(c0, c1), f"{(c0 != c1).sum()} counts differ"
         assert k0[PRIM_HITS] == k1[PRIM_HITS]
@@ -328,16 +334,17 @@ def test_build_accel_fields():
 @pytest.mark.parametrize("bvh_build", ["sah", "median", "lbvh"])
 @pytest.mark.parametrize("n_tris", [5, 50, 700])
 def test_counting_layout_copies_leaf_triangles_and_packs_lanes(n_tris, bvh_build):
-    """for_counting: column k of leaf_tris holds slot k's triangle (NaN for
-    a sphere's slot and the 3 columns of padding); each lane word unpacks
-    to the lane's child and count, unused lanes' -1 child included, but
-    for an inner lane whose subtree holds at most COUNT_LEAF primitives,
-    which is a leaf over exactly that subtree's slots."""
+    """counting_copy, on any builder's tree: column k of leaf_tris holds
+    slot k's triangle (NaN for a sphere's slot and the 3 columns of
+    padding); each lane word unpacks to the lane's child and count, unused
+    lanes' -1 child included, but for an inner lane whose subtree holds at
+    most COUNT_LEAF primitives, which is a leaf over exactly that subtree's
+    slots."""
     from raytrace.accel.bvh import COUNT_LEAF
     rng = np.random.default_rng(2)
     geo, ranges = make_scene(random_soup(rng, n_tris, 0.1), spheres=[((0, 0, 0), 0.3)])
     acc, _ = build_accel("bvh", geo, ranges, bvh_build=bvh_build)
-    c = get_structure("bvh").counting_layout(acc, geo)
+    c = counting_copy(acc, geo)
     assert c.prim_ids is acc.prim_ids and c.node_box is acc.node_box
     tri = acc.prim_ids < n_tris
     for corner, v in enumerate((geo.tri_v0, geo.tri_v1, geo.tri_v2)):
@@ -479,8 +486,8 @@ def test_build_kernel_depth_reported():
     n = len(lo)
     nodes = (np.empty((2 * n, 3), BOX), np.empty((2 * n, 3), BOX), np.empty(2 * n, LINK),
              np.empty(2 * n, LINK))
-    rows, depth, tasks = build_bvh_kernel(box_rows(lo, hi), np.arange(n), 0, n, 0, 4, *nodes, 0,
-                                          0, np.empty((0, 4), np.int64))
+    rows, depth, tasks = build_bvh_kernel(box_rows(lo, hi), np.arange(n), 0, n, 0, 4, 1.0, *nodes,
+                                          0, 0, np.empty((0, 4), np.int64))
     assert 0 < depth <= MAX_DEPTH and 0 < rows < 2 * n and tasks == 0
 
 
@@ -497,16 +504,28 @@ def _subtree_ranges(node_start, node_count):
 
 
 @pytest.mark.parametrize("seed", [0, 1])
-def test_every_node_is_the_binned_sah_choice_over_its_own_primitives(seed):
+@pytest.mark.parametrize("tree", ["tracing", "counting"])
+def test_every_node_is_the_binned_sah_choice_over_its_own_primitives(seed, tree):
     """A reference for the builder, node by node, in NumPy: each box is its
     primitives' union, padded and rounded outwards; each split is the
     cheapest of the 3 x (N_BINS - 1) planes of bins over the node's own
     centroid box, its left child the primitives binned below the plane; a
-    leaf is where no split pays.  Mutations that took a child's boxes from
-    the wrong side of its parent's split failed it."""
-    from raytrace.accel.bvh import BOX_PAD, MAX_LEAF, N_BINS, TRAVERSAL_COST
+    leaf is where no split pays, at the node visit's cost (the tracing
+    tree's, or the counting tree's, accel/bvh.for_counting).  Mutations
+    that took a child's boxes from the wrong side of its parent's split
+    failed it."""
+    from raytrace.accel.bvh import (
+        BOX_PAD,
+        COUNT_LEAF,
+        COUNT_TRAVERSAL_COST,
+        MAX_LEAF,
+        N_BINS,
+        TRAVERSAL_COST,
+    )
+    max_leaf, cost = {"tracing": (MAX_LEAF, TRAVERSAL_COST),
+                      "counting": (COUNT_LEAF, COUNT_TRAVERSAL_COST)}[tree]
     lo, hi = outward(*boxes_of(random_soup(np.random.default_rng(seed), 400, 0.05)))
-    node_lo, node_hi, node_start, node_count, prim_ids = build_bvh(lo, hi)
+    node_lo, node_hi, node_start, node_count, prim_ids = build_bvh(lo, hi, max_leaf, cost)
     first, end = _subtree_ranges(node_start, node_count)
     lo64, hi64 = lo.astype(np.float64), hi.astype(np.float64)
 
@@ -538,7 +557,7 @@ def test_every_node_is_the_binned_sah_choice_over_its_own_primitives(seed):
         best = int(np.argmin(costs))     # the first of equal costs, as the builder's sweep
         area = half_area(blo, bhi)
         splits_here = costs.flat[best] < np.inf and (
-            len(ids) > MAX_LEAF or TRAVERSAL_COST * area + costs.flat[best] < len(ids) * area)
+            len(ids) > max_leaf or cost * area + costs.flat[best] < len(ids) * area)
         assert (node_count[i] == 0) == splits_here, i
         if splits_here:
             a, plane = divmod(best, N_BINS)
@@ -546,7 +565,7 @@ def test_every_node_is_the_binned_sah_choice_over_its_own_primitives(seed):
             left = prim_ids[first[i + 1]:end[i + 1]]
             assert set(left.tolist()) == set(ids[b < plane].tolist()), i
             splits += 1
-    assert splits > 100
+    assert splits >= len(lo) // max_leaf     # many decisions were checked
 
 
 def test_rounding_to_float32_steps_by_bits_as_nextafter_would():

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from numba import njit, prange
 
-from raytrace.accel.bvh import BOX, BVH, WIDTH, box_bound, for_counting
+from raytrace.accel.bvh import BOX, BVH, WIDTH, box_bound, counting_copy
 from raytrace.kernels.bvh import BOX32_RANGE, NEAR_LIMIT, box_ray, child_boxes
 from raytrace.kernels.intersect import ray_triangle_crossing
 from raytrace.kernels.lowlevel import crossing_mask, frame_array, take_rows, take_ticket
@@ -306,7 +306,7 @@ def test_crossing_mask_decides_as_the_scalar_test(scale):
     directions; rays at the triangles' centroids; degenerate triangles (a
     point, a segment); each hit again with its interval cut at its exact
     distance and just past it, at either end.  Columns in leaf order
-    (for_counting), two of them spheres; each chunk of 4 tested as the
+    (counting_copy), two of them spheres; each chunk of 4 tested as the
     first half of the 8 lanes and as the second, beside another chunk.
     Every lane with strictly signed edge functions hits exactly where the
     scalar crossing test hits; a lane with mixed signs is a miss; every
@@ -325,7 +325,7 @@ def test_crossing_mask_decides_as_the_scalar_test(scale):
     prim_ids = rng.permutation(n_tris + 2)
     geo = SimpleNamespace(tri_v0=v0, tri_v1=v1, tri_v2=v2)
     no_nodes = np.zeros((0, WIDTH), np.int64)
-    leaf_tris = for_counting(BVH(None, no_nodes, no_nodes, prim_ids, 0.0), geo).leaf_tris
+    leaf_tris = counting_copy(BVH(None, no_nodes, no_nodes, prim_ids, 0.0), geo).leaf_tris
     assert leaf_tris.shape == (9, n_tris + 5) and np.isnan(leaf_tris[:, -3:]).all()
     targets = np.concatenate([a, 0.5 * (a[:-1] + a[1:]), 0.5 * (a[:-4] + a[4:]),
                               t.mean(axis=1) / scale]) * scale

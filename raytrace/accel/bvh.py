@@ -40,8 +40,8 @@ from ..threads import run_on_threads, runs
 # box_bound: the largest magnitude of a box coordinate (inf past float32's
 # range), which bounds the float32 box test's distances (kernels/bvh.py).
 BVH = namedtuple("BVH", ["node_box", "node_child", "node_count", "prim_ids", "box_bound"])
-# The layout counting and listing every hit read (for_counting): the BVH's
-# fields, and
+# The layout counting and listing every hit read (for_counting): the
+# fields of a BVH of its own, built for counting (COUNT_TRAVERSAL_COST), and
 # - leaf_tris, (9, len(prim_ids) + 3) float64: column k the corners of
 #   the triangle in slot k of prim_ids, row 3 * corner + axis; NaN where a
 #   slot holds a sphere, and in the 3 columns past the end, so a leaf
@@ -55,6 +55,12 @@ CountingBVH = namedtuple("CountingBVH", BVH._fields + ("leaf_tris", "lanes"))
 # One 8-lane crossing test (kernels/lowlevel.CROSSING_LANES): 6% faster
 # counts than the tree's own leaves, 10 and 16 no faster (docs/design.md).
 COUNT_LEAF = 8
+# The counting tree's SAH weighs a node visit as 4 triangle tests, where a
+# tree for tracing weighs it as 1 (TRAVERSAL_COST): its leaves hold up to
+# COUNT_LEAF triangles, tested 8 at a time, and a count visits every node
+# the ray meets.  5% faster counts than on the tracing tree; 2 and 8 no
+# better than 4, leaves of 16 slower (docs/design.md).
+COUNT_TRAVERSAL_COST = 4.0
 # The nodes' box type, binary and wide: float32, each the padded float64
 # box rounded outwards (build_bvh_kernel, collapse_bvh4).
 BOX = np.float32
@@ -130,10 +136,12 @@ def _row_area(rows, i):
 
 
 @njit(**dict(BUILD, nogil=True))
-def build_bvh_kernel(boxes, prim_ids, start, end, depth, max_leaf, node_lo, node_hi,
-                     node_start, node_count, first, defer, tasks):
+def build_bvh_kernel(boxes, prim_ids, start, end, depth, max_leaf, traversal_cost, node_lo,
+                     node_hi, node_start, node_count, first, defer, tasks):
     """The binned-SAH tree over prim_ids[start:end] (reordered in place),
-    its root at ``depth``, into node rows first, first + 1, ...
+    its root at ``depth``, with a node visit costing ``traversal_cost``
+    primitive tests (TRAVERSAL_COST for tracing rays), into node rows
+    first, first + 1, ...
     depth-first.  With defer > 0, a node below the root with at most defer
     primitives is not built but left as a task: a row (node, start, end,
     depth) of ``tasks`` (n, 4), and node_count -1 at its row, for
@@ -287,7 +295,7 @@ def build_bvh_kernel(boxes, prim_ids, start, end, depth, max_leaf, node_lo, node
                     # zero-area node compares without dividing by zero).
                     area = _half_area(bx0, by0, bz0, bx1, by1, bz1)
                     leaf_cost = count * area
-                    split_cost = TRAVERSAL_COST * area + best_cost
+                    split_cost = traversal_cost * area + best_cost
                     if best_axis >= 0 and (count > max_leaf or split_cost < leaf_cost):
                         # Partition prim_ids[start:end] by the bins found
                         # above, so the sides match the counts.
@@ -542,7 +550,7 @@ def load_big(n_prims, bvh_build="sah", **_):
         box_bounds_kernel(rows, rows, rows, rows, np.zeros(0), 0, 0, np.empty((0, LANES), BOX))
 
 
-def build_bvh(lo, hi, max_leaf=MAX_LEAF):
+def build_bvh(lo, hi, max_leaf=MAX_LEAF, traversal_cost=TRAVERSAL_COST):
     """Binned-SAH BVH over (n, 3) primitive boxes ``lo``, ``hi`` (float64,
     or BOX from ``outward``).
 
@@ -565,8 +573,8 @@ def build_bvh(lo, hi, max_leaf=MAX_LEAF):
     prim_ids = np.arange(n)
     if n == 0:
         return (*nodes, prim_ids)
-    n_nodes, _, _ = build_bvh_kernel(boxes, prim_ids, 0, n, 0, int(max_leaf), *nodes, 0, 0,
-                                     _NO_TASKS)
+    n_nodes, _, _ = build_bvh_kernel(boxes, prim_ids, 0, n, 0, int(max_leaf),
+                                     float(traversal_cost), *nodes, 0, 0, _NO_TASKS)
     return tuple(a[:n_nodes] for a in nodes) + (prim_ids,)
 
 
@@ -601,7 +609,8 @@ _NO_FIRST = np.empty(0, np.int64)
 # one run of rows.
 
 
-def build_bvh_parallel(boxes, max_leaf, threads=None, split=SPLIT, refine=REFINE):
+def build_bvh_parallel(boxes, max_leaf, threads=None, split=SPLIT, refine=REFINE,
+                       traversal_cost=TRAVERSAL_COST):
     """(node_lo, node_hi, node_start, node_count, prim_ids, links) of the
     serial builder's tree over box rows ``boxes`` (box_rows), built on ``threads``
     threads (default: Numba's); ``links`` is collapse_bvh4's (root, top,
@@ -618,7 +627,8 @@ def build_bvh_parallel(boxes, max_leaf, threads=None, split=SPLIT, refine=REFINE
     node_count = nodes[3]
     prim_ids = np.arange(n)
     tasks = np.empty((n, 4), np.int64)
-    top_end, _, n_tasks = build_bvh_kernel(boxes, prim_ids, 0, n, 0, max_leaf, *nodes, top,
+    cost = float(traversal_cost)
+    top_end, _, n_tasks = build_bvh_kernel(boxes, prim_ids, 0, n, 0, max_leaf, cost, *nodes, top,
                                            max(n // split, 1), tasks)
     tasks = tasks[:n_tasks].copy()   # the (n, 4) bound goes
     split_to = {}   # a split task's placeholder row -> its root's row in the top
@@ -630,7 +640,7 @@ def build_bvh_parallel(boxes, max_leaf, threads=None, split=SPLIT, refine=REFINE
             break
         more = np.empty((2, 4), np.int64)
         split_to[row] = top_end
-        top_end, _, n_more = build_bvh_kernel(boxes, prim_ids, s, e, depth, max_leaf, *nodes,
+        top_end, _, n_more = build_bvh_kernel(boxes, prim_ids, s, e, depth, max_leaf, cost, *nodes,
                                               top_end, e - s - 1, more)
         tasks = np.concatenate([np.delete(tasks, k, axis=0), more[:n_more]])
         queues = _plan(tasks, threads)
@@ -642,7 +652,7 @@ def build_bvh_parallel(boxes, max_leaf, threads=None, split=SPLIT, refine=REFINE
     def work(queue):
         for k in queue:
             s, e, depth = (int(x) for x in tasks[k, 1:])
-            ends[k] = build_bvh_kernel(boxes, prim_ids, s, e, depth, max_leaf, *nodes, 2 * s,
+            ends[k] = build_bvh_kernel(boxes, prim_ids, s, e, depth, max_leaf, cost, *nodes, 2 * s,
                                        0, no_tasks)[0]
     run_on_threads([functools.partial(work, q) for q in queues])
     # A top node's children are rows of the top, or placeholders (count -1)
@@ -682,20 +692,23 @@ def _uneven(tasks, queues, threads):
 BUILDERS = {"sah": None, "median": "raytrace.accel.bvh_median", "lbvh": "raytrace.accel.bvh_lbvh"}
 
 
-def build(geo, obj_ranges, bvh_build="sah", leaf_size=MAX_LEAF, **_):
+def build(geo, obj_ranges, bvh_build="sah", leaf_size=MAX_LEAF, traversal_cost=TRAVERSAL_COST,
+          **_):
     """A BVH over every bounded primitive (planes have no box and are tested
     separately by every structure), built by ``bvh_build`` with leaves of at
-    most ``leaf_size`` primitives, collapsed to 4 children per node."""
+    most ``leaf_size`` primitives, collapsed to 4 children per node.  The
+    SAH builder weighs a node visit as ``traversal_cost`` primitive tests."""
     links = None
     threads = _parallel_threads(n_bounded(geo), bvh_build)
     if threads:
         boxes = box_bounds(geo, threads)
-        *binary, links = build_bvh_parallel(boxes, int(leaf_size), threads)
+        *binary, links = build_bvh_parallel(boxes, int(leaf_size), threads,
+                                            traversal_cost=traversal_cost)
         del boxes   # the boxes go before the wide tree is made: 32 bytes a primitive
     else:
         lo, hi = outward(*prim_bounds(geo))   # the float64 boxes go at once
         if BUILDERS[bvh_build] is None:
-            binary = build_bvh(lo, hi, leaf_size)
+            binary = build_bvh(lo, hi, leaf_size, traversal_cost)
         else:
             import importlib
             binary = importlib.import_module(BUILDERS[bvh_build]).build_binary(lo, hi,
@@ -719,11 +732,21 @@ def box_bound(node_box):
 
 
 def for_counting(bvh, geo):
-    """The CountingBVH of ``bvh``: its triangles' corners copied in leaf
-    order (72 bytes a triangle) and its lanes packed (8 bytes a lane), made
-    on a scene's first count or listing (rayscene.py), never for a render.
-    Counting loads a leaf's triangles as 4 contiguous columns where it
-    gathered 9 coordinates from 3 arrays for each (docs/design.md,
+    """The CountingBVH of the scene whose tracing tree is ``bvh``: a tree of
+    its own over the same primitives, built for counting (leaves of up to
+    COUNT_LEAF, COUNT_TRAVERSAL_COST), made on a scene's first count or
+    listing (rayscene.py), never for a render.  The answers are the same on
+    any tree (the tests are exact); ``bvh``'s builder and leaf size are
+    not used."""
+    tree = build(geo, None, leaf_size=COUNT_LEAF, traversal_cost=COUNT_TRAVERSAL_COST)
+    return counting_copy(tree, geo)
+
+
+def counting_copy(bvh, geo):
+    """The CountingBVH over tree ``bvh``: its triangles' corners copied in
+    leaf order (72 bytes a triangle) and its lanes packed (8 bytes a
+    lane).  Counting loads a leaf's triangles as 4 contiguous columns where
+    it gathered 9 coordinates from 3 arrays for each (docs/design.md,
     "Counting decides 4 triangles at once")."""
     ids = bvh.prim_ids
     leaf_tris = np.full((9, len(ids) + 3), np.nan)
