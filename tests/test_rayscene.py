@@ -64,6 +64,18 @@ def test_t_min_skips_nearer_hits(accel):
     assert occ.tolist() == [True, True, False, False]
 
 
+@pytest.mark.parametrize("accel", STRUCTURES)
+def test_no_rays_and_no_points_give_empty_answers(accel):
+    s = two_squares(accel)
+    none = np.zeros((0, 3))
+    assert s.cast_rays(none, none)["t"].shape == (0,)
+    assert s.occluded(none, none).shape == (0,)
+    assert s.count_intersections(none, none).shape == (0,)
+    hits = s.list_intersections(none, none)
+    assert list(hits.ray_splits) == [0] and len(hits.t) == 0
+    assert s.contains(none).shape == (0,) and s.distance(none).shape == (0,)
+
+
 def test_sphere_and_plane_normals_and_points():
     m = Material()
     scene = Scene("s", Camera((0, 0, 5), (0, 0, 0)), objects=[

@@ -461,6 +461,8 @@ def count_stream(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
     compiles all the code below it again: a first count took 8.5 s
     where it took 9.6 s with two levels more, docs/design.md)."""
     n = origins.shape[0]
+    if n == 0:      # a slot always holds a ray, the last one past the end
+        return
     stack_a = frame_array(COUNT_STACK_SIZE, np.int64)
     queue_a = frame_array(QUEUE_SIZE, np.int64)
     stack_b = frame_array(COUNT_STACK_SIZE, np.int64)
