@@ -378,14 +378,23 @@ def test_counting_layout_copies_leaf_triangles_and_packs_lanes(n_tris, bvh_build
     assert (acc.node_child == -1).any() or bvh_build == "median"
 
 
-def _rounds_that_pile_up(levels):
-    """A 4-wide tree (node_child, node_count rows) on which each round of
-    the counting traversal (three nodes: the top entry and the two below)
-    leaves 9 inner nodes on the stack: a chain node whose lanes 0, 2 and 3
-    are fans (4 twigs each; a twig is a node with one leaf of one
-    primitive) and lane 1 the next chain node, so the chain node and two
-    fans are popped together and the next chain node is third from the
-    top.  Returns the rows and the number of leaves."""
+# A chain node's lanes for rounds of 2 and 3 nodes (kernels/bvh.ROUND), so
+# that each round leaves 3 * ROUND inner nodes on the stack (a simulation
+# of the traversal's order found these the worst of the chain patterns).
+# Two a round: twig, twig, the next chain node, a fan: the fan (on top) and
+# the next chain node are popped together, and the fan's 4 twigs and the
+# chain node's 2 stay below the next round's pushes.  Three a round: fan,
+# the next chain node, fan, fan: the chain node and two fans are popped
+# together and the next chain node is third from the top.
+PILE_UP = {2: "ttcf", 3: "fcff"}
+
+
+def _rounds_that_pile_up(levels, pattern):
+    """A 4-wide tree (node_child, node_count rows): a chain of ``levels``
+    nodes, each with lanes as ``pattern`` says (t a twig: a node with one
+    leaf of one primitive; f a fan: a node of 4 twigs; c the next chain
+    node), the last of 4 twigs.  Returns the rows and the number of
+    leaves."""
     child, count = [], []
     leaves = 0
 
@@ -413,22 +422,23 @@ def _rounds_that_pile_up(levels):
             for lane in range(WIDTH):
                 child[chain][lane] = twig()
             break
-        lanes = [fan(), node(), fan(), fan()]
+        lanes = [{"t": twig, "f": fan, "c": node}[p]() for p in pattern]
         child[chain] = lanes
-        chain = lanes[1]
+        chain = lanes[pattern.index("c")]
     return np.array(child), np.array(count), leaves
 
 
 def test_counting_stack_holds_the_deepest_rounds():
     """COUNT_STACK_SIZE: on a tree as deep as the layout allows, built so
-    that every round leaves 9 pending nodes (_rounds_that_pile_up: 500
-    and more at once, where the single-ray bound STACK_SIZE is 184), a ray
-    through every box and the one triangle all the leaves hold counts
-    each leaf once."""
+    that every round leaves 3 * ROUND pending nodes (_rounds_that_pile_up:
+    340 at once for two nodes a round, where the single-ray bound
+    STACK_SIZE is 184), a ray through every box and the one triangle all
+    the leaves hold counts each leaf once (with a stack of STACK_SIZE the
+    kernel crashed)."""
     from raytrace.accel.bvh import CountingBVH
-    from raytrace.kernels.bvh import COUNT_STACK_SIZE, STACK_SIZE
+    from raytrace.kernels.bvh import COUNT_STACK_SIZE, ROUND, STACK_SIZE
     levels = MAX_DEPTH - 3           # its twigs lie MAX_DEPTH - 1 levels down
-    child, count, n = _rounds_that_pile_up(levels)
+    child, count, n = _rounds_that_pile_up(levels, PILE_UP[ROUND])
     tri = np.array([[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [0.0, 1.0, 0.0]])
     geo, _ = make_scene(np.tile(tri, (n, 1, 1)))
     used = child >= 0
@@ -440,7 +450,7 @@ def test_counting_stack_holds_the_deepest_rounds():
     leaf_tris[:, :n] = tri.reshape(9, 1)
     acc = CountingBVH(node_box, child, count, prim_ids, 2.0, leaf_tris,
                       ((child << 32) | count).ravel())
-    assert 9 * (levels - 1) > STACK_SIZE and 9 * levels < COUNT_STACK_SIZE
+    assert 3 * ROUND * (levels - 1) > STACK_SIZE and 3 * ROUND * levels < COUNT_STACK_SIZE
     o = np.array([[0.1, 0.0, 1.0], [1.5, 1.5, 1.0]])
     d = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, -1.0]])
     (c, k) = counts(geo, acc, o, d, np.full(2, np.inf))

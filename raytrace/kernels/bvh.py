@@ -14,7 +14,7 @@ stopped at the first hit (tinybvh's and madmann91/bvh's IsAnyHit flag, here
 the compile-time mode of ``_traversal``): until then its best distance is
 inf, so it tests boxes against t_max.  Counting every hit never narrows
 the interval nor stops, so the order of visits does not matter: its loop
-(``_count_traverse``) takes three nodes a round, pushes without sorting or
+(``_count_traverse``) takes two nodes a round, pushes without sorting or
 branching, queues the leaves it enters and tests their triangles 8 at a
 time (``crossing_mask``), from a copy of them in leaf order (the
 CountingBVH layout, made on a scene's first count): a count tests many
@@ -56,7 +56,7 @@ from .query import ANY_HIT, CLOSEST, register, register_count_stream
 from .ray import Hit, closer, make_crossing_ray, no_hit, ray_ok
 
 STACK_SIZE = 3 * MAX_DEPTH + 4
-# Counting takes ROUND nodes a round (_count_traverse, written out there)
+# Counting takes ROUND nodes a round (_count_round, written out there)
 # and pushes their entered inner children above what is left.  What one
 # round leaves below the next round's pushes is at most 4 * ROUND - ROUND
 # entries, and each such layer's shallowest node lies deeper than the
@@ -64,7 +64,7 @@ STACK_SIZE = 3 * MAX_DEPTH + 4
 # from that layer or from layers above it, all at least as deep), so
 # there are at most MAX_DEPTH - 1 layers: the stack never holds more than
 # COUNT_STACK_SIZE entries.
-ROUND = 3
+ROUND = 2
 COUNT_STACK_SIZE = 3 * ROUND * (MAX_DEPTH - 1) + WIDTH * ROUND
 # Entered leaves waiting for their tests (_count_traverse): a round adds at
 # most ROUND * WIDTH.  Random rays through a closed mesh enter ~12 leaves.
@@ -277,14 +277,17 @@ def _count_queue(geo, ray, leaf_tris, prim_ids, queue, qn, t_max):
     tested two chunks at a time, so that two small leaves (2.6 triangles
     on average) share one 8-lane test (1.1x faster than a 4-lane test a
     leaf, with AVX-512 or AVX2 code).  One call of the test, so it is
-    compiled once."""
+    compiled once.  Returns (hits, triangles tested): the count of tests
+    taken from the chunks, where a loop over the queue of its own cost 2%."""
     n_hits = 0
+    n_tests = 0
     i, k, end, k1, n1 = _next_chunk(queue, qn, 0, 0, 0)
     while n1 > 0:
         i, k, end, k2, n2 = _next_chunk(queue, qn, i, k, end)
         n_hits += _count_chunks(geo, ray, leaf_tris, prim_ids, k1, n1, k2, n2, t_max)
+        n_tests += n1 + n2
         i, k, end, k1, n1 = _next_chunk(queue, qn, i, k, end)
-    return n_hits
+    return n_hits, n_tests
 
 
 @njit(**JIT)
@@ -330,50 +333,43 @@ def _count_start(acc, has_ray):
 
 @njit(**JIT)
 def _count_round(geo, acc, ray, br, t_max, stack, queue, s, t):
-    """One round of counting: ROUND (3) nodes where the stack holds them
-    (the other nodes' loads and box tests do not wait on the first's: two
-    a round were 1.2x faster than one, the same nodes and counts; three,
-    once the loop was trimmed, 1.08x faster again; four no faster).  A
-    node's entered inner children are pushed and its entered leaves
-    queued without a branch.  The queued leaves are tested when the queue
-    is nearly full or the tree is done, in one loop of predictable length,
-    instead of a loop of 0 to 8 leaves a round (1.07x faster).  Returns
-    the state and the tallies t after the round."""
+    """One round of counting: ROUND (2) nodes where the stack holds them
+    (the second's loads and box tests do not wait on the first's: 1.2x
+    faster than one node a round, the same nodes and counts; three were
+    1.08x faster again for one ray at a time, and 1.05x slower than two
+    once count_stream kept two rays in flight).  A node's entered inner
+    children are pushed and its entered leaves queued without a branch.
+    The queued leaves are tested when the queue is nearly full or the tree
+    is done, in one loop of predictable length, instead of a loop of 0 to
+    8 leaves a round (1.07x faster).  Returns the state and the tallies t
+    after the round."""
     node_box, lanes = acc.node_box, acc.lanes
     node, sp, qn = s.node, s.sp, s.qn
-    # The round's other nodes, where the stack holds them (a missing one
-    # repeats node, and its mask stays 0).
+    # The round's other node, where the stack holds one (else it repeats
+    # node, and its mask stays 0).
     two = sp > 0
     second = stack[_unsigned(sp - 1)] if two else node
     sp -= two
-    three = sp > 0
-    third = stack[_unsigned(sp - 1)] if three else node
-    sp -= three
     mask, _ = child_boxes(node_box, node, br, t_max)
     mask2 = 0
-    mask3 = 0
     if two:   # only then: a masked test of the first node again cost short rays most
         mask2, _ = child_boxes(node_box, second, br, t_max)
-    if three:
-        mask3, _ = child_boxes(node_box, third, br, t_max)
     sp, qn = _sort_lanes(lanes, node, mask, stack, sp, queue, qn)
     sp, qn = _sort_lanes(lanes, second, mask2, stack, sp, queue, qn)
-    sp, qn = _sort_lanes(lanes, third, mask3, stack, sp, queue, qn)
     node = -1
     if sp > 0:
         sp -= 1
         node = stack[_unsigned(sp)]
     hits, n_leaves, n_tests, n_hits = s.hits, t.n_leaves, t.n_tests, t.n_hits
     if qn > QUEUE_SIZE - ROUND * WIDTH or node < 0:
-        new = _count_queue(geo, ray, acc.leaf_tris, acc.prim_ids, queue, qn, t_max)
+        new, tests = _count_queue(geo, ray, acc.leaf_tris, acc.prim_ids, queue, qn, t_max)
         hits += new
         n_hits += new
-        for i in range(qn):
-            n_tests += queue[i] & 0xFFFFFFFF
+        n_tests += tests
         n_leaves += qn
         qn = 0
     return (CountState(node, sp, qn, hits),
-            Tallies(t.n_inner + 1 + two + three, n_leaves, n_tests, n_hits))
+            Tallies(t.n_inner + 1 + two, n_leaves, n_tests, n_hits))
 
 
 @njit(**JIT)
