@@ -336,7 +336,7 @@ def _count_round(geo, acc, ray, br, t_max, stack, queue, s, t):
     """One round of counting: ROUND (2) nodes where the stack holds them
     (the second's loads and box tests do not wait on the first's: 1.2x
     faster than one node a round, the same nodes and counts; three were
-    1.08x faster again for one ray at a time, and 1.05x slower than two
+    1.08x faster again for one ray at a time, and 1.03x slower than two
     once count_stream kept two rays in flight).  A node's entered inner
     children are pushed and its entered leaves queued without a branch.
     The queued leaves are tested when the queue is nearly full or the tree
@@ -454,8 +454,8 @@ def count_stream(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
 
     Not decorated: query.count_rays compiles it as its own implementation
     for the layout, so that no wrapper adds a level of calls (each level
-    compiles all the code below it again: a first count took 8.5 s
-    where it took 9.6 s with two levels more, docs/design.md)."""
+    compiles all the code below it again: with two levels more, the first
+    count took 9.6 s against 8.5 s, three nodes a round; docs/design.md)."""
     n = origins.shape[0]
     if n == 0:      # a slot always holds a ray, the last one past the end
         return
