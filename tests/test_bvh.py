@@ -378,6 +378,20 @@ def test_counting_layout_copies_leaf_triangles_and_packs_lanes(n_tris, bvh_build
     assert (acc.node_child == -1).any() or bvh_build == "median"
 
 
+def test_counting_layout_is_a_tree_built_for_counting():
+    """for_counting counts on a tree of its own (COUNT_LEAF, COUNT_TRAVERSAL
+    _COST), not on the tracing tree it is given: fewer, fuller leaves."""
+    from raytrace.accel.bvh import COUNT_LEAF, COUNT_TRAVERSAL_COST, build
+    rng = np.random.default_rng(4)
+    geo, ranges = make_scene(random_soup(rng, 2000, 0.05))
+    tracing, _ = build_accel("bvh", geo, ranges)
+    c = get_structure("bvh").counting_layout(tracing, geo)
+    own = build(geo, ranges, leaf_size=COUNT_LEAF, traversal_cost=COUNT_TRAVERSAL_COST)
+    for got, want in zip(c, counting_copy(own, geo)):
+        assert np.array_equal(got, want, equal_nan=True)
+    assert len(c.node_box) < len(tracing.node_box)
+
+
 # A chain node's lanes for rounds of 2 and 3 nodes (kernels/bvh.ROUND), so
 # that each round leaves 3 * ROUND inner nodes on the stack (a simulation
 # of the traversal's order found these the worst of the chain patterns).
