@@ -14,7 +14,7 @@ scaling      BVH, grid and k-d tree over teapot tessellations up to 4.2M
              triangle, and each size's peak memory and whole-command time
              from a fresh `raytrace` process.
 structures   every structure and BVH builder on four scenes, as `raytrace
-             compare` measures them (structures.py).
+             compare` measures them (accel/registry.py).
 peer         our batch ray casting against Embree (embreex) or Open3D, if
              importable, on the same primary and shadow rays (peer.py).
 convergence  soft-shadow error against run time for each sampling pattern
@@ -72,7 +72,7 @@ ROWS = (
 def warm_up(scene, accel, opts, width, height):
     """One small untimed render: loads (or compiles) the kernel and the
     builder, and starts Numba's thread pool."""
-    from raytrace.driver import render
+    from raytrace.renderer.driver import render
     render(scene, accel=accel, width=max(16, width // 8), height=max(12, height // 8), **opts)
 
 
@@ -91,8 +91,8 @@ def cell_record(times, result):
 
 
 def run_workshop(cfg):
-    from raytrace.driver import render
-    from raytrace.scenes.builtin import teapot
+    from raytrace.renderer.driver import render
+    from raytrace.scene.builtin import teapot
     scene = teapot(4)
     w, h = cfg["width"], cfg["height"]
     rows = []
@@ -166,8 +166,8 @@ def workshop_markdown(res):
 
 
 def run_scaling(cfg):
-    from raytrace.driver import render
-    from raytrace.scenes.builtin import teapot
+    from raytrace.renderer.driver import render
+    from raytrace.scene.builtin import teapot
     w, h = cfg["width"], cfg["height"]
     structures = HIERARCHICAL
     for a in structures:

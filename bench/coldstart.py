@@ -49,9 +49,9 @@ print(f"{{t2 - t1}} {{t3 - t2}} {{t1 - t0}}")
 BUILD = """
 import time
 t0 = time.perf_counter()
-from raytrace.flatten import flatten
-from raytrace.scenes.builtin import teapot
-from raytrace.structures import build_structure
+from raytrace.scene.flatten import flatten
+from raytrace.scene.builtin import teapot
+from raytrace.accel.registry import build_structure
 geo, ranges, _ = flatten(teapot())
 t1 = time.perf_counter()
 out = []
@@ -64,7 +64,7 @@ print(" ".join(str(x) for x in out))
 
 
 def _example(name):
-    from raytrace.scenes.assets import assets_dir
+    from raytrace.scene.assets import assets_dir
     return str(assets_dir() / name)
 
 
@@ -95,7 +95,7 @@ def log(msg):
 
 
 def measure(quick):
-    from raytrace.structures import STRUCTURES
+    from raytrace.accel.registry import STRUCTURES
     rows, chain = [], []
     with tempfile.TemporaryDirectory(prefix="raytrace-cold-") as tmp:
         tmp = Path(tmp)

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from raytrace.structures import STRUCTURES
+from raytrace.accel.registry import STRUCTURES
 
 ACCELS = tuple(STRUCTURES)
 ROOT = Path(__file__).resolve().parent.parent

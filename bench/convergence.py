@@ -38,8 +38,8 @@ QUICK = dict(width=80, height=60, budget_s=0.5, max_runs=3)
 
 
 def run(quick, plot_path=None):
-    from raytrace.driver import render
-    from raytrace.scenes.builtin import teapot
+    from raytrace.renderer.driver import render
+    from raytrace.scene.builtin import teapot
     cfg = QUICK if quick else FULL
     w, h = cfg["width"], cfg["height"]
     accel = "bvh"   # the fastest here; every structure gives the same image

@@ -14,7 +14,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from raytrace.scenes.teapot import tessellate  # noqa: E402
+from raytrace.scene.teapot import tessellate  # noqa: E402
 
 
 def write_ply(path, v, f, n):

@@ -1,4 +1,4 @@
-"""Time of smooth vertex normals with creases (raytrace/normals.py) on
+"""Time of smooth vertex normals with creases (raytrace/scene/normals.py) on
 meshes of about a million triangles: a smooth one (a torus: no vertex is
 split), a creased one (a box of 1M triangles: every edge of the box is a
 crease) and a noisy one (the torus with its vertices jittered by a fifth
@@ -45,7 +45,7 @@ def tessellated_box(triangles):
 @click.option("--triangles", default=1_000_000, show_default=True)
 @click.option("--repeat", default=3, show_default=True)
 def main(triangles, repeat):
-    from raytrace.normals import crease_normals
+    from raytrace.scene.normals import crease_normals
     t = torus(triangles)
     v, f = np.asarray(t.vertices), np.asarray(t.faces)
     edge = np.linalg.norm(v[f[0, 0]] - v[f[0, 1]])

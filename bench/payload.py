@@ -1,6 +1,6 @@
 """What a Dask worker receives for a scene: the render's buffers
 (``Setup.payload()``: the flattened scene, the structure, the lights),
-pickled as distributed.py scatters them.  The README's turntable estimate
+pickled as frames/distributed.py scatters them.  The README's turntable estimate
 takes its "MB of buffers per worker" from here.
 
     python bench/payload.py [SCENE] [--detail N] [--accel bvh] [--shadows soft]
@@ -17,7 +17,7 @@ import click
 @click.option("--shadows", default="soft")
 def main(scene, detail, accel, shadows):
     import raytrace
-    from raytrace.driver import options_with, prepare
+    from raytrace.renderer.driver import options_with, prepare
     sc = raytrace.load_scene(scene, detail=detail)
     setup = prepare(sc, options_with(None, dict(accel=accel, shadows=shadows)), drop_meshes=True)
     size = len(pickle.dumps(setup.payload(), protocol=pickle.HIGHEST_PROTOCOL))

@@ -83,8 +83,8 @@ def peers():
 def make_rays(detail, width, height):
     """(vertices, faces, primary (o, d), shadow (o, d, t_max)) in float64."""
     import raytrace
-    from raytrace.driver import camera_buffer
-    from raytrace.scenes.builtin import teapot
+    from raytrace.renderer.driver import camera_buffer
+    from raytrace.scene.builtin import teapot
     scene = teapot(detail)
     mesh = scene.objects[0]
     v = np.asarray(mesh.vertices, np.float64)
@@ -131,10 +131,10 @@ def run_case(detail, width, height, runs, peer_list):
     import numba
 
     import raytrace
-    from raytrace.flatten import flatten
-    from raytrace.rayscene import RayScene, _any_hit, _closest
-    from raytrace.scene import Mesh, Scene
-    from raytrace.structures import build_structure
+    from raytrace.accel.registry import build_structure
+    from raytrace.cast.rayscene import RayScene, _any_hit, _closest
+    from raytrace.scene.flatten import flatten
+    from raytrace.scene.model import Mesh, Scene
 
     # t_min made once, as t_max is: np.zeros inside the timed call maps its
     # pages lazily, and the kernel's threads then fault them in (1-2 ms).

@@ -62,7 +62,7 @@ def throughput(dtype, tris, n_rays, rng):
 
 def rounded(scene, dtype):
     """The scene with every coordinate and length rounded through dtype."""
-    from raytrace.scene import Mesh, Sphere
+    from raytrace.scene.model import Mesh, Sphere
 
     def r(x):
         return np.asarray(np.asarray(x, dtype=np.float64).astype(dtype), dtype=np.float64)
@@ -84,8 +84,8 @@ def main():
     import sys
     from pathlib import Path
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    from raytrace.driver import render
-    from raytrace.scenes.builtin import teapot
+    from raytrace.renderer.driver import render
+    from raytrace.scene.builtin import teapot
     from tests.scene_transform import transform_scene
 
     print(f"1. brute-force triangle tests, {numba.get_num_threads()} threads, best of {REPEATS}")

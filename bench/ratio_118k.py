@@ -11,8 +11,8 @@ peer table has the kernel-level figure (camera rays alone, no shading).
 """
 import statistics
 
-from raytrace.driver import render
-from raytrace.scenes.builtin import teapot
+from raytrace.renderer.driver import render
+from raytrace.scene.builtin import teapot
 
 ROUNDS = 11
 

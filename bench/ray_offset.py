@@ -15,7 +15,7 @@ surfaces are convex (or flat), so nothing else can be in the way.
 import numpy as np
 
 from raytrace import cast_rays, occluded
-from raytrace.scene import Camera, Plane, Scene, Sphere
+from raytrace.scene.model import Camera, Plane, Scene, Sphere
 
 N_RAYS = 200_000
 OFFSETS = range(-56, -27, 2)           # 2^-56 (half an ulp) .. 2^-28

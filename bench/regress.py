@@ -125,8 +125,8 @@ def report(fails, t0):
 
 
 def measure_counters():
-    from raytrace.driver import render
-    from raytrace.scenes.builtin import teapot
+    from raytrace.renderer.driver import render
+    from raytrace.scene.builtin import teapot
     c = dict(COUNTER_SCENE)
     out = {}
     for detail, counters in ((c.pop("detail"), COUNTERS), (MID_DETAIL, MID_COUNTERS)):
@@ -168,7 +168,7 @@ def check_counters(baseline, now, tol=TOLERANCE):
 def measure_ratios(rounds):
     """Median render time of each structure and its speedup over none,
     renders interleaved in rounds after one warm-up render each."""
-    from raytrace.driver import render
+    from raytrace.renderer.driver import render
     c = dict(TIMING_SCENE)
     scene = timing_scene(c.pop("detail"))
     accels = ["none", *FLOORS]
@@ -187,8 +187,8 @@ def timing_scene(detail):
     lights at the centres of a grid over it, sharing its intensity."""
     from dataclasses import replace
 
-    from raytrace.scene import Light
-    from raytrace.scenes.builtin import teapot
+    from raytrace.scene.builtin import teapot
+    from raytrace.scene.model import Light
     scene = teapot(detail)
     (light,) = scene.lights
     n = TIMING_LIGHTS

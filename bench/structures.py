@@ -1,7 +1,7 @@
 """bench.sh's ``structures`` section: every structure and BVH builder on
 the teapot, the 118k-triangle teapot, the teapot in a stadium, the scene
 of many sizes, Whitted's mirrors and glass and the textured example,
-through ``raytrace compare`` (raytrace/compare.py): build time, render
+through ``raytrace compare`` (raytrace/cli/compare.py): build time, render
 time (best of interleaved renders), speedup, tests and nodes or cells per
 ray, memory, and the identical-images check.
 
@@ -10,10 +10,10 @@ minutes (the 118k teapot, the stadium): they add nothing there but waiting.
 """
 from common import fmt_g, log, markdown_table
 
-from raytrace.compare import compare, parse_entries, rows, speedup_text
-from raytrace.driver import RenderOptions
-from raytrace.load import load_scene
-from raytrace.scenes.assets import assets_dir
+from raytrace.cli.compare import compare, parse_entries, rows, speedup_text
+from raytrace.renderer.driver import RenderOptions
+from raytrace.scene.assets import assets_dir
+from raytrace.scene.load import load_scene
 
 EVERY = "none,bvol,bvh,bvh:median,bvh:lbvh,grid,kdtree"
 HIERARCHIES = "bvh,bvh:median,bvh:lbvh,grid,kdtree"

@@ -92,7 +92,7 @@ def body_pixels(result, detail):
 def light_cosine(scene, result):
     """Per pixel, the cosine between the recorded shading normal and the
     direction to the scene's (first) light, at the first camera hit."""
-    from raytrace.driver import camera_buffer
+    from raytrace.renderer.driver import camera_buffer
     h, w = result.aovs["depth"].shape
     cam = camera_buffer(scene.camera, w, h)
     sx = 2.0 * (np.arange(w) + 0.5) / w - 1.0
@@ -112,8 +112,8 @@ def terminator_error(width, height, detail=DETAIL, reference_detail=REFERENCE_DE
     interior pixels and ``band_mad`` over those of them in the terminator
     band (the reference's normal within TERMINATOR_BAND of the light's
     horizon, lit side), their pixel counts, and the two results."""
-    from raytrace.driver import render
-    from raytrace.scenes.builtin import teapot
+    from raytrace.renderer.driver import render
+    from raytrace.scene.builtin import teapot
     opts = dict(dict(accel="bvh", shadows="hard", width=width, height=height, aov=True), **kw)
     coarse = render(teapot(detail), **opts)
     smooth_scene = teapot(reference_detail)
@@ -142,8 +142,8 @@ def checker_error(width, height, texture_filter, reference=None, reference_spp=R
     """(RMSE of the linear image over the far half of the ground, pixels,
     the 1-spp result, the reference) for one texture filter; `reference`
     (a result of the raw checker at many samples) is rendered if None."""
-    from raytrace.driver import render
-    from raytrace.scenes.builtin import teapot
+    from raytrace.renderer.driver import render
+    from raytrace.scene.builtin import teapot
     opts = dict(accel="bvh", shadows="none", width=width, height=height, aov=True)
     if reference is None:
         reference = render(teapot(DETAIL), spp=reference_spp, texture_filter="none", **opts)
@@ -159,7 +159,7 @@ def checker_error(width, height, texture_filter, reference=None, reference_spp=R
 @click.option("--images", type=click.Path(file_okay=False), default=None,
               help="Also write the renders compared, as PNGs, into this directory.")
 def main(quick, json_path, images):
-    from raytrace.output import write_png
+    from raytrace.renderer.output import write_png
     cfg = QUICK if quick else FULL
     w, h = cfg["width"], cfg["height"]
     log(f"terminator: teapot --detail {DETAIL} against --detail {REFERENCE_DETAIL}, {w}x{h}")
@@ -173,8 +173,8 @@ def main(quick, json_path, images):
         shots[f"checker_{filt}"] = one
     # The reference's own noise: a second one with another seed, RMSE
     # between the two / sqrt 2 (an error near it is as good as measurable).
-    from raytrace.driver import render
-    from raytrace.scenes.builtin import teapot
+    from raytrace.renderer.driver import render
+    from raytrace.scene.builtin import teapot
     ref2 = render(teapot(DETAIL), spp=REFERENCE_SPP, texture_filter="none", seed=1, accel="bvh",
                   shadows="none", width=w, height=h)
     mask = far_ground(shots["checker_box"])

@@ -10,13 +10,13 @@
 the renderer's kernels; ``cast_rays`` and ``occluded`` do one batch.  Importing this package is cheap: NumPy,
 Numba and trimesh are imported by the first call that needs them.
 """
-from .errors import RaytraceError, RaytraceWarning
+from raytrace.errors import RaytraceError, RaytraceWarning
 
 __all__ = ["load_scene", "render", "render_frames", "RayScene", "cast_rays", "occluded",
            "create_rays_pinhole", "create_rays_from_matrices", "RaytraceError", "RaytraceWarning"]
 # Imported on first use, so that `import raytrace` stays light.
-_LAZY = {"RayScene": "rayscene", "create_rays_pinhole": "rayscene",
-         "create_rays_from_matrices": "rayscene"}
+_LAZY = {"RayScene": "cast.rayscene", "create_rays_pinhole": "cast.rayscene",
+         "create_rays_from_matrices": "cast.rayscene"}
 
 
 def load_scene(name_or_path, **opts):
@@ -25,9 +25,9 @@ def load_scene(name_or_path, **opts):
     ground plane) or a TOML scene file.
 
     Options: detail (teapot), view / azimuth / elevation / up / crease /
-    flat (mesh files), fov, width, height.  See raytrace.load.load_scene.
+    flat (mesh files), fov, width, height.  See raytrace.scene.load.load_scene.
     """
-    from .load import load_scene as _load
+    from raytrace.scene.load import load_scene as _load
     return _load(name_or_path, **opts)
 
 
@@ -37,7 +37,7 @@ def render(scene, client=None, tiles=None, **options):
     ``stats`` (times and counters, as the CLI's --json), ``aovs`` with
     aov=True (depth, normal, primid, cost).
 
-    Options are the fields of raytrace.driver.RenderOptions: accel
+    Options are the fields of raytrace.renderer.driver.RenderOptions: accel
     ("none", "bvol", "bvh", "grid"), shadows ("none", "hard", "soft"),
     light_samples, pattern, width, height, spp, seed, threads, aov.
 
@@ -48,10 +48,10 @@ def render(scene, client=None, tiles=None, **options):
     """
     scene = _scene(scene)
     if client is None and tiles is None:
-        from .driver import render as _render
+        from raytrace.renderer.driver import render as _render
         return _render(scene, **options)
-    from .batch import render_tiled
-    from .driver import options_with
+    from raytrace.frames.batch import render_tiled
+    from raytrace.renderer.driver import options_with
     opts = options_with(None, options)
     if opts.aov:
         raise RaytraceError("aov=True needs the whole image in this process: drop client and tiles")
@@ -70,16 +70,16 @@ def render_frames(scene, cameras=None, turntable=None, output=None, fps=24, resu
     frames and give time per worker.  ``client``: a dask.distributed
     Client whose workers render the frames; ``progress(done, frames)``.
     """
-    from .animation import camera_path
-    from .batch import animate
-    from .driver import options_with
+    from raytrace.frames.batch import animate
+    from raytrace.renderer.driver import options_with
+    from raytrace.scene.animation import camera_path
     scene = _scene(scene)
     if cameras is None:
         cameras = camera_path(scene, turntable)
     elif turntable is not None:
         raise RaytraceError("give cameras or turntable, not both")
     if output is not None:
-        from .frames import check_frame_output
+        from raytrace.frames.writers import check_frame_output
         check_frame_output(str(output), resume=resume)
     opts = options_with(None, options)
     return animate(scene, list(cameras), opts, output=None if output is None else str(output),
@@ -89,7 +89,7 @@ def render_frames(scene, cameras=None, turntable=None, output=None, fps=24, resu
 def _scene(scene):
     from pathlib import Path
 
-    from .scene import Scene
+    from raytrace.scene.model import Scene
     if isinstance(scene, (str, Path)):
         scene = load_scene(scene)
     if not isinstance(scene, Scene):
@@ -100,7 +100,7 @@ def _scene(scene):
 def _runner(client):
     if client is None:
         return None
-    from .distributed import DaskRunner
+    from raytrace.frames.distributed import DaskRunner
     return DaskRunner(client, None)
 
 
@@ -110,16 +110,16 @@ def cast_rays(target, origins, directions, accel="bvh", t_max=None):
 
     Returns a RayHits with (n,) arrays t, prim_id, u, v, object_id (also
     ``hits["t"]``); t is in units of each direction's length, inf and -1
-    on a miss.  See raytrace.rayscene.cast_rays.
+    on a miss.  See raytrace.cast.rayscene.cast_rays.
     """
-    from .rayscene import cast_rays as _cast
+    from raytrace.cast.rayscene import cast_rays as _cast
     return _cast(target, origins, directions, accel=accel, t_max=t_max)
 
 
 def occluded(target, origins, directions, t_max, accel="bvh"):
     """(n,) booleans: is anything hit with 0 < t < t_max along each ray?
-    See raytrace.rayscene.occluded."""
-    from .rayscene import occluded as _occluded
+    See raytrace.cast.rayscene.occluded."""
+    from raytrace.cast.rayscene import occluded as _occluded
     return _occluded(target, origins, directions, t_max, accel=accel)
 
 

@@ -1,3 +1,3 @@
-from .command import main
+from raytrace.cli.command import main
 
 main()

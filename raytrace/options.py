@@ -1,6 +1,6 @@
 """Every render option, defined once: its name, type, default, range and
-help.  The command line's options (cli.py), the render's validation
-(driver.py), the scene files' limits (io/scenefile.py) and the README's
+help.  The command line's options (cli/main.py), the render's validation
+(render/driver.py), the scene files' limits (scene/formats/scenefile.py) and the README's
 options table (checked by tests/test_readme.py) are derived from here.
 
 Imports nothing heavy: the command line reads it to build --help.
@@ -8,16 +8,17 @@ Imports nothing heavy: the command line reads it to build --help.
 import math
 from dataclasses import dataclass
 
-from .errors import OptionError
+from raytrace.errors import OptionError
+from raytrace.kernels.limits import MAX_BOUNCES
 
 
 def _structures():
-    from .structures import STRUCTURES
+    from raytrace.accel.registry import STRUCTURES
     return tuple(STRUCTURES)
 
 
 def _bvh_builders():
-    return ("sah", "median", "lbvh")       # raytrace/accel/bvh.py BUILDERS
+    return ("sah", "median", "lbvh")       # raytrace/accel/bvh/build.py BUILDERS
 
 
 def _max_threads():
@@ -96,7 +97,7 @@ OPTIONS = (
     Option("pattern", "choice", "stratified", "light sample placement (grid and stratified need a "
            "square number)", choices=("grid", "random", "stratified", "halton"),
            noun="sampling pattern"),
-    Option("max_depth", "int", 5, "mirror and glass bounces a ray is followed for", lo=0, hi=16,
+    Option("max_depth", "int", 5, "mirror and glass bounces a ray is followed for", lo=0, hi=MAX_BOUNCES,
            metavar="N"),
     Option("texture_filter", "choice", "box", "checker averaged over each pixel's footprint and "
            "image textures bilinear, or `none`: point-sampled, nearest texel",

@@ -1,7 +1,7 @@
 import pytest
 
-from raytrace.driver import render
-from raytrace.scenes.builtin import spheres, teapot
+from raytrace.renderer.driver import render
+from raytrace.scene.builtin import spheres, teapot
 
 # Small images keep the suite fast once the kernels are compiled; the
 # teapot still covers a few thousand pixels.
@@ -36,7 +36,7 @@ def scene_file_error(path):
     """The message of the RaytraceError read_scene_file(path) raises,
     checked to be one line that starts with the file's name."""
     from raytrace.errors import RaytraceError
-    from raytrace.io.scenefile import read_scene_file
+    from raytrace.scene.formats.scenefile import read_scene_file
     with pytest.raises(RaytraceError) as info:
         read_scene_file(path)
     msg = str(info.value)

@@ -5,7 +5,7 @@ import dataclasses
 
 import numpy as np
 
-from raytrace.scene import Mesh, Sphere
+from raytrace.scene.model import Mesh, Sphere
 
 
 def transform_scene(scene, scale=1.0, shift=0.0):

@@ -12,8 +12,8 @@ with soft shadows or with mirrors and glass compare EVERY_MODE: brute force
 and the default structure.  For all five that was 6 more kernels, about
 100 s of a cold test suite's 2-core CPU time.
 """
-from raytrace.structures import DEFAULT
-from raytrace.structures import STRUCTURES as _REGISTRY
+from raytrace.accel.registry import DEFAULT
+from raytrace.accel.registry import STRUCTURES as _REGISTRY
 
 STRUCTURES = list(_REGISTRY)
 EVERY_MODE = ["none", DEFAULT]

@@ -6,12 +6,11 @@ import math
 import numpy as np
 import pytest
 
-from raytrace.animation import Animation, Key, camera_path, keyframe_path, turntable
 from raytrace.errors import RaytraceError
-from raytrace.load import load_scene
-from raytrace.scene import Camera, Scene
-
-from .conftest import scene_file_error
+from raytrace.scene.animation import Animation, Key, camera_path, keyframe_path, turntable
+from raytrace.scene.load import load_scene
+from raytrace.scene.model import Camera, Scene
+from tests.conftest import scene_file_error
 
 CAMERA = '[camera]\nposition = [0, 2, 6]\nlook_at = [0, 1, 0]\nfov = 50\n'
 KEYS = ('[animation]\nframes = 11\n'

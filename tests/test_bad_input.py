@@ -17,9 +17,8 @@ from click.testing import CliRunner
 
 import raytrace
 from raytrace import RaytraceError
-from raytrace.cli import main
-
-from .test_mesh_io import bad_mesh_files, tetra
+from raytrace.cli.main import main
+from tests.test_mesh_io import bad_mesh_files, tetra
 
 SMALL = ["--width", "48", "--height", "36"]
 OLD = b"an earlier render, to be left alone"
@@ -114,7 +113,7 @@ def test_memory_refusal_counts_every_buffer(monkeypatch):
     """An image is refused, naming the memory it needs, when that is more
     than is available: the per-pixel buffers and the per-row counter rows,
     so a 1-pixel-wide, million-row image (95 MB) is not waved through."""
-    from raytrace import driver
+    from raytrace.renderer import driver
     scene = raytrace.load_scene("spheres")
     monkeypatch.setattr(driver, "available_memory", lambda: 64 << 20)
     with pytest.raises(RaytraceError, match=r"a 1x1048576 image needs 0\.\d GiB of memory, more than "

@@ -130,7 +130,7 @@ def test_payload_is_what_a_worker_unpickles():
     from click.testing import CliRunner
 
     import raytrace
-    from raytrace.driver import options_with, prepare
+    from raytrace.renderer.driver import options_with, prepare
     out = CliRunner().invoke(payload.main, ["teapot", "--detail", "4"]).output
     setup = prepare(raytrace.load_scene("teapot", detail=4),
                     options_with(None, dict(accel="bvh", shadows="soft")), drop_meshes=True)

@@ -1,10 +1,10 @@
-"""The SAH builder's 8-lane box rows (kernels/box8.py) against the scalar
+"""The SAH builder's 8-lane box rows (accel/bvh/box8.py) against the scalar
 arithmetic they replace: the same bits, so the same trees."""
 import numpy as np
 from numba import njit
 
-from raytrace.accel.bvh import BOX, box_rows, outward
-from raytrace.kernels.box8 import LANES, find_bins, grow_box, grow_centroids
+from raytrace.accel.bvh.box8 import LANES, find_bins, grow_box, grow_centroids
+from raytrace.accel.bvh.build import BOX, box_rows, outward
 
 N_BINS = 12
 

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from raytrace.accel.bvh import (
+from raytrace.accel.bvh.build import (
     BOX,
     LINK,
     MAX_DEPTH,
@@ -23,13 +23,13 @@ from raytrace.accel.bvh import (
     counting_copy,
     outward,
 )
-from raytrace.buffers import INDEX, prim_bounds
-from raytrace.flatten import flatten
+from raytrace.accel.registry import build_structure as build_accel
+from raytrace.accel.registry import get as get_structure
+from raytrace.kernels.buffers import INDEX, prim_bounds
 from raytrace.kernels.cast import COLUMNS, cast_closest, cast_counts, cast_occluded
 from raytrace.kernels.counters import BAD_RAYS, BOX_TESTS, NODES_VISITED, PRIM_HITS, PRIM_TESTS
-from raytrace.scene import Camera, Mesh, Plane, Scene, Sphere
-from raytrace.structures import build_structure as build_accel
-from raytrace.structures import get as get_structure
+from raytrace.scene.flatten import flatten
+from raytrace.scene.model import Camera, Mesh, Plane, Scene, Sphere
 
 PROPERTY = settings(derandomize=True, max_examples=25, deadline=None)
 
@@ -340,7 +340,7 @@ def test_counting_layout_copies_leaf_triangles_and_packs_lanes(n_tris, bvh_build
     lanes' -1 child included, but for an inner lane whose subtree holds at
     most COUNT_LEAF primitives, which is a leaf over exactly that subtree's
     slots."""
-    from raytrace.accel.bvh import COUNT_LEAF
+    from raytrace.accel.bvh.build import COUNT_LEAF
     rng = np.random.default_rng(2)
     geo, ranges = make_scene(random_soup(rng, n_tris, 0.1), spheres=[((0, 0, 0), 0.3)])
     acc, _ = build_accel("bvh", geo, ranges, bvh_build=bvh_build)
@@ -381,7 +381,7 @@ def test_counting_layout_copies_leaf_triangles_and_packs_lanes(n_tris, bvh_build
 def test_counting_layout_is_a_tree_built_for_counting():
     """for_counting counts on a tree of its own (COUNT_LEAF, COUNT_TRAVERSAL
     _COST), not on the tracing tree it is given: fewer, fuller leaves."""
-    from raytrace.accel.bvh import COUNT_LEAF, COUNT_TRAVERSAL_COST, build
+    from raytrace.accel.bvh.build import COUNT_LEAF, COUNT_TRAVERSAL_COST, build
     rng = np.random.default_rng(4)
     geo, ranges = make_scene(random_soup(rng, 2000, 0.05))
     tracing, _ = build_accel("bvh", geo, ranges)
@@ -449,8 +449,8 @@ def test_counting_stack_holds_the_deepest_rounds():
     STACK_SIZE is 184), a ray through every box and the one triangle all
     the leaves hold counts each leaf once (with a stack of STACK_SIZE the
     kernel crashed)."""
-    from raytrace.accel.bvh import CountingBVH
-    from raytrace.kernels.bvh import COUNT_STACK_SIZE, ROUND, STACK_SIZE
+    from raytrace.accel.bvh.build import CountingBVH
+    from raytrace.accel.bvh.traverse import COUNT_STACK_SIZE, ROUND, STACK_SIZE
     levels = MAX_DEPTH - 3           # its twigs lie MAX_DEPTH - 1 levels down
     child, count, n = _rounds_that_pile_up(levels, PILE_UP[ROUND])
     tri = np.array([[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [0.0, 1.0, 0.0]])
@@ -474,7 +474,7 @@ def test_counting_stack_holds_the_deepest_rounds():
 
 def test_count_stream_takes_the_rays_as_they_come():
     """The BVH counts two rays in flight, each slot taking the next good
-    ray when its own is done (kernels/bvh.py, count_stream).  Bad rays
+    ray when its own is done (accel/bvh/traverse.py, count_stream).  Bad rays
     first, in runs, last, and a batch of nothing else, get 0 and are
     counted; every good ray gets brute force's count (spheres' far roots
     and planes included), and the batch the counters its rays have one at
@@ -538,7 +538,7 @@ def test_every_node_is_the_binned_sah_choice_over_its_own_primitives(seed, tree)
     tree's, or the counting tree's, accel/bvh.for_counting).  Mutations
     that took a child's boxes from the wrong side of its parent's split
     failed it."""
-    from raytrace.accel.bvh import (
+    from raytrace.accel.bvh.build import (
         BOX_PAD,
         COUNT_LEAF,
         COUNT_TRAVERSAL_COST,
@@ -599,7 +599,7 @@ def test_rounding_to_float32_steps_by_bits_as_nextafter_would():
     (in both directions, the bits compared, so -0.0 counts)."""
     from numba import njit
 
-    from raytrace.accel.bvh import _round_down, _round_up
+    from raytrace.accel.bvh.build import _round_down, _round_up
     down, up = njit(lambda x: _round_down(x)), njit(lambda x: _round_up(x))
     f32 = np.float32
     edges = [0.0, -0.0, 1e-50, -1e-50, 2.0**-149, -2.0**-149, 1.5 * 2.0**-149, 1e-40, -1e-40,
@@ -622,7 +622,7 @@ def test_rounding_to_float32_steps_by_bits_as_nextafter_would():
 def test_box_bounds_are_outward_prim_bounds_bit_for_bit(threads):
     """The big-mesh path's fused bounds (box_bounds) against the small
     one's two steps: signed zeros, spheres, and values beyond float32."""
-    from raytrace.accel.bvh import box_bounds
+    from raytrace.accel.bvh.build import box_bounds
     rng = np.random.default_rng(4)
     tris = random_soup(rng, 500, 0.3)
     tris[:20] = np.round(tris[:20])          # exact zeros, and -0.0 below
@@ -836,9 +836,9 @@ def test_occlusion_stops_early(aimed):
 @pytest.mark.parametrize("builder", ["sah", "median", "lbvh"])
 @pytest.mark.parametrize("leaf_size", [1, 4, 9])
 def test_every_builder_gives_the_brute_force_image(builder, leaf_size):
-    from raytrace.driver import render
-    from raytrace.scenes.builtin import spheres
-    from raytrace.structures import get
+    from raytrace.accel.registry import get
+    from raytrace.renderer.driver import render
+    from raytrace.scene.builtin import spheres
     scene = spheres()
     kw = dict(width=48, height=36, shadows="hard")
     ref = render(scene, accel="none", **kw)

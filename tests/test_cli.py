@@ -4,7 +4,7 @@ import json
 import pytest
 from click.testing import CliRunner
 
-from raytrace.cli import main
+from raytrace.cli.main import main
 
 SMALL = ["--width", "48", "--height", "36"]
 
@@ -105,7 +105,7 @@ def test_threads_bound_a_big_teapots_tessellation_too(run, monkeypatch, command)
     --detail 2 takes the kernels), not on every core."""
     import numba
 
-    import raytrace.scenes.teapot as teapot_module
+    import raytrace.scene.teapot as teapot_module
     used = []
     tessellate = teapot_module._tessellate_parallel
 
@@ -142,7 +142,7 @@ def test_a_big_teapots_tessellation_kernels_count_as_compile_time(run, monkeypat
     so that detail 2 takes the kernels."""
     import time
 
-    import raytrace.scenes.teapot as teapot_module
+    import raytrace.scene.teapot as teapot_module
     teapot_module.load_kernels(125)    # compiled (or loaded) now: not in load_s below
     monkeypatch.setattr(teapot_module, "KERNEL_MIN", 256)
     monkeypatch.setattr(teapot_module, "load_kernels", lambda detail: time.sleep(0.5) or 0.5)

@@ -8,13 +8,12 @@ import pytest
 from click.testing import CliRunner
 from PIL import Image
 
-from raytrace import cli
-from raytrace.cli import main
-from raytrace.heatmap import VIRIDIS, colormap, cost_heatmap, legend_height
-from raytrace.scenes.assets import assets_dir
-
-from .test_mesh_io import bad_mesh_files
-from .test_scenefile import BAD
+from raytrace.cli import main as cli
+from raytrace.cli.main import main
+from raytrace.renderer.heatmap import VIRIDIS, colormap, cost_heatmap, legend_height
+from raytrace.scene.assets import assets_dir
+from tests.test_mesh_io import bad_mesh_files
+from tests.test_scenefile import BAD
 
 SMALL = ["--width", "48", "--height", "36"]
 
@@ -171,7 +170,7 @@ def test_listing_help_and_bad_files_import_neither_numba_nor_trimesh(tmp_path):
     import sys
     bad_scene = tmp_path / "bad.toml"
     bad_scene.write_text("[camera\n")
-    code = ("import sys; from raytrace.cli import main\n"
+    code = ("import sys; from raytrace.cli.main import main\n"
             f"for args in (['scenes'], ['render', '--help'], ['nosuch.obj'], [{str(bad_scene)!r}]):\n"
             "    try: main(args)\n"
             "    except SystemExit: pass\n"

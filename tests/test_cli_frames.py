@@ -8,7 +8,7 @@ import pytest
 from click.testing import CliRunner
 from PIL import Image
 
-from raytrace.cli import main
+from raytrace.cli.main import main
 
 SIZE = ["--width", "40", "--height", "30"]
 
@@ -93,14 +93,14 @@ def test_mistakes_are_one_line(tmp_path, monkeypatch, args, code, words):
     monkeypatch.chdir(tmp_path)
     r = run("teapot", *SIZE, *args)
     assert r.exit_code == code, r.output
-    # (click's usage lines come first here; the command itself, raytrace.cli.entry,
+    # (click's usage lines come first here; the command itself, raytrace.cli.main.entry,
     # prints only the last: tests/test_hardening.py)
     assert words in r.output.strip().splitlines()[-1] and "Traceback" not in r.output
     assert list(tmp_path.iterdir()) == []
 
 
 def test_ctrl_c_during_a_gif_leaves_no_file(tmp_path, monkeypatch):
-    from raytrace import batch
+    from raytrace.frames import batch
     real = batch.render_tile
     calls = []
 

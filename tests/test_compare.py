@@ -7,15 +7,14 @@ import pytest
 from click.testing import CliRunner
 from PIL import Image
 
-from raytrace import compare as cmp
-from raytrace.cli import main
-from raytrace.driver import RenderOptions, camera_buffer, render
+from raytrace.accel.registry import STRUCTURES, get
+from raytrace.cli import compare as cmp
+from raytrace.cli.main import main
 from raytrace.errors import OptionError
-from raytrace.heatmap import colormap, log_scale
-from raytrace.overlay import project
-from raytrace.structures import STRUCTURES, get
-
-from .structures import STRUCTURES as ALL
+from raytrace.renderer.driver import RenderOptions, camera_buffer, render
+from raytrace.renderer.heatmap import colormap, log_scale
+from raytrace.renderer.overlay import project
+from tests.structures import STRUCTURES as ALL
 
 SMALL = ["--width", "40", "--height", "30"]
 
@@ -64,7 +63,7 @@ def test_render_time_is_the_best_of_the_repeats(comparison):
 
 
 def test_figure_panels_hold_the_image_and_heatmaps_on_one_scale(comparison):
-    from raytrace.compare_figure import figure
+    from raytrace.cli.figure import figure
     fig, panels = figure(comparison, "40x30")
     assert set(panels) == {"image", "none", "bvh", "bvh:lbvh", "grid"}
     costs = [e.cost for e in comparison.entries]
@@ -85,7 +84,7 @@ def test_a_different_image_is_caught_and_named(spheres_scene, monkeypatch):
         if opts.accel == "grid":
             result.linear[0, 0, 0] += 1.0
         return result
-    monkeypatch.setattr("raytrace.driver.render", wrong_grid)
+    monkeypatch.setattr("raytrace.renderer.driver.render", wrong_grid)
     got = cmp.compare(spheres_scene, cmp.parse_entries("bvh,grid"), RenderOptions(width=8, height=6))
     assert not got.identical and got.differences == [("grid", 1)]
     assert cmp.identity_line(got) == "Images DIFFER: grid differs from bvh in 1 pixels"
@@ -129,7 +128,7 @@ def _volume(lo, hi):
 
 @pytest.mark.parametrize("name", [n for n in STRUCTURES if n != "none"])
 def test_outlines_nest_and_cover(name, teapot_scene):
-    from raytrace.flatten import flatten
+    from raytrace.scene.flatten import flatten
     geo, ranges, _ = flatten(teapot_scene)
     s = get(name)
     layout, _ = s.build(geo, ranges)
@@ -177,8 +176,8 @@ def test_the_teaching_scenes_are_what_the_script_writes(tmp_path):
 
 
 def test_in_the_stadium_the_grid_tests_far_more_than_the_bvh():
-    from raytrace.load import load_scene
-    from raytrace.scenes.assets import assets_dir
+    from raytrace.scene.assets import assets_dir
+    from raytrace.scene.load import load_scene
     scene = load_scene(assets_dir() / "stadium.toml", width=32, height=24)
     got = cmp.compare(scene, cmp.parse_entries("bvh,grid"), RenderOptions(shadows="none"))
     bvh, grid = cmp.rows(got)

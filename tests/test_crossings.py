@@ -4,9 +4,8 @@ import numpy as np
 import pytest
 
 from raytrace import RayScene, RaytraceError
-from raytrace.scene import Camera, Mesh, Plane, Scene, Sphere
-
-from .structures import STRUCTURES
+from raytrace.scene.model import Camera, Mesh, Plane, Scene, Sphere
+from tests.structures import STRUCTURES
 
 
 def box(n=2):
@@ -155,7 +154,7 @@ def test_rays_listed_in_blocks_and_traversed_again_give_the_same_hits(monkeypatc
     into the next, some find the rows spent and are traversed again; then
     the same rays in blocks of two (a small LISTING_ROWS): the same rows,
     in order, and the counters of one traversal a ray."""
-    from raytrace import rayscene
+    from raytrace.cast import rayscene
     from raytrace.kernels import cast
     monkeypatch.setattr(cast, "SLAB", 8)
     run_listing, runs = rayscene._run_listing, []
@@ -279,7 +278,7 @@ def test_a_vote_outweighs_a_hole():
     v, f = box(1)
     rs_full = RayScene((v, f))
     p = np.array([[0.25, -0.125, 0.75]])     # nearest face: z = 1
-    from raytrace.rayscene import _exit_directions
+    from raytrace.cast.rayscene import _exit_directions
     (d,) = _exit_directions(p, rs_full._built().bounds(), 1)
     assert d[0, 2] > 0.99
     exit_tri = rs_full.cast_rays(p, d).prim_id[0]
@@ -292,7 +291,7 @@ def test_a_vote_outweighs_a_hole():
 def test_contains_leaves_the_box_the_short_way():
     """Each point's ray heads for the nearest face of the scene's box
     (votes=3: along each axis, to the nearer side), also from outside it."""
-    from raytrace.rayscene import _exit_directions
+    from raytrace.cast.rayscene import _exit_directions
     bounds = (np.array([-1.0, -2.0, -3.0]), np.array([1.0, 2.0, 3.0]))
     q = np.array([[0.9, 0.0, 0.0], [0.0, -1.9, 0.0], [0.0, 0.0, 2.5], [-5.0, 0.0, 0.0],
                   [0.0, 0.0, -0.5]])

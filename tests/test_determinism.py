@@ -11,9 +11,8 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from raytrace.cli import main
-
-from .structures import EVERY_MODE, STRUCTURES
+from raytrace.cli.main import main
+from tests.structures import EVERY_MODE, STRUCTURES
 
 ROOT = Path(__file__).resolve().parents[1]
 # --aov: the kernels with AOV buffers are the ones the other tests compile

@@ -1,5 +1,5 @@
-"""Tiles and frames (raytrace/batch.py), here and on a local Dask cluster of
-two worker processes (raytrace/distributed.py): byte for byte the still
+"""Tiles and frames (raytrace/frames/batch.py), here and on a local Dask cluster of
+two worker processes (raytrace/frames/distributed.py): byte for byte the still
 render, counters summed exactly, a killed worker changes nothing, and a
 missing extra is one line."""
 import json
@@ -12,9 +12,9 @@ import pytest
 
 import raytrace
 from raytrace import RaytraceError
-from raytrace.animation import turntable
-from raytrace.batch import InProcess, animate, bands, render_frames, render_tiled
-from raytrace.driver import RenderOptions
+from raytrace.frames.batch import InProcess, animate, bands, render_frames, render_tiled
+from raytrace.renderer.driver import RenderOptions
+from raytrace.scene.animation import turntable
 
 # The options other tests compile kernels for (tests/test_determinism.py):
 # soft shadows and several samples a pixel use the hashed random numbers.
@@ -65,7 +65,7 @@ def test_turntable_frames_here_first_is_the_still_and_counters_add_up(scene):
     assert not np.array_equal(frames[0], frames[1])       # the camera moved
     total = {}
     for cam in cams:
-        one = raytrace.render(raytrace.scene.Scene(**{**scene.__dict__, "camera": cam}), **HARD)
+        one = raytrace.render(raytrace.scene.model.Scene(**{**scene.__dict__, "camera": cam}), **HARD)
         for k, v in one.stats["counters"].items():
             total[k] = total.get(k, 0) + v
     assert stats["counters"] == total
@@ -80,7 +80,7 @@ def test_skipped_frames_are_not_rendered(scene):
 
 
 def test_dask_tiles_and_frames_are_the_local_render_byte_for_byte(scene, cluster):
-    from raytrace.distributed import DaskRunner
+    from raytrace.frames.distributed import DaskRunner
     still = raytrace.render(scene, **SOFT)
     on_dask = raytrace.render(scene, client=cluster, **SOFT)
     assert np.array_equal(on_dask.image, still.image)
@@ -98,8 +98,8 @@ def test_dask_tiles_and_frames_are_the_local_render_byte_for_byte(scene, cluster
 def test_small_tiles_share_a_task_and_still_come_back_in_order(scene, cluster):
     """24 small frames on 2 workers: 3 frames a Dask task (each task costs
     ~7 ms of scheduling), the frames the same and in order."""
-    from raytrace.distributed import DaskRunner, _group_size
-    from raytrace.driver import prepare
+    from raytrace.frames.distributed import DaskRunner, _group_size
+    from raytrace.renderer.driver import prepare
     cams = turntable(scene.camera, 24)
     payload = prepare(scene, RenderOptions(**HARD)).payload()
     tasks = [(None, f, 0, HARD["height"]) for f in range(24)]
@@ -122,7 +122,7 @@ def test_scheduler_option_uses_a_running_cluster(scene, cluster, tmp_path, monke
     part is tested above, with longer tasks."""
     from click.testing import CliRunner
 
-    from raytrace.cli import main
+    from raytrace.cli.main import main
     size = ["--width", str(HARD["width"]), "--height", str(HARD["height"])]
     monkeypatch.setenv("DASK_SCHEDULER_ADDRESS", cluster.scheduler.address)
     r = CliRunner().invoke(main, ["teapot", *size, "-o", str(tmp_path / "d.png"), "--json"])
@@ -137,7 +137,7 @@ def test_scheduler_option_uses_a_running_cluster(scene, cluster, tmp_path, monke
 
 
 def test_missing_extra_is_one_line(monkeypatch):
-    from raytrace.distributed import connect
+    from raytrace.frames.distributed import connect
     monkeypatch.setitem(sys.modules, "distributed", None)
     with pytest.raises(RaytraceError, match=r"distributed extra: pip install 'raytrace\[distributed\]'"):
         with connect(workers=2):
@@ -145,7 +145,7 @@ def test_missing_extra_is_one_line(monkeypatch):
 
 
 def test_a_task_that_fails_on_a_worker_is_one_raytrace_error(scene, cluster):
-    from raytrace.distributed import DaskRunner
+    from raytrace.frames.distributed import DaskRunner
     bad = (None,) * 11                      # not a scene's buffers: the worker's kernel call fails
     with pytest.raises(RaytraceError, match="a Dask worker failed"):
         list(DaskRunner(cluster, 1).run(bad, [(np.zeros(12), 0, 0, 4)]))
@@ -163,7 +163,7 @@ def test_dask_arrays_of_rays_give_the_one_batch_answers(scene, cluster):
     the cluster's processes."""
     import dask.array as da
 
-    from raytrace.distributed import cast_rays, occluded
+    from raytrace.frames.distributed import cast_rays, occluded
     mesh = next(o for o in scene.objects if hasattr(o, "faces"))
     rays = raytrace.RayScene((mesh.vertices, mesh.faces))
     rng = np.random.default_rng(7)
@@ -171,7 +171,7 @@ def test_dask_arrays_of_rays_give_the_one_batch_answers(scene, cluster):
     d = rng.normal(size=(5000, 3)) - o
     want = rays.cast_rays(o, d)
     got = cast_rays(rays, da.from_array(o, chunks=(701, 3)), da.from_array(d, chunks=(701, 3)))
-    assert set(got) == set(raytrace.rayscene.RayHits.FIELDS)
+    assert set(got) == set(raytrace.cast.rayscene.RayHits.FIELDS)
     for name, lazy in got.items():
         np.testing.assert_array_equal(lazy.compute(scheduler="threads"), want[name])
     assert 0 < want.hit.sum() < len(o)
@@ -185,24 +185,24 @@ def test_dask_arrays_of_rays_give_the_one_batch_answers(scene, cluster):
 
 def test_in_a_fresh_process_a_layout_finds_its_traversal_and_dask_stays_out(scene):
     """One new process, two checks.  A Dask worker gets the structure's
-    layout by unpickling: its traversal module was never imported there,
-    and with a cold cache the render kernel compiled against nothing ("no
-    traversal registered").  And frames and tiles rendered here never
+    layout by unpickling, which imports its structure's package and so
+    registers its traversal (else, with a cold cache, the render kernel
+    compiles against nothing: "no traversal registered").  And frames and tiles rendered here never
     import Dask (half a second)."""
     import pickle
     import subprocess
 
-    from raytrace.driver import prepare
+    from raytrace.renderer.driver import prepare
     acc = prepare(scene, RenderOptions(**HARD)).acc
     code = ("import pickle, sys, numba\n"
             "acc = pickle.loads(sys.stdin.buffer.read())\n"
-            "assert 'raytrace.kernels.bvh' not in sys.modules\n"
+            "assert 'raytrace.accel.bvh.traverse' in sys.modules\n"
             "from raytrace.kernels.query import CLOSEST, _traversal\n"
             "closest = _traversal(numba.typeof(acc), CLOSEST)\n"
             "print(closest.__module__)\n"
             "import raytrace\n"
-            "from raytrace.batch import animate\nfrom raytrace.animation import turntable\n"
-            "from raytrace.driver import RenderOptions\n"
+            "from raytrace.frames.batch import animate\nfrom raytrace.scene.animation import turntable\n"
+            "from raytrace.renderer.driver import RenderOptions\n"
             "s = raytrace.load_scene('teapot', width=16, height=12)\n"
             "animate(s, turntable(s.camera, 2), RenderOptions(width=16, height=12), tiles=2)\n"
             "raytrace.render(s, tiles=3, width=16, height=12)\n"
@@ -210,7 +210,7 @@ def test_in_a_fresh_process_a_layout_finds_its_traversal_and_dask_stays_out(scen
     p = subprocess.run([sys.executable, "-c", code], input=pickle.dumps(acc),
                        capture_output=True, timeout=120)
     assert p.returncode == 0, p.stderr.decode()
-    assert p.stdout.decode().split() == ["raytrace.kernels.bvh", "[]"]
+    assert p.stdout.decode().split() == ["raytrace.accel.bvh.traverse", "[]"]
 
 
 class _LosesTheScene:
@@ -252,7 +252,7 @@ class _LosesTheScene:
 
 
 def test_a_lost_scattered_scene_is_sent_again_and_changes_nothing(scene):
-    from raytrace.distributed import DaskRunner
+    from raytrace.frames.distributed import DaskRunner
     cams = turntable(scene.camera, 3)
     here, _ = animate(scene, cams, RenderOptions(**HARD))
     client = _LosesTheScene()
@@ -264,7 +264,7 @@ def test_a_lost_scattered_scene_is_sent_again_and_changes_nothing(scene):
 def test_a_worker_killed_mid_render_changes_nothing(scene, cluster):
     """Last in this file: it kills one of the shared cluster's workers (its
     nanny starts another)."""
-    from raytrace.distributed import DaskRunner
+    from raytrace.frames.distributed import DaskRunner
     cams = turntable(scene.camera, 6)
     here, _ = animate(scene, cams, RenderOptions(**SOFT))
     killed = []

@@ -13,16 +13,15 @@ import numpy as np
 import pytest
 
 from raytrace import cast_rays, occluded
-from raytrace.driver import render
 from raytrace.kernels.intersect import BOX_FAR_SCALE, ray_aabb
 from raytrace.kernels.jit import python_callable
 from raytrace.kernels.ray import make_ray
-from raytrace.scene import Camera, Light, Material, Mesh, Plane, Scene, Sphere
-from raytrace.transform import rotation
-
-from .scene_transform import transform_scene
-from .structures import EVERY_MODE, STRUCTURES
-from .test_watertight import subdivided_box
+from raytrace.renderer.driver import render
+from raytrace.scene.model import Camera, Light, Material, Mesh, Plane, Scene, Sphere
+from raytrace.scene.transform import rotation
+from tests.scene_transform import transform_scene
+from tests.structures import EVERY_MODE, STRUCTURES
+from tests.test_watertight import subdivided_box
 
 # Per-ray kernel functions are compiled without Python wrappers (kernels/jit.py).
 ray_aabb, make_ray = python_callable(ray_aabb), python_callable(make_ray)
@@ -334,7 +333,7 @@ def mesh_with_degenerates():
 
 def test_degenerate_triangles_are_dropped_counted_and_never_hit():
     v, f = mesh_with_degenerates()
-    from raytrace.flatten import flatten
+    from raytrace.scene.flatten import flatten
     scene = Scene("degenerate", Camera((3.5, 0.5, 6), (3.5, 0.5, 0)), [Mesh(v, f)],
                   lights=[Light((3.5, 3.0, 5.0))])
     assert flatten(scene)[2]["degenerate_dropped"] == 3
@@ -356,7 +355,7 @@ def test_degenerate_triangles_are_dropped_counted_and_never_hit():
         r = render(scene, accel=accel, shadows="hard", width=24, height=16, aov=True)
         assert r.stats["degenerate_dropped"] == 3 and r.stats["triangles"] == 3
         assert set(np.unique(r.aovs["primid"])) <= {-1, 0, 1, 2}
-    from raytrace.stats import format_table
+    from raytrace.renderer.stats import format_table
     line = [ln for ln in format_table(r.stats).splitlines() if ln.startswith("Degenerate")]
     assert line and line[0].split()[-1] == "3"
 
@@ -440,7 +439,7 @@ def test_empty_scene_file_through_the_cli(tmp_path, monkeypatch):
 
     from click.testing import CliRunner
 
-    from raytrace.cli import main
+    from raytrace.cli.main import main
     monkeypatch.chdir(tmp_path)
     (tmp_path / "empty.toml").write_text('[camera]\nposition = [0, 1, 5]\nlook_at = [0, 0, 0]\n'
                                          '[[lights]]\nposition = [0, 5, 0]\n')
@@ -479,7 +478,7 @@ def teapot_kw(accel):
 
 @pytest.fixture(scope="module")
 def unit_teapots():
-    from raytrace.scenes.builtin import teapot
+    from raytrace.scene.builtin import teapot
     return {accel: render(teapot(), accel=accel, **teapot_kw(accel)) for accel in STRUCTURES}
 
 
@@ -501,7 +500,7 @@ def test_teapot_scaled_or_moved_far_away_looks_the_same(unit_teapots, accel, sca
     worth 1/16 of a light, fails the test.  (With the earlier shadow-ray
     offset of 2^-32 the figure was 17 pixels, by up to 0.02.)
     """
-    from raytrace.scenes.builtin import teapot
+    from raytrace.scene.builtin import teapot
     base = unit_teapots[accel]
     r = render(transform_scene(teapot(), scale, shift), accel=accel, **teapot_kw(accel))
     diff = np.abs(r.linear - base.linear).max(axis=2)

@@ -1,13 +1,13 @@
 """Big meshes' corners are gathered and tested on every thread
-(kernels/corners.py): the same triangles kept, the same bits, as the
+(scene/corners.py): the same triangles kept, the same bits, as the
 NumPy path small meshes take."""
 import numba
 import numpy as np
 import pytest
 
-import raytrace.flatten as flatten_module
-from raytrace.flatten import _kept_corners, _kept_corners_parallel, flatten
-from raytrace.scene import Mesh, Scene
+import raytrace.scene.flatten as flatten_module
+from raytrace.scene.flatten import _kept_corners, _kept_corners_parallel, flatten
+from raytrace.scene.model import Mesh, Scene
 
 
 def awkward_mesh(seed, n_faces=20_000):
@@ -65,11 +65,11 @@ def test_big_mesh_kernels_compile_in_the_compile_phase(monkeypatch):
     Structure.load's load_big before the build), with the argument types of
     the real calls, so those find them compiled: flattening and build times
     hold no compile time."""
-    import raytrace.accel.bvh as bvh_module
-    import raytrace.structures as structures
-    from raytrace.driver import RenderOptions, prepare
-    from raytrace.kernels import corners
-    from raytrace.scene import Camera
+    import raytrace.accel.bvh.build as bvh_module
+    import raytrace.accel.registry as structures
+    from raytrace.renderer.driver import RenderOptions, prepare
+    from raytrace.scene import corners
+    from raytrace.scene.model import Camera
     events = []
 
     def spy(module, name):

@@ -10,7 +10,7 @@ import pytest
 from PIL import Image, ImageSequence
 
 from raytrace.errors import RaytraceError
-from raytrace.frames import check_frame_output, frame_output, frame_path
+from raytrace.frames.writers import check_frame_output, frame_output, frame_path
 
 H, W = 6, 10
 

@@ -2,10 +2,10 @@
 import numpy as np
 import pytest
 
-from raytrace.driver import camera_buffer
-from raytrace.scene import Plane
-from raytrace.scenes.framing import mesh_scene, view_direction
-from raytrace.scenes.views import UP_AXES, VIEWS
+from raytrace.renderer.driver import camera_buffer
+from raytrace.scene.framing import mesh_scene, view_direction
+from raytrace.scene.model import Plane
+from raytrace.scene.views import UP_AXES, VIEWS
 
 # An asymmetric box-ish cloud: long along x, short along z, off the origin.
 RNG = np.random.default_rng(0)

@@ -6,14 +6,14 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from numba import njit
 
-from raytrace.accel.grid import GRID_MAX_RES, Grid, _fill_cells, build_grid, grid_eps
-from raytrace.flatten import flatten
+from raytrace.accel.grid.build import GRID_MAX_RES, Grid, _fill_cells, build_grid, grid_eps
+from raytrace.accel.registry import build_structure as build_accel
+from raytrace.cast.rayscene import _any_hit, _closest
 from raytrace.kernels.counters import BOX_TESTS, CELLS_VISITED, PRIM_TESTS
 from raytrace.kernels.query import closest_hit, occluded
 from raytrace.kernels.ray import make_ray
-from raytrace.rayscene import _any_hit, _closest
-from raytrace.scene import Camera, Mesh, Plane, Scene, Sphere
-from raytrace.structures import build_structure as build_accel
+from raytrace.scene.flatten import flatten
+from raytrace.scene.model import Camera, Mesh, Plane, Scene, Sphere
 
 SETTINGS = dict(derandomize=True, deadline=None,
                 suppress_health_check=[HealthCheck.too_slow])

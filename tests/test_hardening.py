@@ -1,7 +1,7 @@
 """Issue 18's defects, one case each, so none comes back: special files,
 OS errors, interrupted writes, values past the limits, exit codes, and the
 API's exceptions.  Each CLI case runs the real `raytrace` command line
-(raytrace.cli.entry) and asserts exit code, a one-line message, and that
+(raytrace.cli.main.entry) and asserts exit code, a one-line message, and that
 no output was written or replaced."""
 import errno
 import os
@@ -155,7 +155,8 @@ def test_5_outputs_are_committed_together(tmp_path, monkeypatch):
     """An interruption while the outputs are written replaces none of them."""
     from click.testing import CliRunner
 
-    from raytrace import cli, output
+    from raytrace.cli import main as cli
+    from raytrace.renderer import output
     out = tmp_path / "out.png"
     out.write_bytes(OLD)
     calls = []
@@ -179,7 +180,8 @@ def test_5_outputs_are_committed_together(tmp_path, monkeypatch):
 def test_3_full_disk_is_one_line_and_no_file(tmp_path, monkeypatch):
     from click.testing import CliRunner
 
-    from raytrace import cli, output
+    from raytrace.cli import main as cli
+    from raytrace.renderer import output
 
     def no_space(image, path):
         def write(fh):
@@ -225,8 +227,8 @@ def test_16_ctrl_c_at_any_moment_is_130_and_one_line(tmp_path, delay):
 
 
 def _command(tmp_path, prelude):
-    """Run raytrace.command.main in a new process after `prelude`: (exit code, stderr)."""
-    code = prelude + ("\nimport sys\nfrom raytrace import command\n"
+    """Run raytrace.cli.command.main in a new process after `prelude`: (exit code, stderr)."""
+    code = prelude + ("\nimport sys\nfrom raytrace.cli import command\n"
                       "sys.argv = ['raytrace', 'spheres', '--width', '8', '--height', '6', "
                       "'-o', 'x.png']\ncommand.main()\n")
     p = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
@@ -238,7 +240,7 @@ def test_16_ctrl_c_inside_exec_code_is_still_130(tmp_path):
     """A Ctrl-C that lands in exec()'d code (a namedtuple or dataclass being
     made while a module loads) makes CPython 3.11 kill itself with SIGINT at
     exit, whatever sys.exit said: seen as -2 one run in 150 of test_16."""
-    rc, err = _command(tmp_path, "import raytrace.cli as cli\n"
+    rc, err = _command(tmp_path, "import raytrace.cli.main as cli\n"
                                  "cli.entry = lambda: exec('raise KeyboardInterrupt')")
     assert rc == 130, (rc, err)
     assert one_line(err) == "interrupted: no image written"
@@ -250,7 +252,7 @@ def test_16_ctrl_c_python_dropped_still_stops_the_render(tmp_path):
     rc, err = _command(tmp_path, "import gc, weakref\n"
                                  "class Part: pass\n"
                                  "part = Part()\n"
-                                 "from raytrace import interrupt\n"
+                                 "from raytrace.renderer import interrupt\n"
                                  "def signal_lands_here(ref):\n"
                                  "    interrupt.on_sigint(2, None)\n"
                                  "ref = weakref.ref(part, signal_lands_here)\n"
@@ -288,7 +290,7 @@ def test_14_api_raises_raytrace_error_naming_the_argument(call, words):
 
 
 def _house():
-    from raytrace.scenes.assets import assets_dir
+    from raytrace.scene.assets import assets_dir
     return assets_dir() / "house.obj"
 
 
@@ -303,7 +305,7 @@ def test_6_the_whole_coordinate_range_works():
     to zero (a flat grey render) and cast_rays warned of overflow."""
     import warnings
 
-    from raytrace.scene import Camera, Light, Mesh, Scene
+    from raytrace.scene.model import Camera, Light, Mesh, Scene
     for s in (1e90, 2e99):        # camera and rays at 3 s: within the 1e100 limit
         v = np.array([[1, 0, -1 / np.sqrt(2)], [-1, 0, -1 / np.sqrt(2)],
                       [0, 1, 1 / np.sqrt(2)], [0, -1, 1 / np.sqrt(2)]]) * s

@@ -1,11 +1,11 @@
 """Where compiled kernels are cached: a directory named by a hash of the
-kernel sources, under NUMBA_CACHE_DIR when it is set (raytrace/jitconfig.py)."""
+kernel sources, under NUMBA_CACHE_DIR when it is set (raytrace/kernels/jitconfig.py)."""
 import os
 import subprocess
 import sys
 from pathlib import Path
 
-SCRIPT = "import raytrace.kernels, numba; print(numba.config.CACHE_DIR)"
+SCRIPT = "import raytrace.kernels.jit, numba; print(numba.config.CACHE_DIR)"
 
 
 def cache_dir(env):

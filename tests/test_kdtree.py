@@ -3,8 +3,8 @@ every test that runs over tests/structures.py."""
 import numpy as np
 import pytest
 
-from raytrace.accel.grid import grid_eps
-from raytrace.accel.kdtree import LEAF, build_kdtree
+from raytrace.accel.grid.build import grid_eps
+from raytrace.accel.kdtree.build import LEAF, build_kdtree
 
 
 def leaves_with_boxes(tree):

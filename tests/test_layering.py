@@ -62,3 +62,58 @@ def test_no_import_cycles():
     for n in sorted(edges):
         if n not in state:
             visit(n)
+
+
+# Floors, bottom first: a module imports from its own floor or those below.
+# kernels/ is the shared toolkit and imports nothing of raytrace above it.
+FLOORS = ["kernels", "errors", "accel", "options", "scene", "renderer", "cast", "frames", "cli",
+          "raytrace"]
+
+
+def floor(module):
+    parts = module.split(".")
+    return "raytrace" if len(parts) == 1 or parts[1] in ("__main__",) else parts[1]
+
+
+def test_every_module_has_a_floor():
+    assert {floor(m) for m in graph()} <= set(FLOORS)
+
+
+def test_imports_run_down_the_floors():
+    up = [f"{a} -> {b}" for a, bs in graph().items() for b in bs
+          if FLOORS.index(floor(b)) > FLOORS.index(floor(a))]
+    assert not up, "imports running up: " + "; ".join(sorted(up))
+
+
+def test_kernels_import_only_kernels():
+    out = [f"{a} -> {b}" for a, bs in graph().items() if floor(a) == "kernels" for b in bs
+           if floor(b) != "kernels"]
+    assert not out, out
+
+
+def structure_folder(module):
+    parts = module.split(".")
+    return parts[2] if len(parts) > 3 and parts[1] == "accel" else None
+
+
+def test_structures_are_folders_in_the_registry():
+    """Each structure is one folder of raytrace/accel with its build and
+    traversal, named by one registry entry; no other folder is there."""
+    from raytrace.accel.registry import STRUCTURES
+    folders = {p.name for p in (PKG / "accel").iterdir() if (p / "__init__.py").exists()}
+    assert folders == {s.module for s in STRUCTURES.values()}
+    for name in folders:
+        assert (PKG / "accel" / name / "build.py").exists()
+        assert (PKG / "accel" / name / "traverse.py").exists()
+
+
+def test_structure_folders_do_not_import_each_other_in_a_loop():
+    edges = {}
+    for a, bs in graph().items():
+        for b in bs:
+            fa, fb = structure_folder(a), structure_folder(b)
+            if fa and fb and fa != fb:
+                edges.setdefault(fa, set()).add(fb)
+    for a, bs in edges.items():
+        for b in bs:
+            assert a not in edges.get(b, set()), f"structures {a} and {b} import each other"

@@ -3,9 +3,9 @@ import pytest
 
 import raytrace
 from raytrace.errors import RaytraceError
-from raytrace.load import scene_kind
-from raytrace.scene import Plane
-from raytrace.scenes.assets import assets_dir
+from raytrace.scene.assets import assets_dir
+from raytrace.scene.load import scene_kind
+from raytrace.scene.model import Plane
 
 
 @pytest.mark.parametrize("name, kind", [

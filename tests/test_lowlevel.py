@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 from numba import njit, prange
 
-from raytrace.accel.bvh import BOX, BVH, WIDTH, box_bound, counting_copy
-from raytrace.kernels.bvh import BOX32_RANGE, NEAR_LIMIT, box_ray, child_boxes
+from raytrace.accel.bvh.build import BOX, BVH, WIDTH, box_bound, counting_copy
+from raytrace.accel.bvh.simd import crossing_mask
+from raytrace.accel.bvh.traverse import BOX32_RANGE, NEAR_LIMIT, box_ray, child_boxes
 from raytrace.kernels.intersect import ray_triangle_crossing
-from raytrace.kernels.lowlevel import crossing_mask, frame_array, take_rows, take_ticket
+from raytrace.kernels.lowlevel import frame_array, take_rows, take_ticket
 from raytrace.kernels.ray import make_crossing_ray, make_ray
 
 

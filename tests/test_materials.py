@@ -8,9 +8,9 @@ import pytest
 
 import raytrace
 from raytrace.errors import RaytraceWarning
-from raytrace.io.materials import gltf_material, mtl_material
-from raytrace.io.mtl import parse_mtl
-from raytrace.scene import Material, Mesh
+from raytrace.scene.formats.materials import gltf_material, mtl_material
+from raytrace.scene.formats.mtl import parse_mtl
+from raytrace.scene.model import Material, Mesh
 
 MTL = """# two materials
 newmtl red
@@ -161,7 +161,7 @@ def test_gltf_file_materials(tmp_path):
 
 
 def test_toys_example_keeps_its_mtl_colours():
-    from raytrace.scenes.assets import assets_dir
+    from raytrace.scene.assets import assets_dir
     with warnings.catch_warnings():
         warnings.simplefilter("error")            # a shipped example warns of nothing
         scene = raytrace.load_scene(assets_dir() / "toys.toml")

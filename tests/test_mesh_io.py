@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from raytrace.errors import RaytraceError
-from raytrace.io.mesh import read_mesh
+from raytrace.scene.formats.mesh import read_mesh
 
 TRI_OBJ = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
 QUAD_OBJ = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n"
@@ -33,7 +33,7 @@ def test_quads_are_split_into_triangles(tmp_path):
 
 
 def test_shipped_house_is_closed_and_outward():
-    from raytrace.scenes.assets import assets_dir
+    from raytrace.scene.assets import assets_dir
     v, f = read_mesh(assets_dir() / "house.obj")
     assert f.shape == (14, 3)
     # Signed volume of a closed, outward-wound mesh: cube 1 + roof 1 * 0.6 / 3.

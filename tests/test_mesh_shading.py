@@ -8,11 +8,10 @@ import trimesh
 from click.testing import CliRunner
 
 import raytrace
-from raytrace.cli import main
+from raytrace.cli.main import main
 from raytrace.errors import RaytraceError
-from raytrace.scene import Mesh
-
-from .test_materials import GLASS_WARNING, MTL, OBJ
+from raytrace.scene.model import Mesh
+from tests.test_materials import GLASS_WARNING, MTL, OBJ
 
 
 def meshes(scene):

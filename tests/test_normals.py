@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from raytrace.normals import crease_normals, face_normals, file_normals, shading_normals
+from raytrace.scene.normals import crease_normals, face_normals, file_normals, shading_normals
 
 
 def same_triangles(v, f, v2, f2):
@@ -104,7 +104,7 @@ def test_shading_normals_choices():
 
 
 def test_cross_rows_are_np_cross_bit_for_bit():
-    from raytrace.flatten import cross_rows
+    from raytrace.scene.flatten import cross_rows
     rng = np.random.default_rng(7)
     a = rng.normal(size=(500, 3)) * 10.0 ** rng.integers(-150, 150, (500, 1))
     b = rng.normal(size=(500, 3)) * 10.0 ** rng.integers(-150, 150, (500, 1))

@@ -1,15 +1,15 @@
-"""Packets of rays through the BVH (kernels/bvh_packet.py): neighbouring rays
+"""Packets of rays through the BVH (accel/bvh/packet.py): neighbouring rays
 traced together give every ray the answer it gets alone, bit for bit, and
 rays that cannot go together take the single-ray path."""
 import numpy as np
 import pytest
 
 from raytrace import RayScene, RaytraceError
+from raytrace.cast.rayscene import create_rays_pinhole
 from raytrace.kernels.jit import python_callable
 from raytrace.kernels.lowlevel import PACKET
-from raytrace.rayscene import create_rays_pinhole
-from raytrace.scene import Camera, Plane, Scene, Sphere
-from raytrace.scenes.builtin import teapot
+from raytrace.scene.builtin import teapot
+from raytrace.scene.model import Camera, Plane, Scene, Sphere
 
 
 def _teapot_scene():
@@ -91,7 +91,7 @@ def test_which_rays_go_as_a_packet():
     together and writes its answers; mixed signs (-0.0 counts as negative),
     a bad ray or a short batch go one by one, and the packet writes
     nothing."""
-    from raytrace.kernels.bvh_packet import closest_packet, occluded_packet
+    from raytrace.accel.bvh.packet import closest_packet, occluded_packet
     bvh = RayScene(_teapot_scene(), accel="bvh")._built()
     closest, occluded = python_callable(closest_packet), python_callable(occluded_packet)
     rays = create_rays_pinhole(40, [0, 0.7, 0], [0, 2, 6], [0, 1, 0], PACKET, 1).reshape(-1, 6)
@@ -136,8 +136,8 @@ def test_a_packets_rows_are_make_ray_and_box_ray_bit_for_bit():
     directions to origins beyond the float32 box test's range, with zero
     and negative-zero components, ties for the dominant axis, and trees
     within and beyond that range."""
-    from raytrace.kernels.bvh import box_ray
-    from raytrace.kernels.bvh_packet import _CONST_ROWS, _FIELD_ROWS, Packet, _load
+    from raytrace.accel.bvh.packet import _CONST_ROWS, _FIELD_ROWS, Packet, _load
+    from raytrace.accel.bvh.traverse import box_ray
     from raytrace.kernels.ray import make_ray
     load, ray_of, box_of = (python_callable(k) for k in (_load, make_ray, box_ray))
     acc = RayScene(_octahedron(), accel="bvh")._built().acc

@@ -2,7 +2,7 @@
 also when the block raises."""
 import pytest
 
-from raytrace.pages import small_pages
+from raytrace.kernels.pages import small_pages
 
 multiarray = pytest.importorskip("numpy._core.multiarray")
 

@@ -1,12 +1,12 @@
-"""The binary PLY fast path (raytrace/io/ply.py) reads what trimesh reads,
+"""The binary PLY fast path (raytrace/scene/formats/ply.py) reads what trimesh reads,
 and leaves every other PLY to trimesh."""
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from raytrace.io.mesh import _read_with_trimesh, read_mesh_parts
-from raytrace.io.ply import read_simple_ply
+from raytrace.scene.formats.mesh import _read_with_trimesh, read_mesh_parts
+from raytrace.scene.formats.ply import read_simple_ply
 
 
 def write_ply(path, vertices, faces, *, endian="<", coord="float", index="int", count="uchar",

@@ -3,10 +3,9 @@ import numpy as np
 import pytest
 
 from raytrace import RayScene, RaytraceError
-from raytrace.scene import Camera, Plane, Scene, Sphere
-
-from .structures import STRUCTURES
-from .test_crossings import box
+from raytrace.scene.model import Camera, Plane, Scene, Sphere
+from tests.structures import STRUCTURES
+from tests.test_crossings import box
 
 
 def seg_dist2(p, a, b):
@@ -97,7 +96,7 @@ def test_bad_points():
 def test_a_big_batch_answers_as_small_ones_do():
     # From _ORDER_MIN points on, the queries run in Morton order and are put
     # back: each point's answers must be those of a batch too small to sort.
-    from raytrace.rayscene import _ORDER_MIN
+    from raytrace.cast.rayscene import _ORDER_MIN
     v, f = box(3)
     rs = RayScene((v, f))
     rng = np.random.default_rng(9)
@@ -118,7 +117,7 @@ def test_a_big_batch_answers_as_small_ones_do():
 def test_a_big_batch_in_a_flat_or_tiny_or_huge_box(spread):
     # The Morton order's grid spans the points' box: one point repeated, a
     # subnormal extent, a huge one.
-    from raytrace.rayscene import _ORDER_MIN
+    from raytrace.cast.rayscene import _ORDER_MIN
     v, f = box(2)
     rs = RayScene((v, f))
     rng = np.random.default_rng(2)

@@ -11,9 +11,8 @@ from hypothesis import strategies as st
 
 import raytrace
 from raytrace import RaytraceError, cast_rays, occluded
-from raytrace.scene import Camera, Material, Mesh, Plane, Scene, Sphere
-
-from .structures import STRUCTURES
+from raytrace.scene.model import Camera, Material, Mesh, Plane, Scene, Sphere
+from tests.structures import STRUCTURES
 
 V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 0], [5, 5, 5]], float)
 # Face 0 is degenerate (a repeated vertex): dropped when flattened, so the
@@ -223,10 +222,10 @@ def test_secondary_rays_hit_alike_in_every_structure(name):
     image only between brute force and the default structure
     (tests/structures.py): a structure enters the render kernel through
     these two queries alone."""
+    from raytrace.cast.rayscene import RayScene, create_rays_pinhole
     from raytrace.kernels.render import RAY_OFFSET
-    from raytrace.load import load_scene
-    from raytrace.rayscene import RayScene, create_rays_pinhole
-    from raytrace.scenes.assets import assets_dir
+    from raytrace.scene.assets import assets_dir
+    from raytrace.scene.load import load_scene
 
     scene = load_scene(str(assets_dir() / name))
     cam = scene.camera

@@ -5,9 +5,8 @@ import pytest
 
 import raytrace
 from raytrace import RayScene, RaytraceError
-from raytrace.scene import Camera, Material, Plane, Scene, Sphere
-
-from .structures import STRUCTURES
+from raytrace.scene.model import Camera, Material, Plane, Scene, Sphere
+from tests.structures import STRUCTURES
 
 # Two unit squares in z = 0 and z = -2, faces wound so their normals point +z.
 SQUARE_V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
@@ -39,7 +38,7 @@ def test_a_scene_of_shaded_meshes_is_built_without_what_only_shading_reads():
     """Ray queries never shade: the meshes' vertex normals, colours and
     texture coordinates are not flattened (they cost half of flattening),
     and the normal a hit reports is still the face's own."""
-    from raytrace.scene import Mesh
+    from raytrace.scene.model import Mesh
     v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
     tilted = np.array([[0.6, 0, 0.8]] * 3)
     mesh = Mesh(v, np.array([[0, 1, 2]]), normals=tilted, colors=np.full((3, 3), 0.5))
@@ -134,10 +133,10 @@ def test_one_block_in_the_calling_thread_answers_as_the_threads_do(monkeypatch, 
     """A query of one block runs without Numba's threads (kernels/cast.py):
     every query, forced into one block and into three, gives the same
     answers and the same counters."""
-    from raytrace import rayscene
+    from raytrace.cast import rayscene
     rng = np.random.default_rng(5)
     v, f = rng.normal(size=(90, 3)), rng.integers(0, 90, size=(60, 3))
-    n = 2500     # three chunks of rays; 40 of points (kernels/points.py)
+    n = 2500     # three chunks of rays; 40 of points (accel/bvh/points.py)
     o, d, q = rng.normal(size=(n, 3)) * 3, rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
     runs = {}
     for blocks in (1, 3):
@@ -262,7 +261,7 @@ def test_bad_camera_arguments(call, message):
 def test_bounds_given_as_numbers_are_filled_once_for_each_size_and_value():
     """Scalar t_min and t_max are filled out for the kernels and kept for
     the next call of that size (rayscene._filled), by their bits."""
-    from raytrace.rayscene import _filled
+    from raytrace.cast.rayscene import _filled
     a = _filled(1000, np.inf)
     assert a is _filled(1000, np.inf) and (a == np.inf).all() and a.flags.writeable
     assert _filled(999, np.inf) is not a and len(_filled(999, np.inf)) == 999

@@ -45,8 +45,8 @@ def test_readme_statistics_list_is_the_counter_declaration():
 def test_readme_options_table_is_the_option_definitions():
     """Every render option's row is derived from raytrace/options.py, and
     every structure's from the registry."""
+    from raytrace.accel.registry import STRUCTURES
     from raytrace.options import CREASE, OPTIONS, readme_row
-    from raytrace.structures import STRUCTURES
     lines = README.read_text().splitlines()
     for opt in (*OPTIONS, CREASE):
         assert readme_row(opt) in lines, readme_row(opt)

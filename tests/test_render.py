@@ -2,11 +2,10 @@
 import numpy as np
 import pytest
 
-from raytrace.driver import render
 from raytrace.errors import RaytraceError
-
-from .conftest import H, W
-from .structures import EVERY_MODE
+from raytrace.renderer.driver import render
+from tests.conftest import H, W
+from tests.structures import EVERY_MODE
 
 SHADOWS = ["none", "hard", "soft"]
 
@@ -114,7 +113,7 @@ def test_spp_antialiases_edges():
     """A red disc on black, lit by its ambient term only: with one centred
     sample per pixel every pixel is exactly red or exactly black; jittered
     samples give silhouette pixels the fractions in between."""
-    from raytrace.scene import Camera, Material, Scene, Sphere
+    from raytrace.scene.model import Camera, Material, Scene, Sphere
     flat_red = Material(color=(1.0, 0.0, 0.0), ambient=1.0, diffuse=0.0, specular=0.0)
     scene = Scene("disc", Camera(eye=(0, 0, 5), look_at=(0, 0, 0), fov=40.0),
                   objects=[Sphere((0, 0, 0), 1.0, flat_red)], background=(0.0, 0.0, 0.0))
@@ -138,8 +137,8 @@ def test_drop_meshes_frees_the_meshes_and_renders_the_same():
     """The command's render drops its scene's meshes once flattened (the
     build's peak then does not hold them too): same image and statistics,
     and the scene keeps only what is not a mesh."""
-    from raytrace.scene import Mesh
-    from raytrace.scenes.builtin import teapot
+    from raytrace.scene.builtin import teapot
+    from raytrace.scene.model import Mesh
     kept = render(teapot(4), accel="bvh", shadows="hard", width=W, height=H)
     scene = teapot(4)
     dropped = render(scene, accel="bvh", shadows="hard", width=W, height=H, drop_meshes=True)

@@ -3,18 +3,17 @@ in a file is one error naming the file and the key."""
 import numpy as np
 import pytest
 
-from raytrace.driver import RenderOptions, light_buffers, validate
 from raytrace.errors import RaytraceError
-from raytrace.flatten import flatten
-from raytrace.io.scenefile import read_scene_file, teapot_details
-from raytrace.load import load_scene
-from raytrace.scene import Mesh, Plane, Sphere
-from raytrace.scenes.assets import assets_dir
-from raytrace.scenes.builtin import spheres, teapot
-from raytrace.scenes.examples import example_files
-from raytrace.transform import rotation, transform_mesh
-
-from .conftest import scene_file_error
+from raytrace.renderer.driver import RenderOptions, light_buffers, validate
+from raytrace.scene.assets import assets_dir
+from raytrace.scene.builtin import spheres, teapot
+from raytrace.scene.examples import example_files
+from raytrace.scene.flatten import flatten
+from raytrace.scene.formats.scenefile import read_scene_file, teapot_details
+from raytrace.scene.load import load_scene
+from raytrace.scene.model import Mesh, Plane, Sphere
+from raytrace.scene.transform import rotation, transform_mesh
+from tests.conftest import scene_file_error
 
 
 def same_scene(a, b):

@@ -10,12 +10,11 @@ the acne scenes, all of them occluded for the leak scenes.
 import numpy as np
 import pytest
 
-from raytrace.driver import render
-from raytrace.scene import Camera, Light, Material, Mesh, Plane, Scene, Sphere
-
-from .scene_transform import transform_scene
-from .structures import EVERY_MODE, STRUCTURES
-from .test_watertight import subdivided_box
+from raytrace.renderer.driver import render
+from raytrace.scene.model import Camera, Light, Material, Mesh, Plane, Scene, Sphere
+from tests.scene_transform import transform_scene
+from tests.structures import EVERY_MODE, STRUCTURES
+from tests.test_watertight import subdivided_box
 
 CASES = [(scale, shift) for shift in (0.0, 1e5) for scale in (1e-4, 1.0, 1e4)]
 SIZE = dict(width=48, height=36)

@@ -7,15 +7,15 @@ import numpy as np
 import pytest
 
 import raytrace
-from raytrace.driver import render
 from raytrace.errors import RaytraceError, RaytraceWarning
-from raytrace.flatten import flatten
-from raytrace.io.materials import srgb_to_linear
 from raytrace.kernels.jit import python_callable
 from raytrace.kernels.ray import Hit
 from raytrace.kernels.texture import mesh_color, texture_rgb
-from raytrace.scene import Camera, Material, Mesh, Scene
-from raytrace.scenes.assets import assets_dir
+from raytrace.renderer.driver import render
+from raytrace.scene.assets import assets_dir
+from raytrace.scene.flatten import flatten
+from raytrace.scene.formats.materials import srgb_to_linear
+from raytrace.scene.model import Camera, Material, Mesh, Scene
 
 # Per-ray kernel functions are compiled without Python wrappers (kernels/jit.py).
 mesh_color, texture_rgb = python_callable(mesh_color), python_callable(texture_rgb)

@@ -1,10 +1,10 @@
 import numpy as np
 import pytest
 
-import raytrace.scenes.teapot as teapot_module
-from raytrace.flatten import degenerate_mask, flatten
-from raytrace.scenes.builtin import teapot
-from raytrace.scenes.teapot import _ROWS, _bernstein, _surface_points, load_patches, tessellate
+import raytrace.scene.teapot as teapot_module
+from raytrace.scene.builtin import teapot
+from raytrace.scene.flatten import degenerate_mask, flatten
+from raytrace.scene.teapot import _ROWS, _bernstein, _surface_points, load_patches, tessellate
 
 
 def test_default_tessellation_is_the_workshop_size():
@@ -70,7 +70,7 @@ def _same(want, got):
 @pytest.mark.parametrize("threads", [1, 2, 3])
 @pytest.mark.parametrize("detail", [1, 2, 7, 40])
 def test_big_tessellations_kernels_give_the_numpy_paths_bits(detail, threads):
-    """kernels/tessellate.py (--detail 125 and up) against the NumPy path:
+    """scene/tessellate.py (--detail 125 and up) against the NumPy path:
     vertices, their order, faces and normals, bit for bit."""
     want = tessellate(detail)
     patches, cps = load_patches()
@@ -95,7 +95,7 @@ def test_tessellate_takes_the_kernels_from_kernel_min(monkeypatch):
 def test_the_command_counts_the_tessellation_kernels_as_compile_time():
     """load.load_kernels loads them before the teapot is loaded, for the
     details that run them only."""
-    from raytrace.load import load_kernels
+    from raytrace.scene.load import load_kernels
     assert load_kernels("teapot", 125) > 0            # 1,000,000 triangles
     assert load_kernels("teapot", 124) == 0.0
     assert load_kernels("teapot", None) == load_kernels("spheres", 200) == 0.0

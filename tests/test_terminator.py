@@ -7,11 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from raytrace.flatten import flatten
 from raytrace.kernels.jit import python_callable
 from raytrace.kernels.ray import Hit
 from raytrace.kernels.shade import smooth_point
-from raytrace.scene import Camera, Mesh, Scene
+from raytrace.scene.flatten import flatten
+from raytrace.scene.model import Camera, Mesh, Scene
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "bench"))
 

@@ -6,12 +6,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from raytrace.driver import render
 from raytrace.kernels.jit import python_callable
 from raytrace.kernels.shade import DARK_SQUARE, checker_box
-from raytrace.scene import Camera, Material, Plane, Scene
-
-from .conftest import H, W
+from raytrace.renderer.driver import render
+from raytrace.scene.model import Camera, Material, Plane, Scene
+from tests.conftest import H, W
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "bench"))
 

@@ -1,10 +1,10 @@
-"""raytrace.threads: every job runs, on threads of its own, and an error in
+"""raytrace.kernels.threads: every job runs, on threads of its own, and an error in
 any of them reaches the caller."""
 import threading
 
 import pytest
 
-from raytrace.threads import run_on_threads, runs
+from raytrace.kernels.threads import run_on_threads, runs
 
 
 def test_every_job_runs_the_first_on_the_calling_thread():

@@ -4,7 +4,7 @@ import pytest
 
 trimesh = pytest.importorskip("trimesh")
 
-from raytrace.trimesh_ray import RayMeshIntersector  # noqa: E402
+from raytrace.cast.trimesh_ray import RayMeshIntersector  # noqa: E402
 
 
 def rays(n=400, seed=0):

@@ -15,8 +15,7 @@ import numpy as np
 import pytest
 
 from raytrace import cast_rays, occluded
-
-from .structures import STRUCTURES
+from tests.structures import STRUCTURES
 
 N_RAYS = 10 ** 6
 # Far from the origin the question is only whether rounding there opens an
@@ -45,7 +44,7 @@ def subdivided_box(levels=2, rotate=False):
     for _ in range(levels):
         v, f = subdivide(v, f)
     if rotate:
-        from raytrace.transform import rotation
+        from raytrace.scene.transform import rotation
         v = v @ rotation((31.0, 17.0, 53.0)).T
     return np.ascontiguousarray(v), np.asarray(f, np.int64)
 

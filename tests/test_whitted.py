@@ -7,16 +7,15 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from raytrace.cli import main
-from raytrace.driver import render
+from raytrace.cli.main import main
 from raytrace.kernels.jit import python_callable
 from raytrace.kernels.optics import bounce_weights, reflect, refract, schlick
-from raytrace.load import load_scene
-from raytrace.scene import Camera, Light, Material, Plane, Scene, Sphere
-from raytrace.scenes.assets import assets_dir
-
-from .scene_transform import transform_scene
-from .structures import EVERY_MODE
+from raytrace.renderer.driver import render
+from raytrace.scene.assets import assets_dir
+from raytrace.scene.load import load_scene
+from raytrace.scene.model import Camera, Light, Material, Plane, Scene, Sphere
+from tests.scene_transform import transform_scene
+from tests.structures import EVERY_MODE
 
 # Per-ray kernel functions are compiled without Python wrappers (kernels/jit.py).
 bounce_weights, reflect, refract, schlick = map(python_callable, (bounce_weights, reflect, refract, schlick))

@@ -2,5 +2,4 @@
 namedtuple class, the contract with its traversal in raytrace.kernels)
 and ``build(geo, obj_ranges)``.  Builders see boxes and centroids, and
 the kd-tree also the triangles (it clips them to its cells).  The registry
-is raytrace.structures."""
-from .. import jitconfig  # noqa: F401  (before any @njit: the cache directory)
+is raytrace.accel.registry."""

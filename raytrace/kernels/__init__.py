@@ -3,4 +3,4 @@ structure, shading and the parallel render and ray-casting kernels.  Only
 contiguous arrays of fixed dtypes, namedtuples of them and plain scalars
 cross into this package; validation and dtype casting happen in the glue.
 """
-from .. import jitconfig  # noqa: F401  (before any @njit: the cache directory)
+# Nothing here imports raytrace from outside this package.

@@ -3,7 +3,7 @@ reference the tests compare structures with.
 
 Rays go out in chunks of CHUNK consecutive rays.  Each counter block b (a
 row of cnt_rows, so threads never share a counter and the kernels, compiled
-without the NRT, allocate nothing; one per thread, rayscene.py) takes the
+without the NRT, allocate nothing; one per thread, cast/rayscene.py) takes the
 next chunk nobody has taken, by a ticket from ``clock`` (a one-element
 array, 0 at the call: lowlevel.take_ticket), until none is left.  So the
 threads sweep the rays once, together, neighbouring chunks at about the
@@ -26,7 +26,7 @@ us).  A thread's loop (``*_block``) is compiled as a function of its own
 (``BLOCK``), so the kernel's two paths share one copy of it.
 
 Closest and any hit take the rays PACKET at a time: a structure with
-packet traversals (the BVH, kernels/bvh_packet.py) traces neighbouring rays
+packet traversals (the BVH, accel/bvh/packet.py) traces neighbouring rays
 together where they can go so, each ray getting the answer it gets alone;
 the rest, and every other structure, go one ray at a time.
 
@@ -41,11 +41,18 @@ Each kernel is compiled once per structure (query.py), on first use.
 import numpy as np
 from numba import njit, prange
 
-from .counters import BAD_RAYS, N_COUNTERS
-from .jit import BLOCK, JIT, PARALLEL
-from .lowlevel import PACKET, frame_array, take_rows, take_ticket
-from .query import closest_hit, closest_packet, count_rays, list_hits, occluded, occluded_packet
-from .ray import make_listing_ray, make_ray, no_hit, ray_ok
+from raytrace.kernels.counters import BAD_RAYS, N_COUNTERS
+from raytrace.kernels.jit import BLOCK, JIT, PARALLEL
+from raytrace.kernels.lowlevel import PACKET, frame_array, take_rows, take_ticket
+from raytrace.kernels.query import (
+    closest_hit,
+    closest_packet,
+    count_rays,
+    list_hits,
+    occluded,
+    occluded_packet,
+)
+from raytrace.kernels.ray import make_listing_ray, make_ray, no_hit, ray_ok
 
 CHUNK = 1024
 COLUMNS = N_COUNTERS + 1   # BAD_RAYS last

@@ -1,7 +1,7 @@
 """The statistics counters, each declared once, here: its index, its JSON
 key, its label in the table and what it counts (pbrt-v4's STAT_COUNTER).
 The table, ``--json`` and the README's statistics list are derived from
-this declaration (raytrace/stats.py; tests/test_readme.py checks the
+this declaration (raytrace/renderer/stats.py; tests/test_readme.py checks the
 README).
 
 Kernels count into a small int64 array private to an image row or a

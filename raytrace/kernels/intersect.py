@@ -9,7 +9,7 @@ All geometry is float64 (docs/design.md).  Compile options: jit.py.
 import numpy as np
 from numba import njit
 
-from .jit import JIT
+from raytrace.kernels.jit import JIT
 
 # gamma(n) = n*u / (1 - n*u) with u = 2**-53, the unit roundoff of float64
 # (pbrt-v4, "Floating-point error").  Ize 2013 shows that widening the slab

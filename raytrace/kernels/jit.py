@@ -23,6 +23,8 @@
 """
 from numba import njit
 
+from raytrace.kernels import jitconfig  # noqa: F401  (before any @njit: the cache directory)
+
 JIT = dict(cache=True, error_model="numpy", _nrt=False, forceinline=True,
            no_cpython_wrapper=True, no_cfunc_wrapper=True)
 # A thread's share of a batch kernel (a loop over chunks of rays or points

@@ -7,7 +7,7 @@ arrives from (n . d < 0).
 import numpy as np
 from numba import njit
 
-from .jit import JIT
+from raytrace.kernels.jit import JIT
 
 
 @njit(**JIT)

@@ -1,5 +1,5 @@
 """Primitive dispatch: the one place that knows a unified primitive id
-names a triangle, a sphere or a plane (buffers.py).
+names a triangle, a sphere or a plane (kernels/buffers.py).
 
 Conventions every structure follows, so all give the same answer:
 - primitive tests get the ray's own t_max, never the best t so far; the
@@ -11,10 +11,16 @@ import numpy as np
 from numba import njit
 from numba.extending import overload
 
-from .counters import PRIM_HITS, PRIM_TESTS
-from .intersect import ray_plane, ray_sphere, ray_triangle, ray_triangle_crossing, sphere_roots
-from .jit import JIT, OVERLOAD
-from .ray import CrossingRay, Hit, ListingRay, closer, no_hit
+from raytrace.kernels.counters import PRIM_HITS, PRIM_TESTS
+from raytrace.kernels.intersect import (
+    ray_plane,
+    ray_sphere,
+    ray_triangle,
+    ray_triangle_crossing,
+    sphere_roots,
+)
+from raytrace.kernels.jit import JIT, OVERLOAD
+from raytrace.kernels.ray import CrossingRay, Hit, ListingRay, closer, no_hit
 
 
 @njit(**JIT)

@@ -2,22 +2,25 @@
 IntersectP): the closest hit of a ray, and whether anything blocks it.
 
 A structure is a type: its layout, a namedtuple class of its own
-(``raytrace.accel.<name>``).  Each structure's kernel module registers its
+(``raytrace/accel/<name>/``).  Each structure's traversal module registers its
 traversal for that class, and a kernel calling ``closest_hit(geo, acc,
 ...)`` is compiled once per layout type with that structure's traversal
 chosen at compile time (Numba's ``@overload``): a BVH render never
 compiles, or branches over, the grid's code.
 """
-import importlib
-
 from numba.core.errors import TypingError
 from numba.extending import overload
 
-from .counters import BAD_RAYS, PRIM_HITS
-from .jit import OVERLOAD
-from .lowlevel import take_ticket
-from .prims import count_unbounded_hits, planes_closest, planes_occluded, record_unbounded_hits
-from .ray import make_crossing_ray, ray_ok
+from raytrace.kernels.counters import BAD_RAYS, PRIM_HITS
+from raytrace.kernels.jit import OVERLOAD
+from raytrace.kernels.lowlevel import take_ticket
+from raytrace.kernels.prims import (
+    count_unbounded_hits,
+    planes_closest,
+    planes_occluded,
+    record_unbounded_hits,
+)
+from raytrace.kernels.ray import make_crossing_ray, ray_ok
 
 # What a traversal is made for, a compile-time constant of each structure's
 # one traversal loop: the closest hit; any hit (stop at the first); every
@@ -40,7 +43,7 @@ def register(layout, closest, any_hit, all_hits):
 
 
 # layout class -> (closest, occluded): compiled functions tracing a packet
-# of neighbouring rays together (kernels/bvh_packet.py), for the
+# of neighbouring rays together (accel/bvh/packet.py), for the
 # structures that have them.
 _PACKETS = {}
 
@@ -54,13 +57,10 @@ def register_packets(layout, closest, occluded):
 
 def _traversal(acc, mode):
     """The traversal registered for acc's layout in ``mode`` (MODES order)."""
+    # A layout's class is defined in its structure's package, whose import
+    # registers the traversals (raytrace/accel/<name>/__init__.py): a layout
+    # unpickled in another process (a Dask worker's scene) brings them along.
     cls = getattr(acc, "instance_class", None)
-    if cls is not None and cls not in _TRAVERSALS:
-        # A layout unpickled in another process (a Dask worker's scene) comes
-        # without its traversal: that is its namesake under kernels/.
-        module = cls.__module__.replace(".accel.", ".kernels.", 1)
-        if module != cls.__module__:
-            importlib.import_module(module)
     if cls not in _TRAVERSALS:
         raise TypingError(f"no traversal registered for structure layout {acc}")
     traversal = _TRAVERSALS[cls][mode]
@@ -120,7 +120,7 @@ def count_rays(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
 
 
 # layout class -> count stream: a Python function with count_rays's
-# arguments that traces several rays at once (kernels/bvh.py), compiled as
+# arguments that traces several rays at once (accel/bvh/traverse.py), compiled as
 # count_rays itself, not called from a wrapper: every level of calls
 # compiles the code below it again, and a stream is large.
 _COUNT_STREAMS = {}
@@ -202,23 +202,14 @@ def occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit, cnt):
 
 
 def _packets(acc, origins, dirs):
-    """The layout's packet traversals, or None.  They live beside its
-    traversal, in ``kernels/<name>_packet.py`` (which imports the
-    traversal's module, so that module cannot import it), loaded here.
-    A packet reads its rays' rows as one block: rays in arrays that are
-    not C-contiguous (the API always passes C arrays) go one by one."""
+    """The layout's packet traversals (registered with its traversal, by its
+    structure's package), or None.  A packet reads its rays' rows as one
+    block: rays in arrays that are not C-contiguous (the API always passes C
+    arrays) go one by one."""
     _traversal(acc, CLOSEST)
     if getattr(origins, "layout", None) != "C" or getattr(dirs, "layout", None) != "C":
         return None
-    cls = acc.instance_class
-    if cls not in _PACKETS:
-        module = cls.__module__.replace(".accel.", ".kernels.", 1) + "_packet"
-        try:
-            importlib.import_module(module)
-        except ModuleNotFoundError as e:
-            if e.name != module:
-                raise
-    return _PACKETS.get(cls)
+    return _PACKETS.get(acc.instance_class)
 
 
 @overload(closest_packet, jit_options=OVERLOAD)

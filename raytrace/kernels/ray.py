@@ -5,8 +5,8 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from ..io.mesh import MAX_COORD
-from .jit import JIT
+from raytrace.kernels.jit import JIT
+from raytrace.kernels.limits import MAX_COORD
 
 # A ray with the per-ray constants every test along it shares: the inverse
 # direction for slab tests (a zero component gives +-inf) and the axis

@@ -14,7 +14,7 @@ import numpy as np
 from numba import njit, prange
 from numba.extending import overload
 
-from ..buffers import (
+from raytrace.kernels.buffers import (
     MAT_AMBIENT,
     MAT_DIFFUSE,
     MAT_IOR,
@@ -23,8 +23,7 @@ from ..buffers import (
     MAT_SPECULAR,
     MAT_TRANSMIT,
 )
-from ..options import BY_NAME
-from .counters import (
+from raytrace.kernels.counters import (
     BOX_TESTS,
     OCCLUDED_RAYS,
     PRIM_TESTS,
@@ -35,21 +34,22 @@ from .counters import (
     SHADOW_POINTS,
     SHADOW_RAYS,
 )
-from .jit import JIT, OVERLOAD, PARALLEL
-from .lowlevel import frame_array, take_ticket
-from .optics import bounce_weights, reflect, refract
-from .query import closest_hit, occluded
-from .ray import make_ray
-from .sampling import hash_key, rand01, square_sample
-from .shade import albedo, albedo_filtered, smooth_point, surface
-from .texture import mesh_color
+from raytrace.kernels.jit import JIT, OVERLOAD, PARALLEL
+from raytrace.kernels.limits import MAX_BOUNCES
+from raytrace.kernels.lowlevel import frame_array, take_ticket
+from raytrace.kernels.optics import bounce_weights, reflect, refract
+from raytrace.kernels.query import closest_hit, occluded
+from raytrace.kernels.ray import make_ray
+from raytrace.kernels.sampling import hash_key, rand01, square_sample
+from raytrace.kernels.shade import albedo, albedo_filtered, smooth_point, surface
+from raytrace.kernels.texture import mesh_color
 
 # Shadow modes: rays to each light's centre (``cast`` False: none, every light seen;
 # one kernel for both, as they differ by a branch), or from samples of
 # each area light (``pattern``: sampling.PATTERN_*).
 PointShadows = namedtuple("PointShadows", ["cast"])
 SoftShadows = namedtuple("SoftShadows", ["pattern"])
-# Per-pixel output buffers (raytrace/aov.py); empty (0 rows) when not
+# Per-pixel output buffers (raytrace/renderer/aov.py); empty (0 rows) when not
 # asked for, so the same kernel serves renders with and without them.
 Aovs = namedtuple("Aovs", ["depth", "normal", "primid", "cost"])
 # Textures box-filtered over the camera sample's footprint (step_x, step_y:
@@ -323,7 +323,7 @@ def _local_sample(geo, acc, cam, lights, shadows, textures, background, seed, pi
 
 # Pending rays of a Whitted tree, depth first: at most one waiting sibling
 # per level above the one being traced, and the two children of that one.
-BOUNCE_STACK = BY_NAME["max_depth"].hi + 2
+BOUNCE_STACK = MAX_BOUNCES + 2
 _O, _D, _W, _DEPTH, _KIND, _ENTRY = 0, 3, 6, 9, 10, 11   # a pending ray's fields in the stack
 _STACK_FLOATS = BOUNCE_STACK * _ENTRY           # a module constant: frame_array's size is literal
 _CAMERA, _REFLECTED, _REFRACTED = 0.0, 1.0, 2.0   # a pending ray's kind

@@ -7,7 +7,7 @@ renders it, so ``--threads 1`` and ``--threads 2`` write identical images.
 import numpy as np
 from numba import njit
 
-from .jit import JIT
+from raytrace.kernels.jit import JIT
 
 PATTERN_GRID = 0        # the workshop's regular grid: cell centres, no noise, banding
 PATTERN_RANDOM = 1      # uniform random: error ~ N^-1/2

@@ -2,8 +2,8 @@
 import numpy as np
 from numba import njit
 
-from ..buffers import MAT_CHECKER
-from .jit import JIT
+from raytrace.kernels.buffers import MAT_CHECKER
+from raytrace.kernels.jit import JIT
 
 # A checker's dark squares reflect this fraction of the material's colour.
 DARK_SQUARE = 0.35

@@ -16,7 +16,7 @@ material's ``mat_tex`` row is its texture's (offset, width, height).
 import numpy as np
 from numba import njit
 
-from .jit import JIT
+from raytrace.kernels.jit import JIT
 
 
 @njit(**JIT)

@@ -1,0 +1,631 @@
+"""The BVH's SIMD tests, which Numba cannot say in Python: a 4-wide box
+test, the crossing triangle test for 8 triangles at once, and packets of
+rays.  Each is a Numba intrinsic that emits LLVM IR directly.
+"""
+import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
+from numba.np.numpy_support import from_dtype
+
+from raytrace.accel.bvh.build import BOX, WIDTH
+from raytrace.kernels.lowlevel import PACKET
+
+
+def _splat(builder, vec, x):
+    """Scalar x in every lane of vector type ``vec``."""
+    v = builder.insert_element(ir.Constant(vec, ir.Undefined), x, ir.Constant(ir.IntType(32), 0))
+    return builder.shuffle_vector(v, ir.Constant(vec, ir.Undefined), ir.Constant(
+        ir.VectorType(ir.IntType(32), vec.count), [0] * vec.count))
+
+
+def _edge_functions(builder, corners, shear_x, shear_y):
+    """intersect._triangle's shear and 2D edge functions, lane by lane and
+    operation for operation: ``corners``, each vertex's (x, y, z) less the
+    ray's origin on the ray's axes kx, ky, kz.  Returns (e0, e1, e2) and
+    the lanes whose signs are mixed (the test's first rejection)."""
+    (ax, ay), (bx, by), (cx, cy) = [
+        (builder.fsub(x, builder.fmul(shear_x, z)), builder.fsub(y, builder.fmul(shear_y, z)))
+        for x, y, z in corners]
+    edges = (builder.fsub(builder.fmul(bx, cy), builder.fmul(by, cx)),
+             builder.fsub(builder.fmul(cx, ay), builder.fmul(cy, ax)),
+             builder.fsub(builder.fmul(ax, by), builder.fmul(ay, bx)))
+    zero = ir.Constant(edges[0].type, [0.0] * edges[0].type.count)
+
+    def any_edge(op):
+        e0, e1, e2 = [builder.fcmp_ordered(op, e, zero) for e in edges]
+        return builder.or_(builder.or_(e0, e1), e2)
+
+    return edges, builder.and_(any_edge("<"), any_edge(">"))
+
+
+def _within_interval(builder, edges, corners, sz, t_min, t_max):
+    """intersect._triangle's steps after the edge functions' signs, lane by
+    lane and operation for operation: the lanes whose determinant is not 0
+    and whose distance lies in t_min < t < t_max (tested scaled first,
+    against 0 and t_max * det, then divided out), as the scalar test
+    decides them.  ``corners`` as _edge_functions takes them; sz, t_min,
+    t_max splatted or per lane."""
+    e0, e1, e2 = edges
+    (_, _, az), (_, _, bz), (_, _, cz) = corners
+    zero = ir.Constant(e0.type, [0.0] * e0.type.count)
+    one = ir.Constant(e0.type, [1.0] * e0.type.count)
+
+    def cmp(op, a, b):
+        return builder.fcmp_ordered(op, a, b)
+
+    det = builder.fadd(builder.fadd(e0, e1), e2)
+    t_scaled = builder.fadd(builder.fadd(builder.fmul(e0, builder.fmul(az, sz)),
+                                         builder.fmul(e1, builder.fmul(bz, sz))),
+                            builder.fmul(e2, builder.fmul(cz, sz)))
+    bound = builder.fmul(t_max, det)
+    out_neg = builder.or_(cmp(">=", t_scaled, zero), cmp("<=", t_scaled, bound))
+    out_pos = builder.or_(cmp("<=", t_scaled, zero), cmp(">=", t_scaled, bound))
+    out = builder.select(cmp("<", det, zero), out_neg, out_pos)
+    t = builder.fmul(t_scaled, builder.fdiv(one, det))
+    within = builder.and_(cmp(">", t, t_min), cmp("<", t, t_max))
+    return builder.and_(builder.and_(builder.not_(cmp("==", det, zero)), builder.not_(out)),
+                        within)
+
+
+_BOX_ARRAY = types.Array(from_dtype(np.dtype(BOX)), 3, "C")
+
+
+@intrinsic
+def ray_aabb4(typingctx, node_box, node, nx, ny, nz, onx, ony, onz, ofx, ofy, ofz,
+              inx, iny, inz, ifx, ify, ifz, t_max):
+    """Slab test of one ray against the 4 child boxes of BVH node ``node``,
+    in float32 (<4 x float>: on a 128-bit SIMD unit half the
+    micro-operations of <4 x double>, and no widening of the stored boxes).
+
+    ``node_box`` is (m, 6, 4) float32: rows lo x, y, z, hi x, y, z, one
+    lane per child.  ``nx, ny, nz`` are the rows of the planes the ray
+    meets first on each axis (0/3, 1/4, 2/5 by the sign of its inverse
+    direction), so no swap is needed: pbrt's dirIsNeg trick, vectorised
+    across children as in Dammertz et al. 2008 ("Shallow Bounding Volume
+    Hierarchies for Fast SIMD Ray Tracing of Incoherent Rays").
+
+    Conservative, not exact: the entry it returns is at most, and the exit
+    it compares with at least, the exact slab distances of the exact ray,
+    so it enters every box the ray meets before t_max (and a few more, by
+    a few float32 ulps).  The float32 ray constants of accel/bvh/traverse.py's
+    ``box_ray`` make that so:
+
+    - ``on*``/``of*``: the origin for the near and the far planes, rounded
+      to float32 away from the near plane and towards the far one, so the
+      subtraction of a rounded origin can only lower an entry and raise an
+      exit;
+    - ``in*``/``if*``: the inverse direction for the near and far planes,
+      shrunk and grown by BOX32_MARGIN (2^-20: 16 float32 ulps, against at
+      most 3 ulps of rounding in the inverse, the subtraction and the
+      product), the near one bounded so its products cannot overflow.
+
+    t_max is rounded to the nearest float32, at most half an ulp below it:
+    the near margin lowers every entry by far more.  A far product that
+    overflows is an infinite exit of the right sign, so it needs no
+    bound.  The signs of the subtraction and the product are exact, so an
+    exit below 0 is truly behind the ray.  Distances in float32's
+    subnormal range round absolutely, by at most 2^-150: the entry is
+    lowered and the exit raised by 2^-126 for them.
+
+    A NaN slab distance (the ray in a face plane, 0 * inf) fails both
+    comparisons and constrains nothing.  An unused lane (lo = hi = +inf)
+    gets an entry of +inf or an exit of -inf on every axis: no ray enters it.
+
+    Returns (mask, the 4 entry distances as float64): bit k of mask set
+    where the ray enters child k (one vmovmskps), its distance (at most
+    0 where the ray starts inside), inf where the ray misses the box or
+    enters beyond t_max.
+
+    LLVM does not vectorise the scalar form of this (measured: all scalar
+    vmulsd); the explicit <4 x double> form measured 1.2x faster BVH
+    queries, and this float32 one another 1.01-1.08x (docs/design.md).
+    """
+    args = (node_box, node, nx, ny, nz, onx, ony, onz, ofx, ofy, ofz, inx, iny, inz,
+            ifx, ify, ifz, t_max)
+    if node_box != _BOX_ARRAY or not all(isinstance(a, types.Integer) for a in args[1:5]) \
+            or not all(a == types.float32 for a in args[5:17]) \
+            or not isinstance(t_max, types.Float):
+        return None
+    sig = types.Tuple((types.int64, types.UniTuple(types.float64, WIDTH)))(*args)
+
+    def codegen(context, builder, sig, llargs):
+        box, node, nx, ny, nz = [context.cast(builder, v, t, to) for v, t, to in zip(
+            llargs[:5], sig.args[:5], (sig.args[0],) + (types.int64,) * 4)]
+        near_o, far_o, near_i, far_i = llargs[5:8], llargs[8:11], llargs[11:14], llargs[14:17]
+        f32 = ir.FloatType()
+        t_max = builder.fptrunc(context.cast(builder, llargs[17], sig.args[17], types.float64),
+                                f32)
+        data = context.make_array(sig.args[0])(context, builder, value=box).data
+        vec = ir.VectorType(f32, WIDTH)
+        i64 = ir.IntType(64)
+        i32 = ir.IntType(32)
+
+        def splat(x):
+            return _splat(builder, vec, x)
+
+        base = builder.mul(node, ir.Constant(i64, 6 * WIDTH))
+
+        def plane(row):
+            p = builder.gep(data, [builder.add(base, builder.mul(row, ir.Constant(i64, WIDTH)))])
+            return builder.load(builder.bitcast(p, vec.as_pointer()), align=4)
+
+        t0 = splat(ir.Constant(f32, 0.0))
+        t1 = splat(t_max)
+        # far row: 3 - nx for x (0 <-> 3), 5 - ny for y (1 <-> 4), 7 - nz for z (2 <-> 5)
+        for a, (near, far_sum) in enumerate(((nx, 3), (ny, 5), (nz, 7))):
+            far = builder.sub(ir.Constant(i64, far_sum), near)
+            tn = builder.fmul(builder.fsub(plane(near), splat(near_o[a])), splat(near_i[a]))
+            tf = builder.fmul(builder.fsub(plane(far), splat(far_o[a])), splat(far_i[a]))
+            t0 = builder.select(builder.fcmp_ordered(">", tn, t0), tn, t0)
+            t1 = builder.select(builder.fcmp_ordered("<", tf, t1), tf, t1)
+        subnormal = splat(ir.Constant(f32, 2.0 ** -126))
+        t0 = builder.fsub(t0, subnormal)
+        t1 = builder.fadd(t1, subnormal)
+        inf = splat(ir.Constant(f32, float("inf")))
+        # An unused lane (lo = hi = +inf) passes t0 <= t1 at t0 = inf when
+        # t_max is inf: only a finite entry is a hit.
+        hit = builder.and_(builder.fcmp_ordered("<=", t0, t1), builder.fcmp_ordered("<", t0, inf))
+        entry = builder.fpext(builder.select(hit, t0, inf), ir.VectorType(ir.DoubleType(), WIDTH))
+        lanes = [builder.extract_element(entry, ir.Constant(i32, k)) for k in range(WIDTH)]
+        mask = builder.zext(builder.bitcast(hit, ir.IntType(WIDTH)), i64)
+        return context.make_tuple(builder, sig.return_type, [
+            mask, context.make_tuple(builder, sig.return_type[1], lanes)])
+
+    return sig, codegen
+
+
+@intrinsic
+def box_ray_f32(typingctx, ox, oy, oz, ix, iy, iz, near_limit, margin, bounded):
+    """ray_aabb4's float32 constants of a ray, the three axes at once in
+    SIMD (in scalar code this set-up cost as much as the float32 test
+    saved, docs/design.md): the near-plane origins x, y, z, the far-plane
+    origins, the near inverses, the far inverses.
+
+    The origin o is rounded to o32, within half an ulp; o32 +- (|o32| *
+    2^-23 + 2^-149), at least a whole ulp away (subnormal too), is above
+    and below o.  The near plane takes the one above where the inverse
+    direction is positive (the near plane is then lo: a larger origin
+    lowers lo - o) and the one below where it is negative; the far plane
+    the other.  The near inverse is the inverse shrunk by ``margin`` and
+    cut to ``near_limit`` in magnitude (infinite ones stay: a zero
+    direction component's test is exact); the far one grown by ``margin``.
+
+    Where ``bounded`` is false, or an inverse direction is below 2^-100
+    (float32 would flush it, or its products, to zero, and an unused lane's
+    0 * inf would then constrain nothing), the distances cannot be bounded:
+    the constants that enter every used lane instead, origins +-FLT_MAX
+    and inverses +inf: (b - FLT_MAX) * inf is -inf or NaN for any finite
+    or -inf b, (b + FLT_MAX) * inf +inf or NaN, and an unused lane's +inf
+    near plane +inf.  A tree past the range may hold +inf in a used lane's
+    hi: its rays then take the near planes from rows lo (accel/bvh/traverse.py).
+    Chosen by selects, not a branch: a branch in the set-up cost 5-8%.
+    """
+    floats = (ox, oy, oz, ix, iy, iz, near_limit, margin)
+    if not all(isinstance(a, types.Float) for a in floats) \
+            or not isinstance(bounded, types.Boolean):
+        return None
+    sig = types.UniTuple(types.float32, 12)(*floats, bounded)
+
+    def codegen(context, builder, sig, llargs):
+        f64, f32 = ir.DoubleType(), ir.FloatType()
+        i32 = ir.IntType(32)
+        v64, v32 = ir.VectorType(f64, 4), ir.VectorType(f32, 4)
+        i64x4, i32x4 = ir.VectorType(ir.IntType(64), 4), ir.VectorType(i32, 4)
+        args = [context.cast(builder, v, t, types.float64) for v, t in zip(llargs, sig.args[:8])]
+        o_s, inv_s, (limit, margin) = args[0:3], args[3:6], args[6:8]
+
+        def vector(xs, pad):
+            v = ir.Constant(v64, [0.0] * 4)
+            for k, x in enumerate(xs + [ir.Constant(f64, pad)]):
+                v = builder.insert_element(v, x, ir.Constant(i32, k))
+            return v
+
+        def fabs(v, ity, mask):
+            return builder.bitcast(builder.and_(builder.bitcast(v, ity),
+                                                ir.Constant(ity, [mask] * 4)), v.type)
+
+        o = builder.fptrunc(vector(o_s, 0.0), v32)
+        inv = vector(inv_s, 1.0)
+        step = builder.fadd(builder.fmul(fabs(o, i32x4, 0x7FFFFFFF),
+                                         ir.Constant(v32, [2.0 ** -23] * 4)),
+                            ir.Constant(v32, [2.0 ** -149] * 4))
+        up, down = builder.fadd(o, step), builder.fsub(o, step)
+        negative = builder.fcmp_ordered("<", inv, ir.Constant(v64, [0.0] * 4))
+        near_o = builder.select(negative, down, up)
+        far_o = builder.select(negative, up, down)
+        one = _splat(builder, v64, ir.Constant(f64, 1.0))
+        margin = _splat(builder, v64, margin)
+        near = builder.fmul(inv, builder.fsub(one, margin))
+        far = builder.fmul(inv, builder.fadd(one, margin))
+        size = fabs(near, i64x4, 0x7FFFFFFFFFFFFFFF)
+        limit = _splat(builder, v64, limit)
+        cut = builder.and_(builder.fcmp_ordered(">", size, limit),
+                           builder.fcmp_ordered("<", size, ir.Constant(v64, [float("inf")] * 4)))
+        sign = builder.and_(builder.bitcast(near, i64x4), ir.Constant(i64x4, [1 << 63] * 4))
+        near = builder.select(cut, builder.bitcast(builder.or_(builder.bitcast(limit, i64x4),
+                                                               sign), v64), near)
+        vanishing = builder.fcmp_ordered("<", size, ir.Constant(v64, [2.0 ** -100] * 4))
+        bounded = builder.and_(
+            context.cast(builder, llargs[8], sig.args[8], types.boolean),
+            builder.icmp_unsigned("==", builder.bitcast(vanishing, ir.IntType(4)),
+                                  ir.Constant(ir.IntType(4), 0)))
+        bounded = _splat(builder, ir.VectorType(ir.IntType(1), 4), bounded)
+        big = float(np.finfo(np.float32).max)
+        columns = [builder.select(bounded, v, ir.Constant(v32, [x] * 4)) for v, x in (
+            (near_o, big), (far_o, -big), (builder.fptrunc(near, v32), float("inf")),
+            (builder.fptrunc(far, v32), float("inf")))]
+        out = [builder.extract_element(v, ir.Constant(i32, k)) for v in columns for k in range(3)]
+        return context.make_tuple(builder, sig.return_type, out)
+
+    return sig, codegen
+
+
+_F32_ROW = types.Array(types.float32, 1, "C")
+
+
+def _packet_row(builder, data, k, vec):
+    """Row k of a packet's rows (PACKET values from k * PACKET on) as one
+    vector of type ``vec``."""
+    p = builder.gep(data, [ir.Constant(ir.IntType(64), k * PACKET)])
+    return builder.load(builder.bitcast(p, vec.as_pointer()), align=4)
+
+
+@intrinsic
+def packet_aabb4(typingctx, node_box, node, nx, ny, nz, consts, t_far):
+    """ray_aabb4 for a packet of PACKET rays at once: the rays in SIMD
+    lanes, one <PACKET x float> per box plane and child (Wald, Slusallek,
+    Benthin & Wagner 2001, "Interactive Rendering with Coherent Ray
+    Tracing": a packet shares the node's loads and the traversal's
+    branches).  Each ray's arithmetic is ray_aabb4's, operation for
+    operation, so a ray enters exactly the boxes its own test enters.
+
+    The rays share their near rows ``nx, ny, nz`` (the packet's caller
+    checks).  ``consts``: 12 rows of PACKET float32, each ray's box_ray
+    constants (near origins x, y, z, far origins, near inverses, far
+    inverses); ``t_far``: each ray's far bound, already float32.
+
+    Returns (masks, nearest entries), a value per child: bit r of a
+    child's mask set where ray r enters it; its nearest entry (float64) the
+    least over the rays entering it (inf if none).
+    """
+    args = (node_box, node, nx, ny, nz, consts, t_far)
+    if node_box != _BOX_ARRAY or not all(isinstance(a, types.Integer) for a in args[1:5]) \
+            or consts != _F32_ROW or t_far != _F32_ROW:
+        return None
+    sig = types.Tuple((types.UniTuple(types.int64, WIDTH),
+                       types.UniTuple(types.float64, WIDTH)))(*args)
+
+    def codegen(context, builder, sig, llargs):
+        box, node, nx, ny, nz = [context.cast(builder, v, t, to) for v, t, to in zip(
+            llargs[:5], sig.args[:5], (sig.args[0],) + (types.int64,) * 4)]
+        f32 = ir.FloatType()
+        i64 = ir.IntType(64)
+        i32 = ir.IntType(32)
+        vec = ir.VectorType(f32, PACKET)
+        data = context.make_array(sig.args[0])(context, builder, value=box).data
+        rows = context.make_array(sig.args[5])(context, builder, value=llargs[5]).data
+        far = context.make_array(sig.args[6])(context, builder, value=llargs[6]).data
+
+        consts = [_packet_row(builder, rows, k, vec) for k in range(12)]
+        t_far = _packet_row(builder, far, 0, vec)
+        base = builder.mul(node, ir.Constant(i64, 6 * WIDTH))
+        axes = [(nx, 3), (ny, 5), (nz, 7)]
+        near_rows = [builder.mul(a, ir.Constant(i64, WIDTH)) for a, _ in axes]
+        far_rows = [builder.mul(builder.sub(ir.Constant(i64, s), a), ir.Constant(i64, WIDTH))
+                    for a, s in axes]
+        zero = ir.Constant(vec, [0.0] * PACKET)
+        subnormal = ir.Constant(vec, [2.0 ** -126] * PACKET)
+        inf = ir.Constant(vec, [float("inf")] * PACKET)
+        masks = []
+        nearest = []
+        for child in range(WIDTH):
+            def plane(r, child=child):
+                p = builder.gep(data, [builder.add(base, builder.add(r, ir.Constant(i64, child)))])
+                return _splat(builder, vec, builder.load(p))
+            t0, t1 = zero, t_far
+            for a in range(3):
+                tn = builder.fmul(builder.fsub(plane(near_rows[a]), consts[a]), consts[6 + a])
+                tf = builder.fmul(builder.fsub(plane(far_rows[a]), consts[3 + a]), consts[9 + a])
+                t0 = builder.select(builder.fcmp_ordered(">", tn, t0), tn, t0)
+                t1 = builder.select(builder.fcmp_ordered("<", tf, t1), tf, t1)
+            t0 = builder.fsub(t0, subnormal)
+            t1 = builder.fadd(t1, subnormal)
+            hit = builder.and_(builder.fcmp_ordered("<=", t0, t1), builder.fcmp_ordered("<", t0, inf))
+            masks.append(builder.zext(builder.bitcast(hit, ir.IntType(PACKET)), i64))
+            # The least entry of the rays entering: halve the lanes until one.
+            m = builder.select(hit, t0, inf)
+            width = PACKET
+            while width > 1:
+                width //= 2
+                hi = builder.shuffle_vector(m, ir.Constant(vec, ir.Undefined), ir.Constant(
+                    ir.VectorType(i32, PACKET), list(range(width, 2 * width)) + [0] * (PACKET - width)))
+                m = builder.select(builder.fcmp_ordered("<", hi, m), hi, m)
+            nearest.append(builder.fpext(builder.extract_element(m, ir.Constant(i32, 0)),
+                                         ir.DoubleType()))
+        return context.make_tuple(builder, sig.return_type, [
+            context.make_tuple(builder, sig.return_type[0], masks),
+            context.make_tuple(builder, sig.return_type[1], nearest)])
+
+    return sig, codegen
+
+
+_VERTICES = types.Array(types.float64, 2, "C")
+
+
+CROSSING_LANES = 8    # crossing_mask's lanes: two chunks of 4 columns
+
+
+@intrinsic
+def crossing_mask(typingctx, leaf_tris, k, k2, kx, ky, kz, okx, oky, okz, sx, sy, sz, t_min,
+                  t_max):
+    """The crossing triangle test (intersect._triangle with ``crossing``)
+    of one ray against 8 triangles at once, in <8 x double>: columns k ..
+    k + 3 and k2 .. k2 + 3 of ``leaf_tris`` (accel/bvh/build.py's CountingBVH:
+    row 3 * corner + axis), two contiguous loads of 4 a row, no gather.
+    Two chunks, so that two small leaves share a test.
+
+    Returns two 8-bit masks, hits in bits 0-7 (lanes k.., then k2..) and
+    "unsure" in bits 8-15:
+    - a lane whose three edge functions share a strict sign takes the
+      scalar test's remaining steps (det, the scaled distance against 0
+      and t_max * det, t = t_scaled * (1 / det) against t_min and t_max),
+      each lane operation for operation as the scalar test (no fused
+      multiply-adds), so its hit bit is set exactly where the scalar test
+      hits;
+    - a lane with mixed signs is a miss, as in the scalar test;
+    - any other lane (an edge function exactly 0, where the crossing rule
+      decides which triangle owns the edge, or NaN: a column that holds
+      no triangle) is unsure: the caller runs the scalar test on it.
+    """
+    floats = (okx, oky, okz, sx, sy, sz, t_min, t_max)
+    if leaf_tris != _VERTICES or not all(isinstance(a, types.Integer) for a in (k, k2, kx, ky, kz)) \
+            or not all(isinstance(a, types.Float) for a in floats):
+        return None
+    sig = types.int64(leaf_tris, k, k2, kx, ky, kz, *floats)
+    lanes = CROSSING_LANES
+
+    def codegen(context, builder, sig, llargs):
+        i64 = ir.IntType(64)
+        chunk = ir.VectorType(ir.DoubleType(), lanes // 2)
+        vec = ir.VectorType(ir.DoubleType(), lanes)
+        both = ir.Constant(ir.VectorType(ir.IntType(32), lanes), list(range(lanes)))
+        rows = context.make_array(sig.args[0])(context, builder, value=llargs[0])
+        stride = builder.extract_value(rows.shape, 1)
+        k, k2, kx, ky, kz = [context.cast(builder, llargs[j], sig.args[j], types.int64)
+                             for j in range(1, 6)]
+        okx, oky, okz, sx, sy, sz, t_min, t_max = [
+            _splat(builder, vec, context.cast(builder, llargs[j], sig.args[j], types.float64))
+            for j in range(6, 14)]
+
+        def coordinate(corner, axis):
+            """Component ``axis`` of the 8 triangles' corner, one per lane."""
+            row = builder.mul(builder.add(ir.Constant(i64, 3 * corner), axis), stride)
+            halves = [builder.load(builder.bitcast(builder.gep(rows.data, [builder.add(row, c)]),
+                                                   chunk.as_pointer()), align=8)
+                      for c in (k, k2)]
+            return builder.shuffle_vector(halves[0], halves[1], both)
+
+        corners = [[builder.fsub(coordinate(c, axis), origin)
+                    for axis, origin in ((kx, okx), (ky, oky), (kz, okz))] for c in range(3)]
+        edges, mixed = _edge_functions(builder, corners, sx, sy)
+        zero = ir.Constant(vec, [0.0] * lanes)
+
+        def every_edge(op):
+            e0, e1, e2 = [builder.fcmp_ordered(op, e, zero) for e in edges]
+            return builder.and_(builder.and_(e0, e1), e2)
+
+        strict = builder.or_(every_edge(">"), every_edge("<"))
+        hit = builder.and_(strict, _within_interval(builder, edges, corners, sz, t_min, t_max))
+        unsure = builder.and_(builder.not_(mixed), builder.not_(strict))
+        bits = ir.IntType(lanes)
+        return builder.or_(builder.zext(builder.bitcast(hit, bits), i64),
+                           builder.shl(builder.zext(builder.bitcast(unsure, bits), i64),
+                                       ir.Constant(i64, lanes)))
+
+    return sig, codegen
+
+
+_F64_ROW = types.Array(types.float64, 1, "C")
+
+
+@intrinsic
+def packet_triangle(typingctx, v0, v1, v2, p, kx, ky, kz, fields, far):
+    """The watertight triangle test (intersect._triangle, not the crossing
+    variant) of triangle p against a packet's PACKET rays at once, in
+    <PACKET x double>, where the rays share their axes kx, ky, kz: each lane's
+    arithmetic is the scalar test's, operation for operation (no fused
+    multiply-adds), so a lane hits exactly where the scalar test hits.
+
+    ``fields``: the packet's rows (accel/bvh/packet.py), of which rows 9-15
+    are each ray's sx, sy, sz, okx, oky, okz and t_min; ``far``: each ray's
+    t_max.  Returns the mask of the rays that hit; the scalar test gives a
+    hit's distance and barycentrics.
+    """
+    ints = (p, kx, ky, kz)
+    if any(a != _VERTICES for a in (v0, v1, v2)) \
+            or not all(isinstance(a, types.Integer) for a in ints) \
+            or fields != _F64_ROW or far != _F64_ROW:
+        return None
+    sig = types.int64(v0, v1, v2, p, kx, ky, kz, fields, far)
+
+    def codegen(context, builder, sig, llargs):
+        i64 = ir.IntType(64)
+        f64 = ir.DoubleType()
+        vec = ir.VectorType(f64, PACKET)
+        data = [context.make_array(sig.args[k])(context, builder, value=llargs[k]).data
+                for k in range(3)]
+        p, kx, ky, kz = [context.cast(builder, llargs[3 + j], sig.args[3 + j], types.int64)
+                         for j in range(4)]
+        rows = context.make_array(sig.args[7])(context, builder, value=llargs[7]).data
+        far_data = context.make_array(sig.args[8])(context, builder, value=llargs[8]).data
+
+        sx, sy, sz, okx, oky, okz, t_min = [_packet_row(builder, rows, k, vec)
+                                            for k in range(9, 16)]
+        t_max = _packet_row(builder, far_data, 0, vec)
+        base = builder.mul(p, ir.Constant(i64, 3))
+
+        def coordinate(vertices, axis, origin):
+            x = builder.load(builder.gep(vertices, [builder.add(base, axis)]))
+            return builder.fsub(_splat(builder, vec, x), origin)
+
+        corners = [(coordinate(vertices, kx, okx), coordinate(vertices, ky, oky),
+                    coordinate(vertices, kz, okz)) for vertices in data]
+        edges, mixed = _edge_functions(builder, corners, sx, sy)
+        keep = builder.and_(builder.not_(mixed),
+                            _within_interval(builder, edges, corners, sz, t_min, t_max))
+        return builder.zext(builder.bitcast(keep, ir.IntType(PACKET)), i64)
+
+    return sig, codegen
+
+
+@intrinsic
+def packet_rays(typingctx, origins, dirs, i0, tree_bounded, box_range, near_limit, margin, fields,
+                axes, consts):
+    """make_ray and box_ray (kernels/ray.py, accel/bvh/traverse.py) for rays
+    i0 .. i0 + PACKET - 1 at once, in <PACKET x double>: each lane's arithmetic
+    and choices are the scalar functions', operation for operation, so the
+    rows hold the same bits.  Writes rows 0-14 of ``fields`` (ox, oy, oz,
+    dx, dy, dz, the inverses, sx, sy, sz, okx, oky, okz), ``axes`` (kx, ky,
+    kz) and ``consts`` (box_ray_f32's 12 rows).  ``tree_bounded``: the
+    tree's box_bound within ``box_range`` (BOX32_RANGE); ``near_limit``
+    (NEAR_LIMIT) and ``margin`` (BOX32_MARGIN) as box_ray passes them.
+
+    Returns the rays' shared near rows (nx, ny, nz), or (-1, -1, -1) where
+    they differ (some rays within the float32 test's range, some not).
+    The caller has checked that the rays' directions share their signs."""
+    if origins != _VERTICES or dirs != _VERTICES or not isinstance(i0, types.Integer) \
+            or not isinstance(tree_bounded, types.Boolean) \
+            or not all(isinstance(a, types.Float) for a in (box_range, near_limit, margin)) \
+            or fields != _F64_ROW or axes != types.Array(types.int64, 1, "C") \
+            or consts != _F32_ROW:
+        return None
+    sig = types.UniTuple(types.int64, 3)(origins, dirs, i0, tree_bounded, box_range, near_limit,
+                                         margin, fields, axes, consts)
+
+    def codegen(context, builder, sig, llargs):
+        n = PACKET
+        i64, i32, i1 = ir.IntType(64), ir.IntType(32), ir.IntType(1)
+        f64, f32 = ir.DoubleType(), ir.FloatType()
+        vd, vf = ir.VectorType(f64, n), ir.VectorType(f32, n)
+        vi, vb = ir.VectorType(i64, n), ir.VectorType(i1, n)
+        o_data = context.make_array(sig.args[0])(context, builder, value=llargs[0]).data
+        d_data = context.make_array(sig.args[1])(context, builder, value=llargs[1]).data
+        start = builder.mul(context.cast(builder, llargs[2], sig.args[2], types.int64),
+                            ir.Constant(i64, 3))
+        tree_ok = context.cast(builder, llargs[3], sig.args[3], types.boolean)
+        box_range, limit, margin = [context.cast(builder, llargs[k], sig.args[k], types.float64)
+                                    for k in (4, 5, 6)]
+        out_f, out_k, out_c = [context.make_array(sig.args[k])(context, builder,
+                                                               value=llargs[k]).data
+                               for k in (7, 8, 9)]
+
+        def const(ty, x):
+            return ir.Constant(ty, [x] * n)
+
+        def columns(data):
+            block = builder.load(builder.bitcast(builder.gep(data, [start]),
+                                                 ir.VectorType(f64, 3 * n).as_pointer()), align=8)
+            return [builder.shuffle_vector(block, ir.Constant(block.type, ir.Undefined),
+                                           ir.Constant(ir.VectorType(i32, n),
+                                                       list(range(a, 3 * n, 3))))
+                    for a in range(3)]
+
+        def store(data, row, v):
+            p = builder.gep(data, [ir.Constant(i64, row * n)])
+            builder.store(v, builder.bitcast(p, v.type.as_pointer()), align=4)
+
+        def fabs(v):
+            ity = ir.VectorType(i64, n)
+            return builder.bitcast(builder.and_(builder.bitcast(v, ity),
+                                                const(ity, 0x7FFFFFFFFFFFFFFF)), vd)
+
+        def fabs32(v):
+            ity = ir.VectorType(i32, n)
+            return builder.bitcast(builder.and_(builder.bitcast(v, ity), const(ity, 0x7FFFFFFF)),
+                                   vf)
+
+        def pick(k, xs):
+            """xs[k] lane by lane, k in 0..2."""
+            return builder.select(builder.icmp_signed("==", k, const(vi, 0)), xs[0],
+                                  builder.select(builder.icmp_signed("==", k, const(vi, 1)),
+                                                 xs[1], xs[2]))
+
+        o = columns(o_data)
+        d = columns(d_data)
+        one = const(vd, 1.0)
+        inv = [builder.fdiv(one, x) for x in d]
+        ax, ay, az = [fabs(x) for x in d]
+        gt = builder.fcmp_ordered
+        kz = builder.select(gt(">", ax, ay),
+                            builder.select(gt(">", ax, az), const(vi, 0), const(vi, 2)),
+                            builder.select(gt(">", ay, az), const(vi, 1), const(vi, 2)))
+        kx = builder.add(kz, const(vi, 1))
+        kx = builder.select(builder.icmp_signed("==", kx, const(vi, 3)), const(vi, 0), kx)
+        ky = builder.add(kx, const(vi, 1))
+        ky = builder.select(builder.icmp_signed("==", ky, const(vi, 3)), const(vi, 0), ky)
+        dkz = pick(kz, d)
+        swap = gt("<", dkz, const(vd, 0.0))
+        kx, ky = builder.select(swap, ky, kx), builder.select(swap, kx, ky)
+        sx = builder.fdiv(pick(kx, d), dkz)
+        sy = builder.fdiv(pick(ky, d), dkz)
+        sz = pick(kz, inv)
+        rows = o + d + inv + [sx, sy, sz, pick(kx, o), pick(ky, o), pick(kz, o)]
+        for r, v in enumerate(rows):
+            store(out_f, r, v)
+        for r, v in enumerate((kx, ky, kz)):
+            store(out_k, r, v)
+
+        # box_ray: the tree's and the origin's reach ...
+        reach = builder.select(gt(">", fabs(o[1]), fabs(o[0])), fabs(o[1]), fabs(o[0]))
+        reach = builder.select(gt(">", fabs(o[2]), reach), fabs(o[2]), reach)
+        bounded = builder.and_(gt("<=", reach, _splat(builder, vd, box_range)),
+                               _splat(builder, vb, tree_ok))
+        # ... and box_ray_f32's constants, axis by axis.
+        scale_near = builder.fsub(one, _splat(builder, vd, margin))
+        scale_far = builder.fadd(one, _splat(builder, vd, margin))
+        limit_v = _splat(builder, vd, limit)
+        sign = const(vi, 1 << 63)
+        near_o, far_o, near_i, far_i = [], [], [], []
+        usable = bounded
+        for a in range(3):
+            o32 = builder.fptrunc(o[a], vf)
+            step = builder.fadd(builder.fmul(fabs32(o32), const(vf, 2.0 ** -23)),
+                                const(vf, 2.0 ** -149))
+            up, down = builder.fadd(o32, step), builder.fsub(o32, step)
+            negative = gt("<", inv[a], const(vd, 0.0))
+            near_o.append(builder.select(negative, down, up))
+            far_o.append(builder.select(negative, up, down))
+            near = builder.fmul(inv[a], scale_near)
+            far_i.append(builder.fmul(inv[a], scale_far))
+            size = fabs(near)
+            cut = builder.and_(gt(">", size, limit_v), gt("<", size, const(vd, float("inf"))))
+            signed_limit = builder.bitcast(builder.or_(
+                builder.bitcast(limit_v, vi), builder.and_(builder.bitcast(near, vi), sign)), vd)
+            near_i.append(builder.select(cut, signed_limit, near))
+            usable = builder.and_(usable, builder.not_(gt("<", size, const(vd, 2.0 ** -100))))
+        big = float(np.finfo(np.float32).max)
+        out = ([builder.select(usable, v, const(vf, big)) for v in near_o]
+               + [builder.select(usable, v, const(vf, -big)) for v in far_o]
+               + [builder.select(usable, builder.fptrunc(v, vf), const(vf, float("inf")))
+                  for v in near_i + far_i])
+        for r, v in enumerate(out):
+            store(out_c, r, v)
+
+        # Near rows: from the signs where every ray is bounded, rows lo
+        # where none is, and none shared otherwise.
+        mask = builder.bitcast(bounded, ir.IntType(n))
+        every = builder.icmp_unsigned("==", mask, ir.Constant(ir.IntType(n), (1 << n) - 1))
+        none = builder.icmp_unsigned("==", mask, ir.Constant(ir.IntType(n), 0))
+        result = []
+        for a, (lo, hi) in enumerate(((0, 3), (1, 4), (2, 5))):
+            neg = builder.fcmp_ordered("<", builder.extract_element(inv[a], ir.Constant(i32, 0)),
+                                       ir.Constant(f64, 0.0))
+            signed = builder.select(neg, ir.Constant(i64, hi), ir.Constant(i64, lo))
+            result.append(builder.select(every, signed, builder.select(
+                none, ir.Constant(i64, lo), ir.Constant(i64, -1))))
+        return context.make_tuple(builder, sig.return_type, result)
+
+    return sig, codegen
+
+

@@ -1,0 +1,105 @@
+"""The acceleration structures: one entry each, read by the CLI, the
+driver, the ray-casting API, the bench and the tests (pbrt-v4's
+CreateAccelerator).
+
+A structure ``x`` is a folder, ``raytrace/accel/x/``, and a line below.
+Its ``build.py`` defines ``build(geo, obj_ranges)`` (which returns its layout,
+a namedtuple class), ``statistics(layout, n_prims)`` and, to be drawn
+(--show-structure), ``outline(layout, depth)``, and to count every hit
+on a layout of its own, ``for_counting(layout, geo)``; importing it
+registers its traversal for the layout (kernels/query.py).  The registry
+itself imports no structure: nothing is imported, built or compiled for a
+structure the run does not use.
+"""
+import importlib
+import time
+from dataclasses import dataclass
+
+from raytrace.errors import OptionError, RaytraceError
+
+
+@dataclass(frozen=True)
+class Structure:
+    name: str
+    summary: str                  # one line, for --help and the README
+    module: str                   # its folder, raytrace/accel/<module>/
+    visit_counter: str = None     # its own counter, if any (stats.COUNTERS)
+    visit_metric: str = None      # that counter per ray (stats.derive), a bench column
+
+    def package(self):
+        """The structure's build module, ``raytrace/accel/<module>/build.py``,
+        imported on first use with its package (which registers the traversal)."""
+        return importlib.import_module(f"raytrace.accel.{self.module}.build")
+
+    def load(self, tiny, n_prims=0, **options):
+        """Seconds spent loading (or compiling) the builder: a build of a
+        few primitives (``tiny``: (geometry, object ranges), as
+        scene.flatten.tiny_geometry makes), so the timed build() that follows
+        measures building alone.  Builders are compiled per argument type, never per size, so
+        the tiny scene loads everything the real one uses, but for a
+        builder's code for big scenes (``load_big(n_prims, **options)`` in
+        its module, if it has one: the n_prims of the scene to come)."""
+        t0 = time.perf_counter()
+        self.build(*tiny, **options)
+        builder = self.package()
+        if hasattr(builder, "load_big"):
+            builder.load_big(n_prims, **options)
+        return time.perf_counter() - t0
+
+    def build(self, geo, obj_ranges, **options):
+        """(layout, build seconds); also loads the traversal for the layout.
+        options: the build options (bvh_build, leaf_size, grid_density); a
+        structure takes those it knows."""
+        builder = self.package()
+        t0 = time.perf_counter()
+        layout = builder.build(geo, obj_ranges, **options)
+        return layout, time.perf_counter() - t0
+
+    def counting_layout(self, layout, geo):
+        """The layout that counts and lists every hit: what the accel
+        module's ``for_counting(layout, geo)`` makes, if it has one (the
+        BVH's: a tree built for counting, its triangles in leaf order), else
+        ``layout``."""
+        make = getattr(self.package(), "for_counting", None)
+        return layout if make is None else make(layout, geo)
+
+    def check_outline(self):
+        """RaytraceError unless the structure can be drawn (outline)."""
+        if not hasattr(self.package(), "outline"):
+            raise OptionError(f"{self.name} ({self.summary}) has no structure to show")
+
+    def outline(self, layout, depth):
+        """(lo, hi, level) arrays of the structure's boxes down to ``depth``,
+        for drawing over the image (raytrace/renderer/overlay.py)."""
+        self.check_outline()
+        return self.package().outline(layout, depth)
+
+    def statistics(self, layout, n_prims):
+        """The structure's own figures (nodes, leaves, depth, memory, ...)."""
+        return self.package().statistics(layout, n_prims)
+
+
+STRUCTURES = {s.name: s for s in (
+    Structure("none", "brute force: every primitive for every ray", "brute"),
+    Structure("bvol", "a bounding box per object, then its primitives", "bvol"),
+    Structure("bvh", "4-wide bounding volume hierarchy, binned SAH build", "bvh",
+              "nodes_visited", "nodes_per_ray"),
+    Structure("grid", "uniform grid walked by 3D-DDA", "grid",
+              "cells_visited", "cells_per_ray"),
+    Structure("kdtree", "kd-tree, binned SAH build, front-to-back traversal", "kdtree",
+              "nodes_visited", "nodes_per_ray"),
+)}
+DEFAULT = "bvh"
+
+
+def get(name):
+    """The Structure called ``name``; RaytraceError naming the choices otherwise."""
+    if not isinstance(name, str) or name not in STRUCTURES:
+        raise RaytraceError(f"unknown acceleration structure {name!r} "
+                            f"(choose from {', '.join(STRUCTURES)})")
+    return STRUCTURES[name]
+
+
+def build_structure(name, geo, obj_ranges, **options):
+    """Returns (layout, build seconds) for structure ``name``."""
+    return get(name).build(geo, obj_ranges, **options)

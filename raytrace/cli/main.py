@@ -1,0 +1,653 @@
+"""Command line: ``raytrace SCENE [options]`` renders, ``raytrace scenes`` lists.
+
+Bad arguments exit 2 (click's UsageError), bad input or runtime failures
+exit 1 (ClickException); neither prints a traceback.
+"""
+import contextlib
+import sys
+import time
+
+import click
+
+from raytrace.errors import OptionError, RaytraceError, RaytraceWarning
+from raytrace.options import BY_NAME, CREASE, DETAIL, FOV_RANGE, OPTIONS
+from raytrace.renderer.interrupt import raise_if_interrupted
+
+
+class DefaultRenderGroup(click.Group):
+    """A group whose unknown first word is a scene: ``raytrace teapot ...``
+    means ``raytrace render teapot ...``."""
+
+    def parse_args(self, ctx, args):
+        if args and args[0] not in self.commands and args[0] not in ("--help", "-h", "--version"):
+            args = ["render", *args]
+        return super().parse_args(ctx, args)
+
+
+@click.group(cls=DefaultRenderGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="raytrace")
+def main():
+    """raytrace: a fast, honest, teachable CPU ray tracer.
+
+    \b
+    raytrace teapot --shadows soft --no-bvol   render a built-in scene
+    raytrace model.obj --view front            render a mesh file
+    raytrace scene.toml                        render a scene file
+    raytrace scenes                            list built-in scenes and examples
+    raytrace render --help                     every render option
+    """
+
+
+@main.command("scenes")
+def scenes_cmd():
+    """List the built-in scenes and the example scene files."""
+    from raytrace.scene.builtin import BUILTIN
+    from raytrace.scene.examples import example_files
+    click.echo("Built-in scenes (raytrace NAME):")
+    for name, (_, desc) in sorted(BUILTIN.items()):
+        click.echo(f"  {name:<10} {desc}")
+    click.echo("Example scene files (raytrace PATH):")
+    for path, desc in example_files():
+        click.echo(f"  {path}")
+        if desc:
+            click.echo(f"      {desc}")
+
+
+class ViewType(click.ParamType):
+    """--view: a named view, or AZIMUTH,ELEVATION in degrees."""
+    name = "view"
+
+    def convert(self, value, param, ctx):
+        from raytrace.scene.views import VIEWS
+        if isinstance(value, tuple) or value in VIEWS:
+            return value
+        parts = str(value).split(",")
+        try:
+            if len(parts) != 2:
+                raise ValueError
+            az, el = (float(x) for x in parts)
+        except ValueError:
+            self.fail(f"{value!r} is neither a view ({', '.join(VIEWS)}) nor AZIMUTH,ELEVATION "
+                      "in degrees", param, ctx)
+        import math
+        if not math.isfinite(az):
+            self.fail(f"azimuth must be a finite number of degrees, got {parts[0].strip()!r}",
+                      param, ctx)
+        if not -90.0 <= el <= 90.0:
+            self.fail(f"elevation must be between -90 and 90 degrees, got {parts[1].strip()!r}",
+                      param, ctx)
+        return (az, el)
+
+
+class AovType(click.ParamType):
+    name = "list"
+
+    def convert(self, value, param, ctx):
+        from raytrace.renderer.aov import parse_aov_list
+        if isinstance(value, list):
+            return value
+        try:
+            return parse_aov_list(value)
+        except ValueError as exc:
+            self.fail(str(exc), param, ctx)
+
+
+def _is_tty(stream):
+    try:
+        return stream.isatty()
+    except (AttributeError, ValueError):
+        return False
+
+
+class _Progress:
+    """A progress bar on stderr, shown only on a terminal and only once the
+    render has run for a second (short renders stay quiet)."""
+    DELAY_S = 1.0
+
+    def __init__(self, enabled, label="rendering"):
+        self.enabled = enabled and _is_tty(sys.stderr)
+        self.label = label
+        self.start = time.perf_counter()
+        self.bar = None
+        self.done = 0
+
+    def __call__(self, rows_done, rows_total):
+        raise_if_interrupted()          # each band or frame: a dropped Ctrl-C stops here
+        if not self.enabled:
+            return
+        if self.bar is None and time.perf_counter() - self.start >= self.DELAY_S:
+            self.bar = click.progressbar(length=rows_total, label=self.label, file=sys.stderr)
+            self.bar.__enter__()
+        if self.bar is not None:
+            self.bar.update(rows_done - self.done)
+        self.done = rows_done
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.__exit__(None, None, None)
+
+
+def _load_threads(options):
+    """--threads bounds loading's threads too (a big teapot's tessellation
+    runs on Numba's, scene/teapot.py), not only the render's."""
+    threads = options.get("threads")
+    if threads is not None:
+        BY_NAME["threads"].check(threads)      # a bad count is a bad option, as at render
+        import numba
+        numba.set_num_threads(threads)
+
+
+def _view_options(view, up):
+    """--view and --up as load_scene's keyword arguments."""
+    opts = {}
+    if isinstance(view, tuple):
+        opts = dict(azimuth=view[0], elevation=view[1])
+    elif view is not None:
+        opts = dict(view=view)
+    if up is not None:
+        opts["up"] = up
+    return opts
+
+
+@contextlib.contextmanager
+def _one_line_errors():
+    """A bad option exits 2, any other raytrace error 1, each as one line
+    (click prints it); Ctrl-C passes through to the caller."""
+    try:
+        yield
+    except OptionError as exc:
+        raise click.UsageError(str(exc)) from None
+    except RaytraceError as exc:
+        raise click.ClickException(str(exc)) from None
+    except MemoryError:
+        raise click.ClickException("out of memory: try a smaller image or fewer samples") from None
+
+
+@contextlib.contextmanager
+def _warnings_once():
+    """Show each RaytraceWarning raised inside as one line on stderr, once."""
+    import warnings
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", RaytraceWarning)
+        try:
+            yield
+        finally:
+            ours = [w for w in caught if issubclass(w.category, RaytraceWarning)]
+            for message in dict.fromkeys(str(w.message) for w in ours):
+                click.echo(f"warning: {message}", err=True)
+            for w in caught:
+                if w not in ours:
+                    warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+
+
+def _write_outputs(result, output, aov, aov_out, heatmap, outputs):
+    """Write the image, any AOVs and the heatmap as one commit (the Outputs
+    ``outputs``: all or none); record them in the stats and return the lines
+    that report them."""
+    from raytrace.renderer.output import image_writer, npz_writer
+    notes = []
+    outputs.add(output, image_writer(result.image, output))
+    result.stats["output"] = str(output)
+    if aov_out is not None:
+        outputs.add(aov_out, npz_writer({k: result.aovs[k] for k in aov}))
+        result.stats["aov"] = {"path": str(aov_out), "buffers": list(aov)}
+        notes.append(f"wrote {aov_out} ({', '.join(aov)})")
+    if heatmap is not None:
+        from raytrace.renderer.heatmap import cost_heatmap
+        img, lo, hi = cost_heatmap(result.aovs["cost"])
+        outputs.add(heatmap, image_writer(img, heatmap))
+        result.stats["heatmap"] = {"path": str(heatmap), "cost_min": lo, "cost_max": hi}
+        notes.append(f"wrote {heatmap} (box + primitive tests per pixel, log scale: "
+                     f"{lo:,} = dark purple to {hi:,} = yellow)")
+    return notes
+
+
+def _show_structure(result, scene, accel, depth):
+    """The image with the structure's boxes down to ``depth`` drawn over it."""
+    from raytrace.accel.registry import get
+    from raytrace.renderer.driver import camera_buffer
+    from raytrace.renderer.overlay import draw_outline
+    lo, hi, level = get(accel).outline(result.structure, depth)
+    h, w = result.image.shape[:2]
+    result.stats["structure_shown"] = {"depth": depth, "boxes": int(len(lo))}
+    return draw_outline(result.image, camera_buffer(scene.camera, w, h), lo, hi, level,
+                        max(depth, int(level.max()) if len(level) else 0))
+
+
+def _up_choices():
+    from raytrace.scene.views import UP_AXES
+    return UP_AXES
+
+
+class FiniteFloatRange(click.FloatRange):
+    """click's FloatRange lets NaN through (every comparison with it is
+    false); this one does not."""
+
+    def convert(self, value, param, ctx):
+        import math
+        rv = super().convert(value, param, ctx)
+        if not math.isfinite(rv):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        return rv
+
+
+def _click_type(opt):
+    """The click type of a render option, from its definition (options.py).
+    A range given by a function (threads: the machine's cores) is checked
+    at render time, and still exits 2."""
+    if opt.kind == "choice":
+        return click.Choice(opt.choice_list())
+    hi = None if callable(opt.hi) else opt.hi
+    if opt.kind == "int":
+        return click.IntRange(min=opt.lo, max=hi)
+    return FiniteFloatRange(min=opt.lo, max=hi)
+
+
+def _render_options(command, skip=()):
+    """Add every render option of options.py (but those in ``skip``) to a
+    click command."""
+    for opt in reversed(OPTIONS):
+        if opt.name in skip:
+            continue
+        shown = opt.default_text or opt.default
+        command = click.option(opt.flag, opt.name, type=_click_type(opt), default=None,
+                               metavar=opt.metavar,
+                               help=f"{opt.help.replace('`', '')} [default: {shown}]")(command)
+    return command
+
+
+def _scene_options(command):
+    """How the scene is made: the teapot's detail, a mesh file's framing,
+    the field of view."""
+    options = [
+        click.option("--detail", type=click.IntRange(min=DETAIL.lo, max=DETAIL.hi), default=None,
+                     metavar=DETAIL.metavar, help=f"{DETAIL.help} [default: {DETAIL.default}]."),
+        click.option("--view", type=ViewType(), default=None,
+                     help="Mesh files: front, back, left, right, top, bottom, iso, or "
+                          "AZIMUTH,ELEVATION in degrees [default: iso]."),
+        click.option("--up", type=click.Choice(_up_choices()), default=None,
+                     help="Mesh files: the model's up axis [default: y]."),
+        click.option("--crease", type=FiniteFloatRange(min=CREASE.lo, max=CREASE.hi), default=None,
+                     metavar=CREASE.metavar,
+                     help=f"{CREASE.help[0].upper()}{CREASE.help[1:]} (degrees; when the file has "
+                          f"no normals) [default: {CREASE.default:g}]."),
+        click.option("--flat", is_flag=True, default=None,
+                     help="Mesh files: flat shading, one normal per triangle."),
+        click.option("--fov", type=FiniteFloatRange(min=FOV_RANGE[0], max=FOV_RANGE[1],
+                                                    min_open=True, max_open=True), default=None,
+                     help="Vertical field of view in degrees [default: the scene's, 60 for "
+                          "meshes]."),
+    ]
+    for option in reversed(options):
+        command = option(command)
+    return command
+
+
+def _work_options(command):
+    """Frame sequences, tiles, and where the work runs (frames/batch.py, frames/distributed.py)."""
+    options = [
+        click.option("--turntable", type=click.IntRange(min=1, max=100_000), default=None,
+                     metavar="N", help="Render N frames orbiting the camera about its look-at "
+                                       "point (around the scene's up axis) [-o default: SCENE.gif]."),
+        click.option("--fps", type=FiniteFloatRange(min=1, max=240), default=None,
+                     help="Frames per second of a .gif or .mp4 [default: 24]."),
+        click.option("--resume", is_flag=True, default=False,
+                     help="PNG sequences: keep the frames already written, render the rest."),
+        click.option("--tiles", type=click.IntRange(min=1, max=1 << 16), default=None,
+                     metavar="N", help="Render each image as N bands of rows, one task each "
+                                       "[default: 1; 4 per Dask worker for a still]."),
+        click.option("--workers", type=click.IntRange(min=1, max=1024), default=None,
+                     metavar="N", help="Run the tasks on a local Dask cluster of N processes "
+                                       "(the distributed extra)."),
+        click.option("--scheduler", default=None, envvar="DASK_SCHEDULER_ADDRESS",
+                     metavar="ADDRESS", help="Run the tasks on the Dask cluster at ADDRESS "
+                                             "[default: $DASK_SCHEDULER_ADDRESS]."),
+    ]
+    for option in reversed(options):
+        command = option(command)
+    return command
+
+
+def _is_frame_path(path):
+    """An output that holds frames: an animation file or a numbered PNG pattern."""
+    return path is not None and (path.lower().endswith((".gif", ".mp4")) or _is_numbered(path))
+
+
+def _is_numbered(path):
+    """A name with a frame-number field, %d or %04d (frames/writers.py)."""
+    from raytrace.frames.writers import FIELD
+    return path is not None and FIELD.search(path.rsplit("/", 1)[-1]) is not None
+
+
+def _check_work(animated, still_extras, turntable, fps, resume, tiles, workers, scheduler):
+    """UsageError for the frame and work options that contradict each other."""
+    if workers is not None and scheduler is not None:
+        raise click.UsageError("--workers starts a local cluster; --scheduler (or "
+                               "DASK_SCHEDULER_ADDRESS) names a running one: give one")
+    if not animated:
+        for flag, value in (("--fps", fps), ("--resume", resume or None)):
+            if value is not None:
+                raise click.UsageError(f"{flag} applies to frame sequences (--turntable, or -o "
+                                       f"with .gif, .mp4 or a pattern like frames/f_%04d.png)")
+    for flag in still_extras:
+        if animated:
+            raise click.UsageError(f"{flag} applies to still images")
+        if tiles is not None or workers is not None or scheduler is not None:
+            raise click.UsageError(f"{flag} needs the whole image in this process: "
+                                   f"drop --tiles, --workers and --scheduler")
+
+
+def _runner(workers, scheduler):
+    """Where the tasks run: a Dask cluster, or None (here)."""
+    if workers is None and scheduler is None:
+        return contextlib.nullcontext(None)
+    from raytrace.frames.distributed import connect
+    return connect(workers=workers, scheduler=scheduler)
+
+
+def _scene_kind(scene, detail, view, up, crease, flat):
+    """The scene's kind (load.scene_kind); UsageError for a scene option
+    that does not apply to it."""
+    from raytrace.scene.load import scene_kind, unknown_scene_message
+    kind = scene_kind(scene)
+    if kind is None:
+        raise click.UsageError(unknown_scene_message(scene))
+    if detail is not None and not (kind == "builtin" and scene == "teapot"):
+        raise click.UsageError("--detail applies to the teapot scene only")
+    for name, value in (("--view", view), ("--up", up), ("--crease", crease), ("--flat", flat)):
+        if value is not None and kind != "mesh":
+            raise click.UsageError(f"{name} applies to mesh files only")
+    if crease is not None and flat:
+        raise click.UsageError("--crease and --flat contradict each other")
+    return kind
+
+
+def _check_image_path(flag, path):
+    from pathlib import Path
+
+    from raytrace.renderer.output import IMAGE_FORMATS
+    if path == "":
+        raise click.UsageError(f"{flag}: empty file name")
+    if path is not None and Path(path).suffix.lower() not in IMAGE_FORMATS:
+        raise click.UsageError(f"{flag}: {path}: unknown image format (use one of "
+                               f"{', '.join(IMAGE_FORMATS)})")
+
+
+@main.command("render")
+@click.argument("scene")
+@click.option("--bvol/--no-bvol", default=None,
+              help="Per-object bounding boxes on/off: shorthand for --accel bvol / --accel none.")
+@_render_options
+@_scene_options
+@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
+              help="Image to write [default: SCENE.png]; frames: .gif, .mp4 or a pattern like "
+                   "frames/spin_%04d.png.")
+@click.option("--aov", type=AovType(), default=None,
+              help="Also save these buffers (depth,normal,primid,cost) to OUTPUT's name with .aov.npz.")
+@click.option("--heatmap", type=click.Path(dir_okay=False), default=None,
+              help="Also write a false-colour PNG of per-pixel cost (box + primitive tests).")
+@click.option("--show-structure", "show_depth", type=click.IntRange(min=0, max=64), default=None,
+              metavar="DEPTH", help="Draw the structure's boxes (BVH nodes, kd-tree cells, grid "
+                                    "cells, object boxes) down to DEPTH over the image.")
+@_work_options
+@click.option("--json", "as_json", is_flag=True, help="Print the statistics as JSON on stdout.")
+@click.option("-q", "--quiet", is_flag=True, help="No table, no progress bar.")
+def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, heatmap, show_depth,
+               turntable, fps, resume, tiles, workers, scheduler, as_json, quiet, **options):
+    """Render SCENE to PNG (or frames: --turntable, -o .gif) and print the statistics table.
+
+    SCENE is a built-in scene name (see `raytrace scenes`), a TOML scene
+    file, or a mesh file (.obj, .ply, .stl, .off, .glb), which is shown
+    from an automatic camera on a ground plane.
+    """
+    from pathlib import Path
+
+    if bvol is not None:
+        implied = "bvol" if bvol else "none"
+        if options["accel"] is not None and options["accel"] != implied:
+            raise click.UsageError(f"--{'bvol' if bvol else 'no-bvol'} contradicts "
+                                   f"--accel {options['accel']}")
+        options["accel"] = implied
+    # Options not given keep RenderOptions' defaults; the image size goes to
+    # the scene, whose camera a mesh file's framing fits to it.
+    width, height = options.pop("width"), options.pop("height")
+    options = {k: v for k, v in options.items() if v is not None}
+    kind = _scene_kind(scene, detail, view, up, crease, flat)
+    animated = turntable is not None or _is_frame_path(output)
+    still_extras = [flag for flag, value in (("--aov", aov), ("--heatmap", heatmap),
+                                             ("--show-structure", show_depth)) if value is not None]
+    _check_work(animated, still_extras, turntable, fps, resume, tiles, workers, scheduler)
+    if animated:
+        return _render_animation(scene, kind, output, turntable, fps, resume, tiles, workers,
+                                 scheduler, as_json, quiet, options, width, height,
+                                 dict(detail=detail, fov=fov, crease=crease, flat=flat,
+                                      **_view_options(view, up)))
+    for flag, path in (("-o/--output", output), ("--heatmap", heatmap)):
+        _check_image_path(flag, path)
+    named = output is not None
+    output = output or f"{scene if kind == 'builtin' else Path(scene).stem}.png"
+    aov_out = None
+    if aov:
+        from raytrace.renderer.aov import aov_path
+        aov_out = aov_path(output)
+    outputs = [Path(p).resolve() for p in (output, aov_out, heatmap) if p is not None]
+    if len(set(outputs)) != len(outputs):
+        raise click.UsageError("--heatmap must differ from the output image and its .aov.npz")
+    outputs = None
+    try:
+        with _one_line_errors():
+            from raytrace.renderer.driver import RenderOptions, render
+            from raytrace.renderer.output import check_writable
+            from raytrace.scene.load import load_kernels, load_scene
+
+            if show_depth is not None:
+                from raytrace.accel.registry import DEFAULT, get
+                get(options.get("accel", DEFAULT)).check_outline()
+            _load_threads(options)
+            t_kernels = load_kernels(scene, detail)     # compile time, not loading's
+            t_load = time.perf_counter()
+            with _warnings_once():
+                sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
+                                crease=crease, flat=flat, **_view_options(view, up))
+            t_load = time.perf_counter() - t_load
+            raise_if_interrupted()
+            if not named and kind == "toml":      # a scene file's name names its image
+                output = f"{sc.name}.png"
+                if aov:
+                    from raytrace.renderer.aov import aov_path
+                    aov_out = aov_path(output)
+            for path in (output, aov_out, heatmap):
+                if path is not None:
+                    check_writable(path)
+            progress = _Progress(enabled=not quiet)
+            opts = RenderOptions(aov=bool(aov or heatmap), progress=progress, **options)
+            try:
+                if tiles is None and workers is None and scheduler is None:
+                    result = render(sc, opts, drop_meshes=True)
+                else:
+                    from raytrace.frames.batch import render_tiled
+                    with _runner(workers, scheduler) as runner:
+                        n = tiles or (4 * runner.workers if runner is not None else 1)
+                        result = render_tiled(sc, opts, runner, n)
+            finally:
+                progress.close()
+            result.stats["time"]["load_s"] = t_load
+            result.stats["time"]["compile_s"] += t_kernels
+            if show_depth is not None:
+                result.image = _show_structure(result, sc, opts.accel, show_depth)
+            raise_if_interrupted()
+            from raytrace.renderer.output import Outputs
+            with Outputs() as outputs:
+                notes = _write_outputs(result, output, aov, aov_out, heatmap, outputs)
+    except KeyboardInterrupt:
+        done = "outputs written" if outputs is not None and outputs.committed else "no image written"
+        click.echo(f"interrupted: {done}", err=True)
+        sys.exit(130)
+    from raytrace.renderer.stats import (  # here: it loads Numba, which a bad file never needs
+        format_table,
+        to_json,
+    )
+    if as_json:
+        click.echo(to_json(result.stats))
+    elif not quiet:
+        click.echo(format_table(result.stats))
+        click.echo(f"wrote {output}")
+        for note in notes:
+            click.echo(note)
+
+
+def _render_animation(scene, kind, output, turntable, fps, resume, tiles, workers, scheduler,
+                      as_json, quiet, options, width, height, scene_opts):
+    """`raytrace SCENE --turntable N` or -o with frames: a turntable or the
+    scene file's [animation], written frame by frame (frames/writers.py)."""
+    from pathlib import Path
+
+    from raytrace.errors import RaytraceError
+    from raytrace.frames.writers import check_frame_output
+    stem = scene if kind == "builtin" else Path(scene).stem
+    if output is not None:
+        try:
+            check_frame_output(output, resume=resume)
+        except RaytraceError as exc:
+            raise click.UsageError(f"-o/--output: {exc}") from None
+    try:
+        with _one_line_errors():
+            from raytrace.frames.batch import animate
+            from raytrace.renderer.driver import RenderOptions
+            from raytrace.scene.animation import camera_path
+            from raytrace.scene.load import load_scene
+
+            with _warnings_once():
+                sc = load_scene(scene, width=width, height=height, **scene_opts)
+            raise_if_interrupted()
+            if output is None:
+                output = f"{sc.name if kind == 'toml' else stem}.gif"
+                check_frame_output(output, resume=resume)
+            cameras = camera_path(sc, turntable)
+            progress = _Progress(enabled=not quiet, label="frames")
+            opts = RenderOptions(**options)
+            try:
+                with _runner(workers, scheduler) as runner:
+                    _, stats = animate(sc, cameras, opts, output=output, fps=fps or 24,
+                                       resume=resume, runner=runner, tiles=tiles or 1,
+                                       progress=progress)
+            finally:
+                progress.close()
+            stats["output"] = str(output)
+    except KeyboardInterrupt:
+        click.echo("interrupted: no animation written" if not _is_numbered(output)
+                   else "interrupted: the frames written are complete", err=True)
+        sys.exit(130)
+    from raytrace.renderer.stats import format_table, to_json
+    if as_json:
+        click.echo(to_json(stats))
+    elif not quiet:
+        click.echo(format_table(stats))
+        skipped = stats.get("frames_skipped", 0)
+        click.echo(f"wrote {stats['frames'] - skipped} frames to {output}"
+                   + (f" ({skipped} already there)" if skipped else ""))
+
+
+QUICK_SIZE = (320, 240)
+
+
+@main.command("compare")
+@click.argument("scene")
+@click.option("--accel", "accel_list", default=None, metavar="LIST",
+              help="Structures to compare, comma-separated; bvh:median and bvh:lbvh are the BVH "
+                   "with another builder [default: every structure].")
+@lambda command: _render_options(command, skip=("accel",))
+@_scene_options
+@click.option("--repeat", type=click.IntRange(min=1, max=100), default=None, metavar="N",
+              help="Render each structure N times, in turn, and keep the fastest [default: 3].")
+@click.option("--quick", is_flag=True,
+              help=f"{QUICK_SIZE[0]}x{QUICK_SIZE[1]} and one render each (unless --width, "
+                   "--height or --repeat say otherwise).")
+@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
+              help="The comparison figure [default: SCENE.compare.png].")
+@click.option("--json", "as_json", is_flag=True, help="Print the comparison as JSON on stdout.")
+@click.option("-q", "--quiet", is_flag=True, help="No table.")
+@click.pass_context
+def compare_cmd(ctx, scene, accel_list, detail, view, up, crease, flat, fov, repeat, quick, output,
+                as_json, quiet, **options):
+    """Render SCENE with every structure and compare them.
+
+    Prints the workshop's table (build and render time, speedup, rays,
+    tests and nodes or cells per ray, memory), checks that every structure
+    made the same image (exit 1 if not), and writes a figure: the image,
+    each structure's cost heatmap on one colour scale, and render times.
+    """
+    from pathlib import Path
+
+    kind = _scene_kind(scene, detail, view, up, crease, flat)
+    _check_image_path("-o/--output", output)
+    width, height = options.pop("width"), options.pop("height")
+    if quick and width is None and height is None:
+        width, height = QUICK_SIZE
+    repeat = repeat or (1 if quick else 3)
+    options = {k: v for k, v in options.items() if v is not None}
+    try:
+        with _one_line_errors():
+            from raytrace.cli.compare import compare, default_entries, format_table, parse_entries, to_dict
+            from raytrace.cli.figure import figure
+            from raytrace.renderer.driver import RenderOptions
+            from raytrace.renderer.output import Outputs, check_writable, image_writer
+            from raytrace.renderer.stats import to_json
+            from raytrace.scene.load import load_scene
+
+            entries = parse_entries(accel_list) if accel_list is not None else default_entries()
+            _load_threads(options)
+            with _warnings_once():
+                sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
+                                crease=crease, flat=flat, **_view_options(view, up))
+            raise_if_interrupted()
+            stem = sc.name if kind == "toml" else scene if kind == "builtin" else Path(scene).stem
+            output = output or f"{stem}.compare.png"
+            check_writable(output)
+            show = not (quiet or as_json) and _is_tty(sys.stderr)
+            result = compare(sc, entries, RenderOptions(**options), repeat=repeat,
+                             progress=(lambda label: click.echo(f"rendering: {label}", err=True))
+                             if show else None)
+            s = result.entries[0].stats
+            setting = (f"{s['width']}x{s['height']}, {s['spp']} spp, {s['shadows']} shadows, "
+                       f"{s['triangles']:,} triangles, {s['threads']} threads, best of {repeat}")
+            raise_if_interrupted()
+            with Outputs() as outputs:
+                outputs.add(output, image_writer(figure(result, setting)[0], output))
+    except KeyboardInterrupt:
+        click.echo("interrupted: no comparison written", err=True)
+        sys.exit(130)
+    if as_json:
+        click.echo(to_json({**to_dict(result), "output": str(output)}))
+    elif not quiet:
+        click.echo(f"{sc.name}: {setting}")
+        click.echo(format_table(result))
+        click.echo(f"wrote {output}")
+    if not result.identical:
+        click.echo(f"Error: {result.differences[0][0]} made a different image", err=True)
+        ctx.exit(1)
+
+
+def entry():
+    """The `raytrace` command: click's group, with Ctrl-C reported as an
+    interruption (exit 130) wherever it lands, and a bad argument as one
+    line (exit 2), without click's usage lines."""
+    try:
+        rv = main(standalone_mode=False)
+    except (KeyboardInterrupt, click.exceptions.Abort):
+        click.echo("interrupted: no image written", err=True)
+        sys.exit(130)
+    except click.exceptions.NoArgsIsHelpError as exc:   # a bare `raytrace`: the help
+        click.echo(exc.ctx.get_help())
+        sys.exit(0)
+    except click.exceptions.UsageError as exc:
+        click.echo(f"Error: {exc.format_message()}", err=True)
+        sys.exit(2)
+    except click.ClickException as exc:
+        exc.show()
+        sys.exit(exc.exit_code)
+    sys.exit(rv if isinstance(rv, int) else 0)
+
+
+if __name__ == "__main__":
+    entry()

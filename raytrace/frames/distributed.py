@@ -1,0 +1,244 @@
+"""Frames and tiles as Dask tasks (the `distributed` extra).
+
+The scene's arrays go to every worker once (scatter, broadcast); a task
+gets only its camera (12 floats) and its rows, and sends back 8-bit
+rows.  Dask reruns the tasks of a worker that dies, and where the death
+took the scattered scene too, the runner sends it again and reruns them;
+a task's answer depends only on its arguments, so a rerun changes
+nothing in the image.
+"""
+import contextlib
+import os
+import sys
+import time
+from concurrent.futures import CancelledError
+
+import numpy as np
+
+from raytrace.errors import RaytraceError
+
+EXTRA = "pip install 'raytrace[distributed]'"
+WAIT_FOR_WORKERS_S = 30      # a scheduler with no workers would wait for ever
+CONNECT_S = 10               # Dask retries a refused connection until then
+TASKS_PER_WORKER = 4         # in flight at once: enough to hide the round trips
+RESCATTERS = 2               # times a task may find its scattered scene lost and rerun
+
+
+def _dask(why):
+    try:
+        import distributed
+    except ImportError:
+        raise RaytraceError(f"{why} needs the distributed extra: {EXTRA}") from None
+    return distributed
+
+
+_QUIET_TRACKER = "ignore:resource_tracker:UserWarning"
+
+
+@contextlib.contextmanager
+def connect(workers=None, scheduler=None):
+    """A DaskRunner on a local cluster of ``workers`` processes (started
+    here, closed on the way out, Ctrl-C included) or on the running
+    scheduler at ``scheduler``."""
+    if workers is not None:
+        distributed = _dask("--workers")
+        import logging
+        # One Dask thread a worker; the kernel's own threads share the cores.
+        threads = max(1, (os.cpu_count() or 1) // workers)
+        import warnings
+        # After Ctrl-C, multiprocessing's resource tracker (a process that
+        # takes this one's -W options when the cluster starts it) cleans up
+        # the workers' semaphores and warns that it had to: a second line
+        # under "interrupted: no animation written", now and then.
+        if _QUIET_TRACKER not in sys.warnoptions:
+            sys.warnoptions.append(_QUIET_TRACKER)
+        with warnings.catch_warnings():
+            # Its scheduler's HTTP server moves off a busy port 8787 (another
+            # Dask's) and says so; nothing for a renderer's user to do.
+            warnings.filterwarnings("ignore", message="Port .* is already in use")
+            # The workers import Numba and the render kernel's modules as they
+            # start, while this process loads and builds the scene, instead of
+            # when the scene first reaches them (0.36 s inside the frames).
+            cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1,
+                                               processes=True, dashboard_address=None,
+                                               silence_logs=logging.ERROR,
+                                               preload=["raytrace.kernels.render"])
+        with cluster, distributed.Client(cluster) as client:
+            yield DaskRunner(client, threads)
+    else:
+        distributed = _dask("--scheduler")
+        try:
+            client = distributed.Client(scheduler, timeout=CONNECT_S)
+        except (OSError, TimeoutError) as exc:
+            raise RaytraceError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+        with client:
+            yield DaskRunner(client, None)
+
+
+class DaskRunner:
+    """Runs tasks on a Dask client's workers; results come back in task order."""
+
+    def __init__(self, client, threads):
+        self.client = client
+        self.threads = threads       # None: each worker's Numba default (its cores)
+        self.scatter_s = 0.0
+
+    @property
+    def workers(self):
+        return max(1, len(self.client.scheduler_info()["workers"]))
+
+    def run(self, payload, tasks):
+        try:
+            self.client.wait_for_workers(1, timeout=WAIT_FOR_WORKERS_S)
+        except TimeoutError:
+            raise RaytraceError(f"no Dask workers joined the scheduler in "
+                                f"{WAIT_FOR_WORKERS_S} s") from None
+        t0 = time.perf_counter()
+        self._scatter(payload)
+        # Sending the scene; the first time, also each worker's import of
+        # raytrace and Numba to unpickle it (0.36 s here): start-up, apart.
+        self.scatter_s = time.perf_counter() - t0
+        tasks = list(tasks)
+        workers = self.workers
+        window = TASKS_PER_WORKER * workers
+        group = _group_size(tasks, payload, workers)
+        futures = []      # (future, its tiles, the scatter it was given)
+        try:
+            for k in range(0, len(tasks), group):
+                futures.append(self._submit(tasks[k:k + group]))
+                if len(futures) >= window:
+                    yield from self._result(payload, *futures.pop(0))
+            while futures:
+                yield from self._result(payload, *futures.pop(0))
+        finally:
+            for f, _, _ in futures:
+                f.cancel()
+
+    def _scatter(self, payload):
+        try:
+            self._shared = self.client.scatter(payload, broadcast=True, hash=False)
+        except Exception as exc:           # the workers could not take the scene's buffers
+            raise _failure(exc) from None
+
+    def _submit(self, tiles):
+        shared = self._shared
+        return (self.client.submit(_render_tiles, shared, self.threads, tiles, pure=False),
+                tiles, shared)
+
+    def _result(self, payload, future, tiles, shared):
+        for attempt in range(RESCATTERS + 1):
+            try:
+                return future.result()
+            except RaytraceError:
+                raise
+            except CancelledError as exc:
+                # A worker's death can take the scattered scene with it and
+                # cancel the tasks that need it, even broadcast to every
+                # worker (dask/distributed#3149): send it again, once for all
+                # the tasks that had the lost copy, and run these tiles again.
+                if attempt == RESCATTERS:
+                    raise _failure(exc) from None
+                if self._shared is shared:
+                    self._scatter(payload)
+                future, tiles, shared = self._submit(tiles)
+            except Exception as exc:
+                raise _failure(exc) from None
+
+
+# A Dask task costs ~7 ms of scheduling and transfer here: several small
+# tiles go in one task, up to this many pixel samples, while each worker
+# still gets TASKS_PER_WORKER tasks.
+TASK_SAMPLES = 1 << 20
+
+
+def _group_size(tasks, payload, workers):
+    """How many consecutive tiles make one Dask task."""
+    width, spp = payload[7], payload[9]
+    if not tasks or not isinstance(width, int) or not isinstance(spp, int):
+        return 1
+    samples = max(1, max((y1 - y0) * width * spp for _, _, y0, y1 in tasks))
+    by_size = max(1, TASK_SAMPLES // samples)
+    by_balance = max(1, len(tasks) // (TASKS_PER_WORKER * workers))
+    return min(by_size, by_balance)
+
+
+def _render_tiles(payload, threads, tasks):
+    """One Dask task: its tiles in order (batch.render_tile each)."""
+    from raytrace.frames.batch import render_tile
+    return [render_tile(payload, threads, cam, frame, y0, y1) for cam, frame, y0, y1 in tasks]
+
+
+def _failure(exc):
+    """A worker's failure, said in one line."""
+    from distributed.scheduler import KilledWorker
+    if isinstance(exc, KilledWorker):
+        return RaytraceError("Dask workers died running a tile, more often than Dask retries a task")
+    text = str(exc).splitlines()[0] if str(exc) else ""
+    missing = isinstance(exc, ImportError) or "No module named" in text
+    return RaytraceError(f"a Dask worker failed: {type(exc).__name__}: {text}"
+                         + (" (is raytrace installed on the workers?)" if missing else ""))
+
+
+# One record a ray for the hits of a block: every field of RayHits in one
+# map_blocks call, so the rays of a block are cast once, not once a field.
+HIT_RECORD = np.dtype([("t", "f8"), ("geometry_id", "i8"), ("prim_id", "i8"), ("u", "f8"),
+                       ("v", "f8"), ("normal", "f8", (3,)), ("point", "f8", (3,))])
+
+
+def _hits_block(origins, directions, scene, t_min, t_max):
+    from raytrace.kernels.jitconfig import KERNEL_LOCK
+    out = np.empty(len(origins), dtype=HIT_RECORD)
+    if len(origins):
+        with KERNEL_LOCK:           # Dask's threads would launch kernels at once
+            hits = scene.cast_rays(origins, directions, t_min, t_max)
+            for name in HIT_RECORD.names:
+                out[name] = hits[name]
+    return out
+
+
+def _occluded_block(origins, directions, scene, t_min, t_max):
+    from raytrace.kernels.jitconfig import KERNEL_LOCK
+    if not len(origins):
+        return np.zeros(0, bool)
+    with KERNEL_LOCK:
+        return scene.occluded(origins, directions, t_min, t_max)
+
+
+def _ray_blocks(scene, origins, directions, why):
+    """The rays as (n, 3) Dask arrays chunked by rows only (each block whole
+    rays), and the scene, built here and shared by every block's task."""
+    try:
+        import dask
+        import dask.array as da
+    except ImportError:
+        raise RaytraceError(f"{why} needs the distributed extra: {EXTRA}") from None
+    from raytrace.cast.rayscene import RayScene
+    if not isinstance(scene, RayScene):
+        raise RaytraceError(f"scene: expected a RayScene, got {type(scene).__name__}")
+    o, d = da.asarray(origins), da.asarray(directions)
+    if o.ndim != 2 or o.shape[1] != 3 or d.shape != o.shape:
+        raise RaytraceError(f"origins and directions must both be (n, 3) arrays, "
+                            f"got {o.shape} and {d.shape}")
+    d = d.rechunk({0: o.chunks[0], 1: 3})
+    o = o.rechunk({1: 3})
+    scene._built()                  # once, here: each worker gets the structure, not the job
+    return da, o, d, dask.delayed(scene, pure=True)
+
+
+def cast_rays(scene, origins, directions, t_min=0.0, t_max=float("inf")):
+    """Closest hits of a Dask array of rays against a RayScene, block by
+    block (map_blocks): a dict of lazy Dask arrays, the fields of RayHits
+    (t, geometry_id, prim_id, u, v, normal, point).  Compute them on any
+    Dask scheduler; billions of rays never need to fit in one memory."""
+    da, o, d, shared = _ray_blocks(scene, origins, directions, "cast_rays on Dask arrays")
+    records = da.map_blocks(_hits_block, o, d, shared, t_min, t_max, drop_axis=1,
+                            dtype=HIT_RECORD, meta=np.empty(0, HIT_RECORD))
+    return {name: records[name] for name in HIT_RECORD.names}
+
+
+def occluded(scene, origins, directions, t_min=0.0, t_max=float("inf")):
+    """RayScene.occluded for a Dask array of rays: a lazy (n,) boolean
+    Dask array, block by block."""
+    da, o, d, shared = _ray_blocks(scene, origins, directions, "occluded on Dask arrays")
+    return da.map_blocks(_occluded_block, o, d, shared, t_min, t_max, drop_axis=1, dtype=bool,
+                         meta=np.empty(0, bool))

@@ -1,0 +1,13 @@
+"""Limits the kernels are built for, read by the layers above them
+(file readers, options).  No imports: reading a limit loads no Numba."""
+
+# Largest coordinate accepted.  The watertight triangle test multiplies
+# three coordinate differences (each up to twice the largest coordinate)
+# and the sphere test squares lengths; 1e100 keeps (2e100)^3 far below
+# float64's 1.8e308.  Beyond it products overflow to inf and NaN: a file
+# of 1e300s framed a camera at infinity and failed without naming the file.
+MAX_COORD = 1e100
+
+# Most mirror and glass bounces a ray is followed for (--max-depth): the
+# render kernel keeps a stack of pending rays this deep.
+MAX_BOUNCES = 16

@@ -1,0 +1,418 @@
+"""Render driver: options -> buffers -> structure -> kernel bands -> result.
+
+Python owns validation and dtype casting; the kernels see only arrays.
+"""
+import math
+import sys
+import time
+from dataclasses import dataclass, field, make_dataclass
+
+import numpy as np
+
+from raytrace.errors import OptionError, RaytraceError
+from raytrace.kernels.buffers import Lights, f64, i64, n_bounded
+from raytrace.options import BY_NAME, OPTIONS
+from raytrace.scene.formats.mesh import available_memory
+
+# Bytes a pixel costs while rendering: float32 RGB + uint8 RGB, and with AOVs
+# depth f32, normal 3xf32, prim id i64, cost i64.
+BYTES_PER_PIXEL = 12 + 3
+BYTES_PER_PIXEL_AOV = 4 + 12 + 8 + 8
+# Values converted to sRGB at a time (to_srgb8): a few MB of temporaries.
+SRGB_BAND_VALUES = 1 << 18
+
+
+# The render's options: every field of options.OPTIONS with its default,
+# plus the AOV switch and a progress callback.
+RenderOptions = make_dataclass(
+    "RenderOptions",
+    [(o.name, object, field(default=o.default)) for o in OPTIONS]
+    + [("aov", bool, field(default=False)),
+       ("progress", object, field(default=None))])    # callable(rows_done, rows_total)
+RenderOptions.__doc__ = "Options of render(); see raytrace/options.py for each."
+
+
+@dataclass
+class RenderResult:
+    image: np.ndarray            # (h, w, 3) uint8 sRGB
+    linear: np.ndarray           # (h, w, 3) float32 linear radiance
+    stats: dict
+    aovs: dict = field(default_factory=dict)
+    structure: object = None     # the acceleration structure's layout, as built
+
+
+def _check_int(name, value, lo, hi):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise RaytraceError(f"{name} must be an integer, got {value!r}")
+    if not lo <= value <= hi:
+        raise RaytraceError(f"{name} must be between {lo} and {hi}, got {value}")
+
+
+def validate(opts, scene):
+    """Raise RaytraceError for any option the render cannot honour."""
+    from raytrace.scene.model import Camera
+    if not isinstance(scene.camera, Camera):
+        raise RaytraceError(f"scene {scene.name!r} has no camera (got {scene.camera!r})")
+    if opts.progress is not None and not callable(opts.progress):
+        raise OptionError(f"progress must be a function (rows done, rows in all) or None, "
+                          f"got {opts.progress!r}")
+    for opt in OPTIONS:
+        opt.check(getattr(opts, opt.name))
+    w = scene.camera.width if opts.width is None else opts.width
+    h = scene.camera.height if opts.height is None else opts.height
+    BY_NAME["width"].check(w)
+    BY_NAME["height"].check(h)
+    if opts.pattern in ("grid", "stratified") and opts.shadows == "soft":
+        side = math.isqrt(opts.light_samples)
+        if side * side != opts.light_samples:
+            raise OptionError(f"the {opts.pattern} pattern needs a square number of light samples "
+                              f"(got {opts.light_samples}; try {side * side} or {(side + 1) ** 2})")
+    if opts.shadows == "soft":
+        for k, light in enumerate(scene.lights):
+            if light.samples:  # a light's own count overrides light_samples
+                where = f"{light.where}.samples" if light.where else f"light {k} samples"
+                _check_int(where, light.samples, 1, BY_NAME["light_samples"].hi)
+                side = math.isqrt(light.samples)
+                if opts.pattern in ("grid", "stratified") and side * side != light.samples:
+                    raise RaytraceError(f"{where}: the {opts.pattern} pattern needs a square "
+                                        f"number of light samples, got {light.samples}")
+    if not isinstance(opts.aov, (bool, np.bool_)):
+        raise RaytraceError(f"aov must be True or False, got {opts.aov!r}")
+    # Each row also has an int64 counter row: little, but a 1-pixel-wide
+    # image of a million rows needs 80 MB of them.
+    from raytrace.kernels.counters import N_COUNTERS
+    need = (w * h * (BYTES_PER_PIXEL + (BYTES_PER_PIXEL_AOV if opts.aov else 0))
+            + h * 8 * N_COUNTERS)
+    if need > available_memory():
+        raise RaytraceError(f"a {w}x{h} image needs {need / 2**30:.1f} GiB of memory, "
+                            f"more than the {available_memory() / 2**30:.1f} GiB available")
+    return w, h
+
+
+def camera_buffer(cam, width, height):
+    """eye, forward, right and up, the last two scaled to the image plane."""
+    eye = np.asarray(cam.eye, dtype=float)
+    fwd = np.asarray(cam.look_at, dtype=float) - eye
+    up = np.asarray(cam.up, dtype=float)
+    if not np.all(np.isfinite(np.concatenate([eye, fwd, up]))):
+        raise RaytraceError("camera position, look-at and up must be finite")
+    if not np.linalg.norm(fwd) > 0:
+        raise RaytraceError("camera look-at must differ from its position")
+    if not 0 < cam.fov < 180:
+        raise RaytraceError(f"camera field of view must be between 0 and 180 degrees, got {cam.fov}")
+    fwd /= np.linalg.norm(fwd)
+    right = np.cross(fwd, up)
+    if not np.linalg.norm(right) > 1e-12:
+        raise RaytraceError("camera up vector is parallel to the view direction")
+    right /= np.linalg.norm(right)
+    true_up = np.cross(right, fwd)
+    half_h = math.tan(math.radians(cam.fov) / 2)
+    half_w = half_h * width / height
+    return f64(np.concatenate([eye, fwd, right * half_w, true_up * half_h]))
+
+
+def light_size(light):
+    """(first, second) edge lengths: ``size`` is one number for a square
+    light or a (first, second) pair for a rectangle."""
+    size = light.size
+    if np.ndim(size) == 0:
+        return float(size), float(size)
+    first, second = size
+    return float(first), float(second)
+
+
+def light_buffers(scene, shadows, light_samples):
+    """Area lights are sampled only with soft shadows; otherwise every light
+    is a point at its centre, one shadow ray (hard) or none."""
+    pos, col, us, vs, ns = [], [], [], [], []
+    for L in scene.lights:
+        p = np.asarray(L.position, dtype=float)
+        if not np.all(np.isfinite(p)):
+            raise RaytraceError("light position must be finite")
+        pos.append(p)
+        col.append(np.asarray(L.color, dtype=float) * L.intensity)
+        size_u, size_v = light_size(L)
+        if shadows == "soft" and size_u > 0 and size_v > 0:
+            n = np.asarray(L.direction, dtype=float)
+            n /= np.linalg.norm(n)
+            a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
+            u = np.cross(n, a)
+            u /= np.linalg.norm(u)
+            v = np.cross(n, u)
+            us.append(u * size_u)
+            vs.append(v * size_v)
+            ns.append(L.samples or light_samples)
+        else:
+            us.append(np.zeros(3))
+            vs.append(np.zeros(3))
+            ns.append(1)
+    samples = i64(ns)
+    return Lights(pos=f64(pos, 3), color=f64(col, 3), u=f64(us, 3), v=f64(vs, 3),
+                  samples=samples, side=i64([math.isqrt(int(n)) for n in samples]))
+
+
+def shadow_record(shadows, pattern):
+    """The kernel's shadow-mode record: soft shadows are a type of their
+    own (their sampling compiles only when used); none and hard share one."""
+    from raytrace.kernels.render import PointShadows, SoftShadows
+    from raytrace.kernels.sampling import PATTERN_NAMES
+    if shadows in ("none", "hard"):
+        return PointShadows(cast=shadows == "hard")
+    return SoftShadows(pattern=int(PATTERN_NAMES[pattern]))
+
+
+def texture_record(texture_filter, width, height, spp, geo):
+    """The kernel's texture record: MeshTextures where a mesh has vertex
+    colours or an image texture (their lookups compile only then).  A
+    box-filtered texture is averaged over one camera sample's share of the
+    pixel, 1/sqrt(spp) of its width and height (the screen spans 2 units in
+    each direction), as pbrt scales its ray differentials."""
+    from raytrace.kernels.render import MeshTextures, Textures
+    share = 1.0 / math.sqrt(spp)
+    kind = MeshTextures if len(geo.tri_color) or len(geo.tri_uv) else Textures
+    return kind(filtered=texture_filter != "none", step_x=2.0 / width * share,
+                step_y=2.0 / height * share)
+
+
+def bounce_record(scene, max_depth):
+    """The kernel's mirror-and-glass record: Bounces only when a material
+    reflects or transmits, so other scenes compile and cast no such rays."""
+    from raytrace.kernels.render import Bounces, NoBounces
+    from raytrace.scene.model import Mesh, Plane, Sphere
+    if any(o.material.bounces() for o in scene.objects if isinstance(o, (Mesh, Sphere, Plane))):
+        return Bounces(max_depth=int(max_depth))
+    return NoBounces()
+
+
+def aov_buffers(width, height, enabled):
+    """Per-pixel AOV buffers (raytrace/renderer/aov.py), or empty ones (no rows)
+    when they are not wanted: the same kernel skips their stores."""
+    from raytrace.kernels.render import Aovs
+    if not enabled:
+        # Empty buffers of the same types: one kernel serves both, and the
+        # writes it skips cost nothing next to a pixel's rays.
+        return Aovs(depth=np.zeros((0, 0), np.float32), normal=np.zeros((0, 0, 3), np.float32),
+                    primid=np.zeros((0, 0), np.int64), cost=np.zeros((0, 0), np.int64))
+    return Aovs(depth=np.full((height, width), np.inf, np.float32),
+                normal=np.zeros((height, width, 3), np.float32),
+                primid=np.full((height, width), -1, np.int64),
+                cost=np.zeros((height, width), np.int64))
+
+
+def to_srgb8(linear):
+    """Clamp and encode with the sRGB curve (IEC 61966-2-1).
+
+    A band of rows at a time: on the whole image the float temporaries
+    measured 64 bytes a pixel at their peak, four times what the memory
+    check in validate() counts, so a big render that passed the check
+    could fail here, after all its work.
+    """
+    out = np.empty(linear.shape, np.uint8)
+    band = max(1, SRGB_BAND_VALUES // max(1, linear[0].size)) if len(linear) else 1
+    for y0 in range(0, len(linear), band):
+        c = np.clip(linear[y0:y0 + band], 0.0, 1.0)
+        s = np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
+        out[y0:y0 + band] = (s * 255.0 + 0.5).astype(np.uint8)
+    return out
+
+
+@dataclass
+class Setup:
+    """What every frame and tile of a render shares, made once: the
+    flattened scene, its structure, lights and the kernel's mode records.
+    Only the camera differs between frames, and only rows between tiles."""
+    opts: object
+    width: int
+    height: int
+    threads: int
+    geo: object
+    acc: object
+    lights: object
+    shadows: object
+    textures: object
+    bounces: object
+    background: np.ndarray
+    info: dict
+    times: dict                  # setup_s, build_s, and the builder's load in compile_s
+    peaks: dict                  # peak memory (MB) after each phase: load, flatten, build
+
+    def payload(self):
+        """The arrays and records a worker needs (frames/distributed.py): no
+        options object, no callables, so it pickles small and safe."""
+        return (self.geo, self.acc, self.lights, self.shadows, self.textures, self.bounces,
+                self.background, self.width, self.height, int(self.opts.spp), int(self.opts.seed))
+
+
+def options_with(opts, kw):
+    """``opts`` (or the defaults) with the keyword overrides ``kw``, each checked by name."""
+    opts = opts or RenderOptions()
+    for k, v in kw.items():
+        if not hasattr(opts, k):
+            raise OptionError(f"render() got an unknown option {k!r}")
+        setattr(opts, k, v)
+    return opts
+
+
+def peak_memory_mb():
+    """This process's peak resident memory so far, in MB (0 where unknown).
+    Linux: VmHWM, this program's own; getrusage's ru_maxrss also counts the
+    parent's memory at the fork (784 MB for a render started by a test
+    process that had grown so)."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 2**10                  # kB
+    except (OSError, ValueError):
+        pass
+    try:
+        import resource
+    except ImportError:          # Windows
+        return 0.0
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak / 2**20 if sys.platform == "darwin" else peak / 2**10   # bytes / KiB
+
+
+def prepare(scene, opts, drop_meshes=False):
+    """Validate, flatten and build: a Setup for any number of frames.
+    drop_meshes: the caller will not use the scene's meshes again (the
+    command's own scene, read from a file), so they leave the scene once
+    flattened, before the build, which is the peak: 192 MB less at 4.2M
+    triangles (their vertices and faces; the flattened scene holds what
+    the render needs)."""
+    width, height = (int(n) for n in validate(opts, scene))
+    peaks = {"load": peak_memory_mb()}
+    t_start = time.perf_counter()
+    import numba  # deferred: `raytrace scenes` and --help never pay for it
+
+    from raytrace.accel.registry import build_structure, get
+    from raytrace.scene.flatten import flatten, load_corners, tiny_geometry
+
+    threads = int(opts.threads or numba.config.NUMBA_NUM_THREADS)
+    numba.set_num_threads(threads)
+    t_corners = load_corners(scene)     # compile time, not flattening's
+    geo, obj_ranges, info = flatten(scene)
+    lights = light_buffers(scene, opts.shadows, opts.light_samples)
+    background = f64(scene.background)
+    shadows = shadow_record(opts.shadows, opts.pattern)
+    textures = texture_record(opts.texture_filter, width, height, int(opts.spp), geo)
+    bounces = bounce_record(scene, opts.max_depth)
+    t_import = time.perf_counter() - t_start - t_corners
+    peaks["flatten"] = peak_memory_mb()
+    if drop_meshes:
+        from raytrace.scene.model import Mesh
+        scene.objects = [o for o in scene.objects if not isinstance(o, Mesh)]
+
+    build_opts = dict(bvh_build=opts.bvh_build, leaf_size=opts.leaf_size,
+                      grid_density=opts.grid_density)
+    # Loading (or compiling) the builder is compile time, not build time.
+    t_load = t_corners + get(opts.accel).load(tiny_geometry(), n_bounded(geo), **build_opts)
+    acc, t_build = build_structure(opts.accel, geo, obj_ranges, **build_opts)
+    peaks["build"] = peak_memory_mb()
+    return Setup(opts=opts, width=width, height=height, threads=threads, geo=geo, acc=acc,
+                 lights=lights, shadows=shadows, textures=textures, bounces=bounces,
+                 background=background, info=info,
+                 times={"setup_s": t_import, "build_s": t_build, "compile_s": t_load},
+                 peaks=peaks)
+
+
+def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows=None, row0=None,
+                load=True):
+    """Rows y0 .. y1 of the frame seen from ``cam`` (camera_buffer), from a
+    Setup's payload: (linear float32 rows, counter rows, compile_s,
+    render_s).  Without buffers, the band gets its own (rows y0 .. y1 only:
+    a tile of a poster costs its own rows, not the poster's).  ``load``:
+    first compile or load the kernel, timed apart (compile_s; 0 without)."""
+    from raytrace.kernels.counters import N_COUNTERS
+    from raytrace.kernels.render import render_rows
+    geo, acc, lights, shadows, textures, bounces, background, width, height, spp, seed = payload
+    if image is None:
+        row0 = y0
+        image = np.empty((y1 - y0, width, 3), np.float32)
+        stats_rows = np.zeros((y1 - y0, N_COUNTERS), np.int64)
+    if aovs is None:
+        aovs = aov_buffers(width, height, False)
+    # Plain Python scalars only: a NumPy integer or a bool where an int is
+    # expected would compile the kernel again for that type.
+    args = (geo, acc, cam, lights, shadows, textures, bounces, aovs, background, int(width),
+            int(height))
+    tail = (int(threads), int(spp), int(seed), image, stats_rows)
+    clock = np.zeros(1, np.int64)    # the kernel's band tickets (kernels/render.py)
+    # An empty band compiles the kernel (or loads it from Numba's cache)
+    # without rendering anything, so that time is reported apart.
+    t_compile = 0.0
+    if load:
+        t0 = time.perf_counter()
+        render_rows(*args, 0, 0, int(row0), *tail, clock)
+        t_compile = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    clock[0] = 0
+    render_rows(*args, int(y0), int(y1), int(row0), *tail, clock)
+    return image, stats_rows, t_compile, time.perf_counter() - t0
+
+
+def render(scene, opts=None, *, drop_meshes=False, **kw):
+    """Render a Scene; returns a RenderResult (image, linear, stats, aovs).
+
+    Keyword arguments override fields of RenderOptions, e.g.
+    ``render(scene, accel="bvol", shadows="soft", width=320, height=240)``.
+    drop_meshes: as for prepare (the command's scene only).
+    """
+    from raytrace.kernels.counters import N_COUNTERS
+    from raytrace.renderer.stats import counters_from_rows, derive
+    opts = options_with(opts, kw)
+    setup = prepare(scene, opts, drop_meshes)
+    cam = camera_buffer(scene.camera, setup.width, setup.height)
+    width, height = setup.width, setup.height
+    image = np.zeros((height, width, 3), np.float32)
+    stats_rows = np.zeros((height, N_COUNTERS), np.int64)
+    aovs = aov_buffers(width, height, opts.aov)
+    payload = setup.payload()
+
+    # Bands of rows let a progress bar move.  A band is one kernel call
+    # whose threads take strips of TILE rows by ticket, and its last strip
+    # leaves the other threads idle: bands of height / 32 (15 rows, two
+    # strips) made two threads only 1.1-1.3x faster than one in `raytrace
+    # teapot`.  So a band holds at least 4 strips a thread.
+    band = height
+    if opts.progress:
+        from raytrace.kernels.render import TILE
+        band = max(4 * TILE * setup.threads, -(-height // (32 * TILE)) * TILE)
+    t_compile = t_render = 0.0
+    for y0 in range(0, height, band):
+        y1 = min(height, y0 + band)
+        _, _, tc, tr = render_band(payload, cam, y0, y1, setup.threads, aovs, image,
+                                   stats_rows, 0, load=y0 == 0)
+        t_compile += tc
+        t_render += tr
+        if opts.progress:
+            opts.progress(y1, height)
+    stats = base_stats(setup, scene.name)
+    stats["time"] = {"render_s": t_render, "build_s": setup.times["build_s"],
+                     "compile_s": t_compile + setup.times["compile_s"],
+                     "setup_s": setup.times["setup_s"]}
+    stats["counters"] = counters_from_rows(stats_rows)
+    stats["peak_memory_mb"] = {**setup.peaks, "render": peak_memory_mb()}
+    result_aovs = aovs._asdict() if opts.aov else {}
+    return RenderResult(image=to_srgb8(image), linear=image, stats=derive(stats), aovs=result_aovs,
+                        structure=setup.acc)
+
+
+def base_stats(setup, scene_name):
+    """The statistics that describe the render's setting (no times, no counters)."""
+    from raytrace.accel.registry import get
+    opts = setup.opts
+    return {
+        "scene": scene_name, "accel": opts.accel, "shadows": opts.shadows,
+        "light_samples": int(setup.lights.samples.max()) if len(setup.lights.samples) else 0,
+        "bvh_build": opts.bvh_build, "leaf_size": opts.leaf_size, "grid_density": opts.grid_density,
+        "pattern": opts.pattern, "texture_filter": opts.texture_filter,
+        "max_depth": getattr(setup.bounces, "max_depth", None), "width": setup.width,
+        "height": setup.height, "spp": opts.spp, "seed": opts.seed, "threads": setup.threads,
+        **setup.info,
+        "time": {},
+        "counters": {},
+        "structure": get(opts.accel).statistics(
+            setup.acc, setup.geo.tri_v0.shape[0] + setup.geo.sph_center.shape[0]),
+    }
+

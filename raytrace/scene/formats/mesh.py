@@ -1,0 +1,363 @@
+"""Mesh files (.obj, .ply, .stl, .off, .glb) to (vertices, faces) arrays.
+
+trimesh is imported here only, on first use, so built-in scenes, scene
+files without meshes and ``--help`` never pay for it.  trimesh raises many
+exception types on a damaged file (ValueError, IndexError, KeyError,
+struct.error, ...) or returns an empty mesh for garbage; every one of
+them becomes a RaytraceError naming the file.
+"""
+import os
+import re
+import stat
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from raytrace.errors import RaytraceError
+from raytrace.kernels.limits import MAX_COORD
+from raytrace.scene.formats.ply import read_simple_ply
+from raytrace.scene.model import Material
+
+MESH_EXTENSIONS = (".obj", ".ply", ".stl", ".off", ".glb")
+
+
+
+def bad_coordinate_rows(a):
+    """The first problem of an (n, 3) float64 array of coordinates:
+    ("nonfinite" or "too large", first such row, number of such rows), or
+    None.  Whole-array checks come first and rows are found only to name a
+    bad one: NumPy's reductions along an axis of length 3 are slow (on
+    307,200 rays the row-wise checks took 28 ms, three times the BVH query).
+    """
+    if not np.isfinite(a).all():
+        rows = ~np.isfinite(a).all(axis=1)
+        return "nonfinite", int(np.argmax(rows)), int(rows.sum())
+    if a.size and not np.abs(a).max() <= MAX_COORD:
+        rows = ~(np.abs(a) <= MAX_COORD).all(axis=1)
+        return "too large", int(np.argmax(rows)), int(rows.sum())
+    return None
+
+
+def is_mesh_path(name):
+    return Path(str(name)).suffix.lower() in MESH_EXTENSIONS
+
+
+# An OBJ face corner whose vertex index is 0: OBJ counts from 1 (negative
+# counts back from the last vertex), so 0 is out of range -- the usual sign
+# of an exporter writing 0-based indices.  trimesh does not reject it: it
+# quietly builds a different, smaller mesh.
+_OBJ_ZERO_INDEX = re.compile(rb"(?m)^[ \t]*f[ \t](?:[^\r\n]*[ \t])?[+-]?0+(?=[/ \t\r\n]|$)")
+
+
+def check_obj_indices(path, data):
+    """Raise for an OBJ face that uses vertex index 0."""
+    m = _OBJ_ZERO_INDEX.search(data)
+    if m:
+        line = data.count(b"\n", 0, m.start()) + 1
+        raise RaytraceError(f"{path}: line {line}: face uses vertex index 0, out of range "
+                            "(OBJ indices start at 1)")
+
+
+# Bytes of memory a byte of input file may take while it is read (a text
+# mesh parsed into arrays, a TOML file into Python objects): a file larger
+# than available memory / this is refused before it is read.
+MEMORY_PER_FILE_BYTE = 8
+
+
+def available_memory():
+    """Bytes of physical memory free now (8 GiB if the system will not say)."""
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return 8 << 30
+
+
+def check_readable(path):
+    """Raise the usual one-line errors for an input file that cannot be read:
+    missing, a directory, not a regular file (a FIFO would block forever, a
+    device never end), a name the system refuses, or too large to load."""
+    path = Path(path)
+    try:
+        st = path.stat()
+    except FileNotFoundError:
+        raise RaytraceError(f"{path}: no such file") from None
+    except OSError as exc:       # a name too long, a loop of links, no permission
+        raise RaytraceError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise RaytraceError(f"{path}: is a directory, not a file")
+    if not stat.S_ISREG(st.st_mode):
+        raise RaytraceError(f"{path}: not a regular file (a FIFO, socket or device cannot be read)")
+    limit = available_memory() // MEMORY_PER_FILE_BYTE
+    if st.st_size > limit:
+        raise RaytraceError(f"{path}: {st.st_size / 2**30:.1f} GiB is more than this machine's "
+                            f"free memory can load (at most {limit / 2**30:.1f} GiB of file)")
+    try:
+        with path.open("rb"):
+            pass
+    except OSError as exc:
+        raise RaytraceError(f"{path}: cannot read ({exc.strerror or exc})") from None
+
+
+def check_mesh_arrays(name, vertices, faces):
+    """Validate user or file data: (n, 3) finite coordinates, (m, 3) integer
+    faces indexing them.  Returns (float64 vertices, int64 faces)."""
+    try:
+        v = np.asarray(vertices, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise RaytraceError(f"{name}: vertices are not numbers ({exc})") from None
+    try:
+        np.asarray(faces)
+    except ValueError as exc:   # ragged: rows of different lengths
+        raise RaytraceError(f"{name}: faces must be an (m, 3) array of indices ({exc})") from None
+    if v.ndim != 2 or v.shape[1] != 3:
+        raise RaytraceError(f"{name}: vertices must have shape (n, 3), got {v.shape}")
+    bad = bad_coordinate_rows(v)
+    if bad is not None and bad[0] == "nonfinite":
+        raise RaytraceError(f"{name}: vertex {bad[1]} has a NaN or infinite "
+                            f"coordinate ({bad[2]} such vertices)")
+    if bad is not None:
+        k = bad[1]
+        raise RaytraceError(f"{name}: vertex {k} has a coordinate of {np.abs(v[k]).max():.3g}, beyond "
+                            f"the {MAX_COORD:g} the intersection tests can multiply without "
+                            f"overflow ({bad[2]} such vertices)")
+    f = np.asarray(faces)
+    if f.ndim != 2 or f.shape[1] != 3:
+        raise RaytraceError(f"{name}: faces must have shape (m, 3), got {f.shape}")
+    if f.size and not np.issubdtype(f.dtype, np.integer):
+        raise RaytraceError(f"{name}: face indices must be integers, got {f.dtype}")
+    f = f.astype(np.int64, copy=False)
+    if f.size and (f.min() < 0 or f.max() >= len(v)):
+        k = int(np.argmax(((f < 0) | (f >= len(v))).any(axis=1)))
+        raise RaytraceError(f"{name}: face {k} indexes a vertex out of range "
+                            f"({f[k].tolist()}, but there are {len(v)} vertices)")
+    return v, f
+
+
+@dataclass
+class MeshPart:
+    """One material's faces of a mesh file, placed where the file puts them."""
+    vertices: np.ndarray             # (n, 3) float64
+    faces: np.ndarray                # (m, 3) int64
+    normals: np.ndarray = None       # (n, 3) the file's vertex normals, or None if it has none
+    material: object = None          # the file's Material for these faces, or None
+    colors: np.ndarray = None        # (n, 3) linear RGB per vertex, or None
+    face_colors: np.ndarray = None   # (m, 3) linear RGB per face, or None
+    uv: np.ndarray = None            # (n, 2) texture coordinates, or None
+
+
+def read_mesh(path):
+    """(vertices (n, 3) float64, faces (m, 3) int64) of a mesh file; a file
+    holding several meshes (a glTF scene) gives them all, transformed."""
+    parts = read_mesh_parts(path)
+    offsets = np.cumsum([0] + [len(p.vertices) for p in parts[:-1]])
+    return (np.concatenate([p.vertices for p in parts]),
+            np.concatenate([p.faces + k for p, k in zip(parts, offsets)]))
+
+
+def read_mesh_parts(path, warn=None, base=None):
+    """The MeshParts of a mesh file: one per mesh and material (an OBJ's
+    ``usemtl`` groups, a glTF scene's meshes), with the file's own vertex
+    normals and materials (made from ``base``, scene/formats/materials.py).  What the
+    renderer cannot show (transparency, textures, vertex colours) and a
+    missing or damaged MTL file are told to ``warn`` as one line each; the
+    mesh still loads."""
+    path = Path(path)
+    warn = warn or (lambda message: None)
+    ext = path.suffix.lower()
+    if ext not in MESH_EXTENSIONS:
+        raise RaytraceError(f"{path}: not a mesh file (expected one of {', '.join(MESH_EXTENSIONS)})")
+    check_readable(path)
+    if path.stat().st_size == 0:
+        raise RaytraceError(f"{path}: file is empty")
+    try:
+        simple = read_simple_ply(path) if ext == ".ply" else None
+    except MemoryError:
+        raise RaytraceError(f"{path}: out of memory reading the mesh") from None
+    if simple is not None:
+        parts = [MeshPart(*simple)]
+    else:
+        library = None
+        if ext == ".obj":
+            data = path.read_bytes()
+            check_obj_indices(path, data)
+            library = _obj_materials(path, data, warn)
+        parts = _read_with_trimesh(path, ext, library, warn, base)
+    parts = [p for p in parts if p is not None and len(p.faces)]
+    if not parts:
+        raise RaytraceError(f"{path}: no non-degenerate triangles (no faces found: damaged, or "
+                            f"not really {ext[1:].upper()}?)")
+    for p in parts:
+        p.vertices, p.faces = check_mesh_arrays(path, p.vertices, p.faces)
+        if p.normals is not None and np.shape(p.normals) != p.vertices.shape:
+            p.normals = None
+        _check_surface_arrays(path, p, warn)
+    return parts
+
+
+def _read_with_trimesh(path, ext, library, warn, base):
+    """The MeshParts of any mesh file trimesh reads (None for a part that
+    is not a triangle mesh)."""
+    try:
+        import trimesh
+        # process=False: keep the file's vertices and faces as they are
+        # (no merging, no dropping), so errors in them are reported.
+        scene = trimesh.load_scene(str(path), file_type=ext[1:], process=False)
+        for geometry in scene.geometry.values():
+            shape = np.shape(getattr(geometry, "vertices", np.zeros((0, 3))))
+            if len(shape) != 2 or shape[1] != 3:   # an OBJ line cut short: "v 0 1"
+                raise ValueError(f"vertices of {shape[-1]} coordinates, not 3")
+        parts = [_part(trimesh, scene, node, library, path.name, warn, base)
+                 for node in scene.graph.nodes_geometry]
+    except RaytraceError:
+        raise
+    except MemoryError:
+        raise RaytraceError(f"{path}: out of memory reading the mesh") from None
+    except Exception as exc:  # noqa: BLE001 -- trimesh's errors have no common base
+        raise RaytraceError(f"{path}: not a readable {ext[1:].upper()} mesh ({_brief(exc)})") from None
+    return parts
+
+
+def _check_surface_arrays(path, part, warn):
+    """Drop, with a warning, colours or texture coordinates that do not fit
+    the mesh (a row count that differs, NaN); the mesh still renders."""
+    for attr, rows, cols in (("colors", len(part.vertices), 3), ("uv", len(part.vertices), 2),
+                             ("face_colors", len(part.faces), 3)):
+        a = getattr(part, attr)
+        if a is None:
+            continue
+        if np.shape(a) != (rows, cols) or not np.isfinite(a).all():
+            what = "texture coordinates" if attr == "uv" else "colours"
+            warn(f"{path.name}: the mesh's {what} are damaged (shape {np.shape(a)} for {rows} "
+                 f"rows, or not finite); ignored")
+            setattr(part, attr, None)
+            if attr == "uv" and part.material is not None:
+                part.material.texture = None
+
+
+def part_mesh(part, base, crease, flat, name):
+    """A scene Mesh of a MeshPart: its file's material (else ``base``) and
+    shading normals."""
+    from raytrace.scene.model import Mesh
+    from raytrace.scene.normals import shading_normals
+    vertices, faces, normals = shading_normals(part.vertices, part.faces, part.normals,
+                                               crease=crease, flat=bool(flat))
+    colors, uv = part.colors, part.uv
+    if part.face_colors is not None:
+        # A colour per face: each face gets vertices of its own, after the
+        # shading normals were found from the shared ones.
+        corners = faces.reshape(-1)
+        vertices, normals = vertices[corners], normals[corners] if normals is not None else None
+        uv = uv[corners] if uv is not None else None
+        colors = np.repeat(part.face_colors, 3, axis=0)
+        faces = np.arange(len(corners), dtype=np.int64).reshape(-1, 3)
+    return Mesh(vertices, faces, part.material or base, normals=normals, name=name,
+                colors=colors, uv=uv)
+
+
+def _part(trimesh, scene, node, library, source, warn, base):
+    """The MeshPart of one instance in a trimesh Scene (None if not a
+    triangle mesh), moved by its transform as trimesh's Scene.dump does."""
+    transform, name = scene.graph[node]
+    mesh = scene.geometry[name]
+    if not isinstance(mesh, trimesh.Trimesh):
+        return None
+    # trimesh computes vertex normals when asked for ones the file lacks;
+    # normals read from the file are already in its cache (a private
+    # attribute: tests/test_mesh_io.py checks both cases on every format).
+    had_normals = "vertex_normals" in mesh._cache
+    if np.array_equal(transform, np.eye(4)):
+        # In place (a PLY, an OBJ, most STLs): no copies, no trimesh hashing
+        # (1.2 s and 400 MB at 4.2M triangles).
+        vertices, faces = np.asarray(mesh.vertices), np.asarray(mesh.faces)
+        normals = np.asarray(mesh.vertex_normals) if had_normals else None
+    else:
+        # A bare copy: copying the visual too turns face colours into vertex
+        # colours, which needs scipy (a face-coloured PLY failed to load).
+        placed = trimesh.Trimesh(np.array(mesh.vertices), np.array(mesh.faces), process=False)
+        if had_normals:
+            placed.vertex_normals = mesh.vertex_normals
+        placed.apply_transform(transform)   # turns the normals too, and flips mirrored faces
+        vertices, faces = np.asarray(placed.vertices), np.asarray(placed.faces)
+        normals = np.array(placed.vertex_normals) if had_normals else None
+    part = MeshPart(vertices, faces, normals,
+                    _visual_material(mesh.visual, library, source, warn, base))
+    _visual_colours(part, mesh.visual, source.lower().endswith(".glb"))
+    return part
+
+
+def _visual_colours(part, visual, linear):
+    """The part's vertex or face colours and texture coordinates from
+    trimesh's visual.  8-bit colours are sRGB-encoded, but glTF's COLOR_0
+    is linear (its specification), and trimesh keeps it so."""
+    from raytrace.scene.formats.materials import decode_colours
+    kind = getattr(visual, "kind", None)
+    if kind == "vertex" and not hasattr(visual, "material"):
+        part.colors = decode_colours(visual.vertex_colors, linear)
+    elif kind == "face" and not hasattr(visual, "material"):
+        part.face_colors = decode_colours(visual.face_colors, linear)
+    attributes = getattr(visual, "vertex_attributes", None) or {}
+    if attributes.get("color") is not None and part.colors is None:
+        part.colors = decode_colours(attributes["color"], linear)
+    # A texture was kept (scene/formats/materials.py) only where the visual has texture coordinates.
+    if part.material is not None and part.material.texture is not None:
+        part.uv = np.asarray(visual.uv, dtype=np.float64)
+
+
+def _visual_material(visual, library, source, warn, base):
+    """The Material trimesh's visual names (an MTL entry, a glTF PBR
+    material) with its base-colour texture, or None for the default."""
+    from raytrace.scene.formats.materials import gltf_material, mtl_material
+    base = base or Material()
+    material = getattr(visual, "material", None)
+    if material is None:
+        return None
+    if type(material).__name__ == "PBRMaterial":
+        return gltf_material(material, base, source, warn, has_uv=getattr(visual, "uv", None) is not None)
+    entry = (library or {}).get(getattr(material, "name", None))
+    if entry is None:
+        return None
+    return mtl_material(entry, base, source, warn, image=getattr(material, "image", None),
+                        has_uv=getattr(visual, "uv", None) is not None)
+
+
+_MTLLIB = re.compile(rb"(?m)^[ \t]*mtllib[ \t]+([^\r\n]*?)[ \t]*$")
+_USEMTL = re.compile(rb"(?m)^[ \t]*usemtl[ \t]+([^\r\n]*?)[ \t]*$")
+
+
+def _obj_materials(path, data, warn):
+    """{name: MtlMaterial} of an OBJ's first ``mtllib`` (the one trimesh
+    reads), or None; a missing or unreadable library is a warning."""
+    from raytrace.scene.formats.mtl import parse_mtl
+    m = _MTLLIB.search(data)
+    if m is None:
+        return None
+    name = m.group(1).decode("utf-8", "replace")
+    mtl = path.parent / name
+    fallback = "rendered with the default material"
+    try:
+        check_readable(mtl)
+        raw = mtl.read_bytes()
+    except (RaytraceError, OSError) as exc:
+        warn(f"{path.name}: material library {exc}; {fallback}")
+        return None
+    if b"\0" in raw:
+        warn(f"{path.name}: material library {mtl}: not a text file; {fallback}")
+        return None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        text = raw.decode("latin-1")
+    library = parse_mtl(text, mtl.name, warn)
+    used = dict.fromkeys(u.decode("utf-8", "replace") for u in _USEMTL.findall(data))
+    for u in used:
+        if u not in library:
+            warn(f"{path.name}: material {u!r} is not in {mtl.name}; {fallback}")
+    return library
+
+
+def _brief(exc, limit=100):
+    """The first line of an exception's message, cut to ``limit`` characters."""
+    text = str(exc).strip()
+    text = text.splitlines()[0] if text else type(exc).__name__
+    return text if len(text) <= limit else text[:limit - 3] + "..."
