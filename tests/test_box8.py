@@ -4,7 +4,8 @@ import numpy as np
 from numba import njit
 
 from raytrace.accel.bvh.box8 import LANES, find_bins, grow_box, grow_centroids
-from raytrace.accel.bvh.build import BOX, box_rows, outward
+from raytrace.accel.bvh.boxes import box_rows, outward
+from raytrace.accel.bvh.layout import BOX
 
 N_BINS = 12
 

@@ -10,19 +10,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from raytrace.accel.bvh.build import (
-    BOX,
-    LINK,
-    MAX_DEPTH,
-    WIDTH,
-    box_rows,
-    build_bvh,
-    build_bvh_kernel,
-    build_bvh_parallel,
-    collapse_bvh4,
-    counting_copy,
-    outward,
-)
+from raytrace.accel.bvh.boxes import box_rows, outward
+from raytrace.accel.bvh.collapse import collapse_bvh4
+from raytrace.accel.bvh.counting import counting_copy
+from raytrace.accel.bvh.layout import BOX, LINK, MAX_DEPTH, WIDTH
+from raytrace.accel.bvh.sah import build_bvh, build_bvh_kernel, build_bvh_parallel
 from raytrace.accel.registry import build_structure as build_accel
 from raytrace.accel.registry import get as get_structure
 from raytrace.kernels.buffers import INDEX, prim_bounds
@@ -340,7 +332,7 @@ def test_counting_layout_copies_leaf_triangles_and_packs_lanes(n_tris, bvh_build
     lanes' -1 child included, but for an inner lane whose subtree holds at
     most COUNT_LEAF primitives, which is a leaf over exactly that subtree's
     slots."""
-    from raytrace.accel.bvh.build import COUNT_LEAF
+    from raytrace.accel.bvh.layout import COUNT_LEAF
     rng = np.random.default_rng(2)
     geo, ranges = make_scene(random_soup(rng, n_tris, 0.1), spheres=[((0, 0, 0), 0.3)])
     acc, _ = build_accel("bvh", geo, ranges, bvh_build=bvh_build)
@@ -381,7 +373,8 @@ def test_counting_layout_copies_leaf_triangles_and_packs_lanes(n_tris, bvh_build
 def test_counting_layout_is_a_tree_built_for_counting():
     """for_counting counts on a tree of its own (COUNT_LEAF, COUNT_TRAVERSAL
     _COST), not on the tracing tree it is given: fewer, fuller leaves."""
-    from raytrace.accel.bvh.build import COUNT_LEAF, COUNT_TRAVERSAL_COST, build
+    from raytrace.accel.bvh.build import build
+    from raytrace.accel.bvh.layout import COUNT_LEAF, COUNT_TRAVERSAL_COST
     rng = np.random.default_rng(4)
     geo, ranges = make_scene(random_soup(rng, 2000, 0.05))
     tracing, _ = build_accel("bvh", geo, ranges)
@@ -449,7 +442,7 @@ def test_counting_stack_holds_the_deepest_rounds():
     STACK_SIZE is 184), a ray through every box and the one triangle all
     the leaves hold counts each leaf once (with a stack of STACK_SIZE the
     kernel crashed)."""
-    from raytrace.accel.bvh.build import CountingBVH
+    from raytrace.accel.bvh.layout import CountingBVH
     from raytrace.accel.bvh.traverse import COUNT_STACK_SIZE, ROUND, STACK_SIZE
     levels = MAX_DEPTH - 3           # its twigs lie MAX_DEPTH - 1 levels down
     child, count, n = _rounds_that_pile_up(levels, PILE_UP[ROUND])
@@ -538,7 +531,7 @@ def test_every_node_is_the_binned_sah_choice_over_its_own_primitives(seed, tree)
     tree's, or the counting tree's, accel/bvh.for_counting).  Mutations
     that took a child's boxes from the wrong side of its parent's split
     failed it."""
-    from raytrace.accel.bvh.build import (
+    from raytrace.accel.bvh.layout import (
         BOX_PAD,
         COUNT_LEAF,
         COUNT_TRAVERSAL_COST,
@@ -599,7 +592,8 @@ def test_rounding_to_float32_steps_by_bits_as_nextafter_would():
     (in both directions, the bits compared, so -0.0 counts)."""
     from numba import njit
 
-    from raytrace.accel.bvh.build import _round_down, _round_up
+    from raytrace.accel.bvh.boxes import round_down as _round_down
+    from raytrace.accel.bvh.boxes import round_up as _round_up
     down, up = njit(lambda x: _round_down(x)), njit(lambda x: _round_up(x))
     f32 = np.float32
     edges = [0.0, -0.0, 1e-50, -1e-50, 2.0**-149, -2.0**-149, 1.5 * 2.0**-149, 1e-40, -1e-40,
@@ -622,7 +616,7 @@ def test_rounding_to_float32_steps_by_bits_as_nextafter_would():
 def test_box_bounds_are_outward_prim_bounds_bit_for_bit(threads):
     """The big-mesh path's fused bounds (box_bounds) against the small
     one's two steps: signed zeros, spheres, and values beyond float32."""
-    from raytrace.accel.bvh.build import box_bounds
+    from raytrace.accel.bvh.boxes import box_bounds
     rng = np.random.default_rng(4)
     tris = random_soup(rng, 500, 0.3)
     tris[:20] = np.round(tris[:20])          # exact zeros, and -0.0 below

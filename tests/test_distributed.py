@@ -146,7 +146,8 @@ def test_missing_extra_is_one_line(monkeypatch):
 
 def test_a_task_that_fails_on_a_worker_is_one_raytrace_error(scene, cluster):
     from raytrace.frames.distributed import DaskRunner
-    bad = (None,) * 11                      # not a scene's buffers: the worker's kernel call fails
+    from raytrace.renderer.driver import Payload
+    bad = Payload(*(None,) * 11)            # not a scene's buffers: the worker's kernel call fails
     with pytest.raises(RaytraceError, match="a Dask worker failed"):
         list(DaskRunner(cluster, 1).run(bad, [(np.zeros(12), 0, 0, 4)]))
 

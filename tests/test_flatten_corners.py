@@ -65,6 +65,7 @@ def test_big_mesh_kernels_compile_in_the_compile_phase(monkeypatch):
     Structure.load's load_big before the build), with the argument types of
     the real calls, so those find them compiled: flattening and build times
     hold no compile time."""
+    import raytrace.accel.bvh.boxes as boxes_module
     import raytrace.accel.bvh.build as bvh_module
     import raytrace.accel.registry as structures
     from raytrace.renderer.driver import RenderOptions, prepare
@@ -84,7 +85,7 @@ def test_big_mesh_kernels_compile_in_the_compile_phase(monkeypatch):
         real = getattr(module, name)
         monkeypatch.setattr(module, name, lambda *a, **k: events.append((name, None)) or real(*a, **k))
     for module, name in ((corners, "classify"), (corners, "gather"),
-                         (bvh_module, "box_bounds_kernel")):
+                         (bvh_module, "box_bounds_kernel"), (boxes_module, "box_bounds_kernel")):
         spy(module, name)
     mark(flatten_module, "flatten")
     mark(structures, "build_structure")

@@ -35,7 +35,9 @@ for oo, dd, tm in ((o, d, None), (ro_o, ro_d, None), (o.astype(np.float32), d.as
     assert h.hit.all()
     assert raytrace.occluded((v, f), oo, dd, 2 if tm is None else tm).all()
 
-from raytrace.accel.bvh.build import build_bvh_kernel, collapse_bvh4_kernel
+from raytrace.accel.bvh.collapse import collapse_bvh4_kernel
+
+from raytrace.accel.bvh.sah import build_bvh_kernel
 from raytrace.kernels.cast import cast_closest, cast_occluded
 from raytrace.kernels.render import render_rows
 print(json.dumps({k.__name__: [str(s) for s in k.signatures] for k in

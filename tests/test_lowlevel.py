@@ -11,7 +11,9 @@ import numpy as np
 import pytest
 from numba import njit, prange
 
-from raytrace.accel.bvh.build import BOX, BVH, WIDTH, box_bound, counting_copy
+from raytrace.accel.bvh.boxes import box_bound
+from raytrace.accel.bvh.counting import counting_copy
+from raytrace.accel.bvh.layout import BOX, BVH, WIDTH
 from raytrace.accel.bvh.simd import crossing_mask
 from raytrace.accel.bvh.traverse import BOX32_RANGE, NEAR_LIMIT, box_ray, child_boxes
 from raytrace.kernels.intersect import ray_triangle_crossing

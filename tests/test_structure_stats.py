@@ -47,7 +47,7 @@ def test_bvh_sah_cost_is_summed_over_every_block_of_nodes(monkeypatch):
     """The SAH sums run a block of nodes at a time: with blocks of 3 nodes
     the cost is the one-block sum's, and it is the formula's, summed here
     over every lane."""
-    import raytrace.accel.bvh.build as bvh_module
+    import raytrace.accel.bvh.stats as bvh_module
     rng = np.random.default_rng(7)
     tris = rng.normal(size=(300, 3, 3))
     geo, ranges, _ = flatten(Scene("s", None, [Mesh(tris.reshape(-1, 3),
@@ -74,7 +74,7 @@ def test_bvh_leaf_depths_and_sizes_are_the_trees_walked_lane_by_lane(monkeypatch
     """Leaves counted level by level and from a histogram of lane counts
     (statistics) against a recursive walk of every lane, on a tree many
     levels deep with leaves of every size up to 4."""
-    import raytrace.accel.bvh.build as bvh_module
+    import raytrace.accel.bvh.stats as bvh_module
     rng = np.random.default_rng(11)
     tris = rng.normal(size=(2000, 3, 3)) * [[1.0, 1.0, 0.05]]
     geo, ranges, _ = flatten(Scene("s", None, [Mesh(tris.reshape(-1, 3),

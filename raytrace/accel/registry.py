@@ -23,8 +23,8 @@ class Structure:
     name: str
     summary: str                  # one line, for --help and the README
     module: str                   # its folder, raytrace/accel/<module>/
-    visit_counter: str = None     # its own counter, if any (stats.COUNTERS)
-    visit_metric: str = None      # that counter per ray (stats.derive), a bench column
+    visit_metric: str = None      # its own counter per ray, if any (stats.derive), a bench column
+    build_options: tuple = ()     # the render options its build takes (raytrace/options.py)
 
     def package(self):
         """The structure's build module, ``raytrace/accel/<module>/build.py``,
@@ -83,13 +83,15 @@ STRUCTURES = {s.name: s for s in (
     Structure("none", "brute force: every primitive for every ray", "brute"),
     Structure("bvol", "a bounding box per object, then its primitives", "bvol"),
     Structure("bvh", "4-wide bounding volume hierarchy, binned SAH build", "bvh",
-              "nodes_visited", "nodes_per_ray"),
-    Structure("grid", "uniform grid walked by 3D-DDA", "grid",
-              "cells_visited", "cells_per_ray"),
+              "nodes_per_ray", ("bvh_build", "leaf_size")),
+    Structure("grid", "uniform grid walked by 3D-DDA", "grid", "cells_per_ray", ("grid_density",)),
     Structure("kdtree", "kd-tree, binned SAH build, front-to-back traversal", "kdtree",
-              "nodes_visited", "nodes_per_ray"),
+              "nodes_per_ray"),
 )}
 DEFAULT = "bvh"
+# Every structure's build options, each once, in registry order: what the
+# driver passes to a build and reports in the statistics.
+BUILD_OPTIONS = tuple(dict.fromkeys(o for s in STRUCTURES.values() for o in s.build_options))
 
 
 def get(name):

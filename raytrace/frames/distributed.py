@@ -153,7 +153,7 @@ TASK_SAMPLES = 1 << 20
 
 def _group_size(tasks, payload, workers):
     """How many consecutive tiles make one Dask task."""
-    width, spp = payload[7], payload[9]
+    width, spp = payload.width, payload.spp
     if not tasks or not isinstance(width, int) or not isinstance(spp, int):
         return 1
     samples = max(1, max((y1 - y0) * width * spp for _, _, y0, y1 in tasks))

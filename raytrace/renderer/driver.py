@@ -6,6 +6,7 @@ import math
 import sys
 import time
 from dataclasses import dataclass, field, make_dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -239,8 +240,24 @@ class Setup:
     def payload(self):
         """The arrays and records a worker needs (frames/distributed.py): no
         options object, no callables, so it pickles small and safe."""
-        return (self.geo, self.acc, self.lights, self.shadows, self.textures, self.bounces,
-                self.background, self.width, self.height, int(self.opts.spp), int(self.opts.seed))
+        return Payload(self.geo, self.acc, self.lights, self.shadows, self.textures, self.bounces,
+                       self.background, self.width, self.height, int(self.opts.spp),
+                       int(self.opts.seed))
+
+
+class Payload(NamedTuple):
+    """What a band of rows is rendered from (render_band), in any process."""
+    geo: object
+    acc: object
+    lights: object
+    shadows: object
+    textures: object
+    bounces: object
+    background: np.ndarray
+    width: int
+    height: int
+    spp: int
+    seed: int
 
 
 def options_with(opts, kw):
@@ -285,7 +302,7 @@ def prepare(scene, opts, drop_meshes=False):
     t_start = time.perf_counter()
     import numba  # deferred: `raytrace scenes` and --help never pay for it
 
-    from raytrace.accel.registry import build_structure, get
+    from raytrace.accel.registry import BUILD_OPTIONS, build_structure, get
     from raytrace.scene.flatten import flatten, load_corners, tiny_geometry
 
     threads = int(opts.threads or numba.config.NUMBA_NUM_THREADS)
@@ -303,8 +320,7 @@ def prepare(scene, opts, drop_meshes=False):
         from raytrace.scene.model import Mesh
         scene.objects = [o for o in scene.objects if not isinstance(o, Mesh)]
 
-    build_opts = dict(bvh_build=opts.bvh_build, leaf_size=opts.leaf_size,
-                      grid_density=opts.grid_density)
+    build_opts = {name: getattr(opts, name) for name in BUILD_OPTIONS}
     # Loading (or compiling) the builder is compile time, not build time.
     t_load = t_corners + get(opts.accel).load(tiny_geometry(), n_bounded(geo), **build_opts)
     acc, t_build = build_structure(opts.accel, geo, obj_ranges, **build_opts)
@@ -325,18 +341,19 @@ def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows
     first compile or load the kernel, timed apart (compile_s; 0 without)."""
     from raytrace.kernels.counters import N_COUNTERS
     from raytrace.kernels.render import render_rows
-    geo, acc, lights, shadows, textures, bounces, background, width, height, spp, seed = payload
+    p = payload
+    width = p.width
     if image is None:
         row0 = y0
         image = np.empty((y1 - y0, width, 3), np.float32)
         stats_rows = np.zeros((y1 - y0, N_COUNTERS), np.int64)
     if aovs is None:
-        aovs = aov_buffers(width, height, False)
+        aovs = aov_buffers(width, p.height, False)
     # Plain Python scalars only: a NumPy integer or a bool where an int is
     # expected would compile the kernel again for that type.
-    args = (geo, acc, cam, lights, shadows, textures, bounces, aovs, background, int(width),
-            int(height))
-    tail = (int(threads), int(spp), int(seed), image, stats_rows)
+    args = (p.geo, p.acc, cam, p.lights, p.shadows, p.textures, p.bounces, aovs, p.background,
+            int(width), int(p.height))
+    tail = (int(threads), int(p.spp), int(p.seed), image, stats_rows)
     clock = np.zeros(1, np.int64)    # the kernel's band tickets (kernels/render.py)
     # An empty band compiles the kernel (or loads it from Numba's cache)
     # without rendering anything, so that time is reported apart.
@@ -400,12 +417,12 @@ def render(scene, opts=None, *, drop_meshes=False, **kw):
 
 def base_stats(setup, scene_name):
     """The statistics that describe the render's setting (no times, no counters)."""
-    from raytrace.accel.registry import get
+    from raytrace.accel.registry import BUILD_OPTIONS, get
     opts = setup.opts
     return {
         "scene": scene_name, "accel": opts.accel, "shadows": opts.shadows,
         "light_samples": int(setup.lights.samples.max()) if len(setup.lights.samples) else 0,
-        "bvh_build": opts.bvh_build, "leaf_size": opts.leaf_size, "grid_density": opts.grid_density,
+        **{name: getattr(opts, name) for name in BUILD_OPTIONS},
         "pattern": opts.pattern, "texture_filter": opts.texture_filter,
         "max_depth": getattr(setup.bounces, "max_depth", None), "width": setup.width,
         "height": setup.height, "spp": opts.spp, "seed": opts.seed, "threads": setup.threads,

@@ -36,7 +36,7 @@ import numpy as np
 from numba import njit
 from numba.cpython.unsafe.numbers import trailing_zeros
 
-from raytrace.accel.bvh.build import BVH, WIDTH
+from raytrace.accel.bvh.layout import BVH, WIDTH
 from raytrace.accel.bvh.simd import packet_aabb4, packet_rays, packet_triangle
 from raytrace.accel.bvh.traverse import (
     _DONE,

@@ -10,7 +10,7 @@ the smaller id, so the answer does not depend on the visiting order.
 import numpy as np
 from numba import njit, prange
 
-from raytrace.accel.bvh.build import MAX_DEPTH, WIDTH
+from raytrace.accel.bvh.layout import MAX_DEPTH, WIDTH
 from raytrace.kernels.jit import BLOCK, JIT, PARALLEL
 from raytrace.kernels.lowlevel import frame_array, take_ticket
 

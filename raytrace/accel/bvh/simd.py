@@ -8,7 +8,7 @@ from numba import types
 from numba.extending import intrinsic
 from numba.np.numpy_support import from_dtype
 
-from raytrace.accel.bvh.build import BOX, WIDTH
+from raytrace.accel.bvh.layout import BOX, WIDTH
 from raytrace.kernels.lowlevel import PACKET
 
 

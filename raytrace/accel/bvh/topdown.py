@@ -6,7 +6,7 @@ the same for every builder, and so are the images."""
 import numpy as np
 from numba import njit
 
-from raytrace.accel.bvh.build import BOX_PAD, LINK, MAX_DEPTH
+from raytrace.accel.bvh.layout import BOX_PAD, LINK, MAX_DEPTH
 from raytrace.kernels.jit import BUILD, BUILD_STEP
 
 RULE_MEDIAN, RULE_MORTON = 0, 1

@@ -39,7 +39,7 @@ import numpy as np
 from numba import njit
 from numba.cpython.unsafe.numbers import trailing_zeros  # llvm.cttz: a mask's lowest set bit
 
-from raytrace.accel.bvh.build import BVH, MAX_DEPTH, WIDTH, CountingBVH
+from raytrace.accel.bvh.layout import BVH, MAX_DEPTH, WIDTH, CountingBVH
 from raytrace.accel.bvh.simd import CROSSING_LANES, box_ray_f32, crossing_mask, ray_aabb4
 from raytrace.kernels.counters import BAD_RAYS, BOX_TESTS, NODES_VISITED, PRIM_HITS, PRIM_TESTS
 from raytrace.kernels.jit import JIT
