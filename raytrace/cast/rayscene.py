@@ -160,7 +160,7 @@ class _Prepared:
 
     def counting(self):
         """The layout that counts and lists every hit (made on first use:
-        the BVH's holds a copy of the triangles, structures.counting_layout)."""
+        the BVH's holds a copy of the triangles, registry.Structure.counting_layout)."""
         if self._counting is None:
             from raytrace.accel.registry import get
             self._counting = get(self.accel).counting_layout(self.acc, self.geo)

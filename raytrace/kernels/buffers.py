@@ -1,7 +1,7 @@
 """Flat structure-of-arrays buffers: the only scene data the kernels see.
 
 One fixed dtype per buffer so each kernel compiles once: float64 geometry
-(docs/design.md), int64 indices.  Each acceleration structure's own layout
+(docs/design.md, "Precision"), int64 indices.  Each acceleration structure's own layout
 lives beside its builder (raytrace/accel/).
 
 Primitive ids are unified: ``0 <= p < n_tris`` is triangle p, then spheres,

@@ -4,7 +4,7 @@ Every structure (brute force, bounding volumes, BVH, grid) calls these same
 functions, so a triangle is hit or missed identically whichever structure
 found it; that is what makes the images bit-identical.
 
-All geometry is float64 (docs/design.md).  Compile options: jit.py.
+All geometry is float64 (docs/design.md, "Precision").  Compile options: jit.py.
 """
 import numpy as np
 from numba import njit

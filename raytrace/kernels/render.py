@@ -73,7 +73,7 @@ Bounces = namedtuple("Bounces", ["max_depth"])
 # offsets up to 2^-52 and never from 2^-50 on, at scales 1e-4 to 1e4 and
 # 1e5 from the origin (bench/ray_offset.py); 2^-44 keeps a factor 64 over
 # that, and stays a negligible gap for a small scene far from the origin
-# (docs/design.md, tests/test_self_intersection.py).
+# (docs/design.md, "Precision"; tests/test_self_intersection.py).
 RAY_OFFSET = 2.0 ** -44
 
 

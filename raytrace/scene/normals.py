@@ -11,7 +11,7 @@ vertex, as the renderer wants.  Copies repeat the position bit for bit:
 the triangles, and every hit, are unchanged.
 
 Vectorised NumPy throughout: a 1M-triangle mesh takes well under a second
-(docs/design.md).
+(docs/benchmarks.md, "Scene"; docs/history.md).
 """
 import math
 
@@ -20,7 +20,7 @@ import numpy as np
 from raytrace.options import CREASE
 from raytrace.scene.flatten import cross_rows, unit_rows
 
-DEFAULT_CREASE = CREASE.default   # degrees; why 35: docs/design.md, "Smooth shading"
+DEFAULT_CREASE = CREASE.default   # degrees; why 35: docs/design.md, "The scene"
 
 
 def face_normals(vertices, faces):

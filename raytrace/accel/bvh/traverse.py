@@ -230,7 +230,7 @@ def _count_chunks(geo, ray, leaf_tris, prim_ids, k, n, k2, n2, t_max):
     tests 49 triangles a ray and hits 2.7 (random rays through a bumpy
     20k-triangle sphere): the scalar test of the ~5 a ray whose edge
     functions agree cost a quarter of the count when only the edge
-    functions were in SIMD (docs/design.md)."""
+    functions were in SIMD (docs/history.md)."""
     inside = ((1 << n) - 1) | (((1 << n2) - 1) << CHUNK)
     m = crossing_mask(leaf_tris, k, k2, ray.kx, ray.ky, ray.kz, ray.okx, ray.oky, ray.okz,
                       ray.sx, ray.sy, ray.sz, ray.t_min, t_max)
