@@ -1,6 +1,6 @@
 """What a Dask worker receives for a scene: the render's buffers
 (``Setup.payload()``: the flattened scene, the structure, the lights),
-pickled as frames/distributed.py scatters them.  The README's turntable estimate
+pickled as frames/distributed.py scatters them.  The cluster estimate in docs/benchmarks.md
 takes its "MB of buffers per worker" from here.
 
     python bench/payload.py [SCENE] [--detail N] [--accel bvh] [--shadows soft]

@@ -38,7 +38,7 @@ def render(scene, client=None, tiles=None, **options):
     aov=True (depth, normal, primid, cost).
 
     Options are the fields of raytrace.renderer.driver.RenderOptions: accel
-    ("none", "bvol", "bvh", "grid"), shadows ("none", "hard", "soft"),
+    (a name in raytrace.accel.registry.STRUCTURES), shadows ("none", "hard", "soft"),
     light_samples, pattern, width, height, spp, seed, threads, aov.
 
     ``tiles=N`` renders the image as N bands of rows; ``client=`` (a

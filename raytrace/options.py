@@ -1,6 +1,6 @@
 """Every render option, defined once: its name, type, default, range and
 help.  The command line's options (cli/main.py), the render's validation
-(render/driver.py), the scene files' limits (scene/formats/scenefile.py) and the README's
+(renderer/driver.py), the scene files' limits (scene/formats/scenefile.py) and the README's
 options table (checked by tests/test_readme.py) are derived from here.
 
 Imports nothing heavy: the command line reads it to build --help.

@@ -160,7 +160,7 @@ class _Prepared:
 
     def counting(self):
         """The layout that counts and lists every hit (made on first use:
-        the BVH's holds a copy of the triangles, structures.counting_layout)."""
+        the BVH's holds a copy of the triangles, registry.Structure.counting_layout)."""
         if self._counting is None:
             from raytrace.accel.registry import get
             self._counting = get(self.accel).counting_layout(self.acc, self.geo)
@@ -239,8 +239,9 @@ class RayScene:
     ``RayScene()`` starts empty; ``add_mesh`` adds a mesh and returns its
     geometry id (0, 1, ...).  A Scene's objects (meshes, spheres, planes)
     are geometries numbered by their index in ``scene.objects``.  Inputs are
-    validated when added; the structure (``accel``: none, bvol, bvh, grid,
-    all giving the same answers) is built at the first query after a change.
+    validated when added; the structure (``accel``: a name in
+    raytrace.accel.registry.STRUCTURES, all giving the same answers) is
+    built at the first query after a change.
     """
 
     def __init__(self, target=None, accel="bvh"):
@@ -299,7 +300,7 @@ class RayScene:
         cannot tell a primitive met in two cells from two crossings).  On
         a BVH the first count or listing builds a tree of its own for
         counting and copies the triangles in its leaf order (about 95 bytes
-        a triangle, kept with the scene; 11 ms at 20k triangles)."""
+        a triangle, kept with the scene)."""
         rays = _rays(origins, directions, t_min, t_max)
         p = self._built()
         return np.minimum(_counts(p, rays), _max_hits(max_hits, p))
@@ -384,9 +385,7 @@ class RayScene:
 
 
 # contains' rays leave the scene's box the short way: a ray crosses fewer
-# nodes on a shorter way out (200,000 random points in the box of the peer
-# bench's bumpy 20k-triangle sphere, one thread: 145 ms along one fixed
-# direction, 30 ms toward the nearest face; the same answers).  Row a
+# nodes on a shorter way out (docs/benchmarks.md, "Ray queries").  Row a
 # (axis a, -), row 3 + a (axis a, +): tilted off the axis, with no zero
 # and no two equal components, so an axis-aligned mesh's faces and edges
 # (or one at 45 degrees) are never met edge-on by construction.
@@ -560,8 +559,8 @@ def _interval_end(name, value, n):
 
 # Bounds given as numbers, filled out for the kernels and kept for the next
 # call with the same size: a fresh (n,) array faults its pages in on first
-# write (~0.4 ms a MB here), 0.5 ms of a 13 ms call of 307,200 rays at 118k
-# triangles.  The kernels only read them, and they are never handed out.
+# write, a visible share of a big call (docs/benchmarks.md, "Ray queries").
+# The kernels only read them, and they are never handed out.
 _FILLED = {}
 _FILLED_MAX = 4                  # arrays kept
 _FILLED_MAX_BYTES = 8 << 20      # each
@@ -606,10 +605,9 @@ def _check_rays(cnt, rays):
 
 # Point queries run in Morton order of a 32^3 grid over the points' bounds
 # (a 15-bit key: NumPy's stable argsort of 16-bit keys is a radix sort), so
-# neighbouring queries visit the same BVH nodes while they are in cache.
-# 200,000 random points in a 20k-triangle sphere's box: distance 273 -> 154
-# ms, contains 208 -> 155 ms, signed_distance 476 -> 302 ms, with the 3-5 ms
-# of ordering.  Smaller batches gain too little to pay for it.
+# neighbouring queries visit the same BVH nodes while they are in cache
+# (docs/benchmarks.md, "Ray queries").  Smaller batches gain too little to
+# pay for the ordering.
 _ORDER_MIN = 20_000
 _MORTON_BITS = 5
 _SPREAD = np.array([sum(((v >> b) & 1) << (3 * b) for b in range(_MORTON_BITS))
@@ -624,7 +622,7 @@ def _query_points(points):
     if len(q) < _ORDER_MIN:
         return q, None
     # Column by column: NumPy's reductions along axis 0 of an (n, 3) array
-    # are ~10x slower.
+    # are much slower.
     lo = np.array([q[:, a].min() for a in range(3)])
     hi = np.array([q[:, a].max() for a in range(3)])
     # (q - lo) / span is in [0, 1] for any span > 0, subnormal too (a scale

@@ -1,4 +1,4 @@
-"""`raytrace compare`: one scene rendered with several structures, measured
+"""`raytrace compare`: one scene rendered with several structures, timed
 side by side, the workshop's table for each, and a check that every one
 gave the same picture.
 
@@ -38,7 +38,7 @@ class Comparison:
 
     @property
     def baseline(self):
-        """The entry speedups are measured against: brute force, or the first."""
+        """The entry speedups are relative to: brute force, or the first."""
         return next((e for e in self.entries if e.label == BASELINE), self.entries[0])
 
 
@@ -135,7 +135,7 @@ COLUMNS = [  # (key, heading, format)
 
 
 def speedup_text(x):
-    """Two significant figures below 10 (0.045x, 2.1x), whole numbers above."""
+    """The ratio and "x": two significant figures below 10, whole numbers above."""
     return f"{x:,.0f}x" if x >= 10 else f"{x:.1f}x" if x >= 1 else f"{x:.2g}x"
 
 

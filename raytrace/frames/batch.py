@@ -45,7 +45,7 @@ def render_tile(payload, threads, cam, frame, y0, y1):
 
 def _worker_name():
     # A Dask worker has imported distributed; this process need not (a
-    # render here never imports Dask: it costs 0.5 s).
+    # render here never imports Dask: its import is slow).
     distributed = sys.modules.get("distributed")
     if distributed is not None:
         try:

@@ -58,7 +58,7 @@ def connect(workers=None, scheduler=None):
             warnings.filterwarnings("ignore", message="Port .* is already in use")
             # The workers import Numba and the render kernel's modules as they
             # start, while this process loads and builds the scene, instead of
-            # when the scene first reaches them (0.36 s inside the frames).
+            # when the scene first reaches them, inside the frames' time.
             cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1,
                                                processes=True, dashboard_address=None,
                                                silence_logs=logging.ERROR,
@@ -96,7 +96,7 @@ class DaskRunner:
         t0 = time.perf_counter()
         self._scatter(payload)
         # Sending the scene; the first time, also each worker's import of
-        # raytrace and Numba to unpickle it (0.36 s here): start-up, apart.
+        # raytrace and Numba to unpickle it: start-up, timed apart.
         self.scatter_s = time.perf_counter() - t0
         tasks = list(tasks)
         workers = self.workers
@@ -145,9 +145,9 @@ class DaskRunner:
                 raise _failure(exc) from None
 
 
-# A Dask task costs ~7 ms of scheduling and transfer here: several small
-# tiles go in one task, up to this many pixel samples, while each worker
-# still gets TASKS_PER_WORKER tasks.
+# A Dask task's scheduling and transfer cost more than a small tile's render
+# (docs/benchmarks.md): several small tiles go in one task, up to this many
+# pixel samples, while each worker still gets TASKS_PER_WORKER tasks.
 TASK_SAMPLES = 1 << 20
 
 

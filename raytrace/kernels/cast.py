@@ -7,22 +7,15 @@ without the NRT, allocate nothing; one per thread, cast/rayscene.py) takes the
 next chunk nobody has taken, by a ticket from ``clock`` (a one-element
 array, 0 at the call: lowlevel.take_ticket), until none is left.  So the
 threads sweep the rays once, together, neighbouring chunks at about the
-same time (the cache reuse between neighbouring rays: separate sweeps were
-12% slower at 118k triangles), and a thread slowed by another process on
-its core takes fewer chunks instead of holding up the call.  A fixed share
-each (chunks b, b + n_blocks, ...) measured the same on a quiet machine
-and 7-10% slower with a process spinning 4 ms in 8 on one core (1k teapot,
-camera and shadow rays through RayScene).  Chunks of 1,024 rays rather
-than 64: with 64, two threads ran the 1k teapot's camera rays 1.2-1.7x
-faster than one, from call to call and process to process (AMD EPYC Zen
-1); with 1,024, 1.9x every time, and the same at 118k triangles.  The
-threads still sweep the rays together.
+same time (the cache reuse between neighbouring rays), and a thread slowed
+by another process on its core takes fewer chunks instead of holding up
+the call, as a fixed share each would.  Chunks of 1,024 rays rather than
+64 keep two threads' speed-up steady from call to call.  The numbers
+behind both choices: docs/benchmarks.md, "Kernels".
 
 A call of one chunk or less (one counter row) runs in the calling thread:
-waking Numba's workqueue threads cost ~0.14 ms a call here, where one
-shadow ray costs ~0.06 us (1k teapot, `bench.sh --sections peer`'s small
-calls of RayScene.occluded: one ray 197 -> 21 us, 1,024 rays 243 -> 71
-us).  A thread's loop (``*_block``) is compiled as a function of its own
+waking Numba's workqueue threads costs more than thousands of shadow
+rays.  A thread's loop (``*_block``) is compiled as a function of its own
 (``BLOCK``), so the kernel's two paths share one copy of it.
 
 Closest and any hit take the rays PACKET at a time: a structure with
@@ -33,8 +26,8 @@ the rest, and every other structure, go one ray at a time.
 Rays are checked as they are read (``ray_ok``): a bad one is not traced,
 its output is a miss, and it is counted in column BAD_RAYS of the counter
 rows, after the declared counters, so the Python layer names the problem
-after the call.  A separate pass over the rays cost 0.57 ms of a 4.0 ms
-call (211,731 shadow rays, 1k teapot): 14% of the call.
+after the call; a separate pass over the rays would be a sizeable share of
+a call.
 
 Each kernel is compiled once per structure (query.py), on first use.
 """

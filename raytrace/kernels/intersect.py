@@ -4,7 +4,7 @@ Every structure (brute force, bounding volumes, BVH, grid) calls these same
 functions, so a triangle is hit or missed identically whichever structure
 found it; that is what makes the images bit-identical.
 
-All geometry is float64 (docs/design.md).  Compile options: jit.py.
+All geometry is float64 (docs/design.md, "Precision").  Compile options: jit.py.
 """
 import numpy as np
 from numba import njit
@@ -48,8 +48,8 @@ def ray_aabb(ray, lo, hi, i, t_max):
 
     Returns the entry distance (clamped to 0) or inf on a miss.  One test
     at the end instead of one per axis: t0 only grows and t1 only shrinks,
-    so the answer is the same, and it measured 145 -> 139 ns per BVH query
-    (1k triangles), 346 -> 300 ns (100k).
+    so the answer is the same, with fewer branches (docs/benchmarks.md,
+    "Kernels").
     """
     t0, t1 = _slab(ray.ox, ray.inv_x, lo[i, 0], hi[i, 0], 0.0, t_max)
     t0, t1 = _slab(ray.oy, ray.inv_y, lo[i, 1], hi[i, 1], t0, t1)

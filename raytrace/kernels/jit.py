@@ -12,14 +12,14 @@
   ``inline="always"``), so a kernel's compile costs its own lines, not
   those of everything it calls copied into it; ``forceinline`` then has
   LLVM inline the compiled calls (its ``alwaysinline``), so the machine
-  code is one loop again, as fast as before (docs/design.md, "The kernel
-  layer").
+  code is one loop again, as fast as before (docs/design.md, "Compile
+  time").
 - No Python wrappers (``no_cpython_wrapper``, ``no_cfunc_wrapper``): a
   per-ray function is only ever called from compiled code, and Numba
-  otherwise builds and compiles two wrappers for each (about 0.06 s apiece
-  cold: the first ``raytrace teapot`` compiled in 15.5 s with them, 12.2 s
-  without).  The parallel kernels, called from Python, keep theirs; a test
-  calling a per-ray function directly uses ``python_callable``.
+  otherwise builds and compiles two wrappers for each, a sizeable share of
+  a cold compile (docs/benchmarks.md, "Kernels").  The parallel kernels,
+  called from Python, keep theirs; a test calling a per-ray function
+  directly uses ``python_callable``.
 """
 from numba import njit
 

@@ -39,12 +39,11 @@ def _cache_dir():
 numba.config.CACHE_DIR = str(_cache_dir())
 
 # Numba picks OpenMP when it can, and GNU OpenMP's parallel-region start
-# measured 8 ms per kernel call here (threads asleep between calls) against
-# 0.09 ms for Numba's own workqueue: 0.26 s against 0.05 s for a
-# 640x480 teapot rendered in 32 bands for the progress bar, and 1.93 s
-# against 1.74 s with soft shadows.  The workqueue cannot run kernels from
-# several Python threads at once (it aborts the process): Dask's tasks,
-# which may share a process, take KERNEL_LOCK around their kernel calls.
+# costs far more per kernel call than Numba's own workqueue (threads asleep
+# between calls; docs/benchmarks.md, "Kernels").  The workqueue cannot run
+# kernels from several Python threads at once (it aborts the process):
+# Dask's tasks, which may share a process, take KERNEL_LOCK around their
+# kernel calls.
 if not os.environ.get("NUMBA_THREADING_LAYER"):
     numba.config.THREADING_LAYER = "workqueue"
 # One parallel kernel at a time in a process; each uses every render thread.

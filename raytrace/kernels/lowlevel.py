@@ -10,7 +10,7 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 from numba.np.arrayobj import populate_array
 
-PACKET = 16   # rays a packet: a <16 x float> is one AVX-512 register (docs/design.md)
+PACKET = 16   # rays a packet: a <16 x float> is one AVX-512 register (docs/history.md)
 
 @intrinsic
 def frame_array(typingctx, size, dtype):

@@ -6,13 +6,10 @@ defrag "madvise", this machine's setting and a common default) a fault
 may first compact memory to find one.  Loading and flattening a mesh
 write each new array once, front to back, and gain nothing from huge
 pages.  Flattening (``flatten``, for the command and RayScene alike) runs
-without the advice: the 4.2M-triangle PLY's flatten 1.24-1.39 -> 0.84 s,
-its whole command 4.09-4.28 -> 3.89-3.90 s (medians of 4, three runs);
-the --detail 256 teapot's the same (0.62 -> 0.64 s).
-The BVH build, whose scattered reads do gain from fewer TLB misses (1.3 s
-with, 1.5-1.6 s without), keeps it; and so does reading the mesh file
-(0.59-0.88 -> 0.46-0.48 s without), because the small pages it then
-frees made the build's huge pages cost more than that (1.38 -> 1.95 s).
+without the advice.  The BVH build, whose scattered reads do gain from
+fewer TLB misses, keeps it; and so does reading the mesh file, because
+the small pages it would free make the build's huge pages cost more than
+the read gains (docs/benchmarks.md, "Scene").
 """
 from contextlib import contextmanager
 

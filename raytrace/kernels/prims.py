@@ -182,8 +182,8 @@ def planes_closest(geo, ray, t_max, best, cnt):
 @njit(**JIT)
 def planes_occluded(geo, ray, t_max, cnt):
     """Whether any plane is hit with 0 < t < t_max.  Early exits are loop
-    conditions: a return inside a for loop measured an order of magnitude
-    slower (docs/design.md)."""
+    conditions: a return inside a for loop compiles to much slower code
+    (docs/history.md)."""
     point, normal = geo.pl_point, geo.pl_normal
     n = point.shape[0]
     hit = False

@@ -38,7 +38,7 @@ def register(layout, closest, any_hit, all_hits):
     """Make ``layout`` (a structure's namedtuple class) queryable.  None:
     the layout does not answer that question; a structure may count on a
     layout of its own (the BVH: accel.bvh.for_counting, by way of
-    structures.counting_layout)."""
+    accel.registry's Structure.counting_layout)."""
     _TRAVERSALS[layout] = (closest, any_hit, all_hits)
 
 

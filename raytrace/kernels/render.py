@@ -73,7 +73,7 @@ Bounces = namedtuple("Bounces", ["max_depth"])
 # offsets up to 2^-52 and never from 2^-50 on, at scales 1e-4 to 1e4 and
 # 1e5 from the origin (bench/ray_offset.py); 2^-44 keeps a factor 64 over
 # that, and stays a negligible gap for a small scene far from the origin
-# (docs/design.md, tests/test_self_intersection.py).
+# (docs/design.md, "Precision"; tests/test_self_intersection.py).
 RAY_OFFSET = 2.0 ** -44
 
 
@@ -421,10 +421,9 @@ def _push(stack, sp, ox, oy, oz, dx, dy, dz, wr, wg, wb, depth, kind):
 
 
 # Pixels go in TILE x TILE squares, a band of TILE rows at a time: the rays
-# of a square meet the same BVH nodes while they are in L1 (48 KB here),
-# which a 640-pixel row's do not.  Hard shadows at 640x480 (2 threads,
-# min of 5, 3 rounds): 118k teapot 33.2-33.6 -> 30.3-31.3 ms, 1k 21.3 ->
-# 20.9; soft shadows 1-5%; the same images.  8 was faster than 4 and 16.
+# of a square meet the same BVH nodes while they are in L1, which a
+# 640-pixel row's do not.  8 was faster than 4 and 16 (docs/benchmarks.md,
+# "Renderer").
 TILE = 8
 
 
@@ -489,8 +488,7 @@ def render_rows(geo, acc, cam, lights, shadows, textures, bounces, aovs, backgro
     Each of n_threads parts takes the next band of TILE rows until none is
     left: prange gives each thread one contiguous range, and the bottom of
     a picture (ground, with its shadow rays) costs more than the top
-    (sky): contiguous halves of the hard-shadowed teapot split its ray-box
-    and ray-primitive tests 43.5/56.5.  Bands taken in turn by ticket keep
+    (sky).  Bands taken in turn by ticket keep
     the threads together (a fixed share each was slower whenever another
     process slowed one thread's core).  (Numba's get_num_threads() inside
     the kernel would stop it being cached.)

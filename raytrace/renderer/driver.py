@@ -204,9 +204,8 @@ def to_srgb8(linear):
     """Clamp and encode with the sRGB curve (IEC 61966-2-1).
 
     A band of rows at a time: on the whole image the float temporaries
-    measured 64 bytes a pixel at their peak, four times what the memory
-    check in validate() counts, so a big render that passed the check
-    could fail here, after all its work.
+    take several times what the memory check in validate() counts, so a
+    big render that passed the check could fail here, after all its work.
     """
     out = np.empty(linear.shape, np.uint8)
     band = max(1, SRGB_BAND_VALUES // max(1, linear[0].size)) if len(linear) else 1
@@ -273,8 +272,7 @@ def options_with(opts, kw):
 def peak_memory_mb():
     """This process's peak resident memory so far, in MB (0 where unknown).
     Linux: VmHWM, this program's own; getrusage's ru_maxrss also counts the
-    parent's memory at the fork (784 MB for a render started by a test
-    process that had grown so)."""
+    parent's memory at the fork (a render started by a big test process)."""
     try:
         with open("/proc/self/status") as fh:
             for line in fh:
@@ -294,9 +292,8 @@ def prepare(scene, opts, drop_meshes=False):
     """Validate, flatten and build: a Setup for any number of frames.
     drop_meshes: the caller will not use the scene's meshes again (the
     command's own scene, read from a file), so they leave the scene once
-    flattened, before the build, which is the peak: 192 MB less at 4.2M
-    triangles (their vertices and faces; the flattened scene holds what
-    the render needs)."""
+    flattened, before the build, which is the peak (their vertices and
+    faces; the flattened scene holds what the render needs)."""
     width, height = (int(n) for n in validate(opts, scene))
     peaks = {"load": peak_memory_mb()}
     t_start = time.perf_counter()
@@ -388,9 +385,8 @@ def render(scene, opts=None, *, drop_meshes=False, **kw):
 
     # Bands of rows let a progress bar move.  A band is one kernel call
     # whose threads take strips of TILE rows by ticket, and its last strip
-    # leaves the other threads idle: bands of height / 32 (15 rows, two
-    # strips) made two threads only 1.1-1.3x faster than one in `raytrace
-    # teapot`.  So a band holds at least 4 strips a thread.
+    # leaves the other threads idle, so a band holds at least 4 strips a
+    # thread (docs/benchmarks.md, "Renderer").
     band = height
     if opts.progress:
         from raytrace.kernels.render import TILE

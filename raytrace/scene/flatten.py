@@ -24,7 +24,7 @@ PARALLEL_MIN = 100_000
 def cross_rows(a, b):
     """Row-wise cross products of two (n, 3) arrays: np.cross's arithmetic
     (a_i b_j - a_j b_i), the same bits, without its axis handling (which
-    cost ~15 us a call: a one-ray query's normal took 94 us)."""
+    dominated a one-ray query's normal)."""
     out = np.empty(np.broadcast_shapes(a.shape, b.shape))
     for k in range(3):
         i, j = (k + 1) % 3, (k + 2) % 3
@@ -39,7 +39,7 @@ def unit_rows(v):
     divided by np.linalg.norm's own sum, so their results are unchanged."""
     with np.errstate(over="ignore", under="ignore"):   # the rows handled below
         # ((x^2 + y^2) + z^2), as np.add.reduce(v * v, axis=1) adds them (the
-        # same bits), a column at a time: 20 against 61 ms for 2.1M rows.
+        # same bits), a column at a time: a third of the reduction's time.
         sq = np.zeros(0)
         if len(v):
             sq = v[:, 0] * v[:, 0]
@@ -114,8 +114,8 @@ def mesh_triangles(mesh, shading=True):
     v0, v1, v2, keep = _kept_corners(v, f)
     kept = np.flatnonzero(keep)
     if len(kept) < len(f):
-        # np.take of rows, not f[keep]: a boolean mask over rows of 3 took
-        # 95 ms at 4.2M faces, the take 27 ms.
+        # np.take of rows, not f[keep]: a boolean mask over rows of 3 is
+        # several times slower.
         f = np.take(f, kept, axis=0)
     if not shading:
         return v0, v1, v2, None, None, kept, f
@@ -141,8 +141,8 @@ def _kept_corners(v, f):
     is ever made; the outputs are views of buffers whose unused tail is
     never touched, so it takes no memory."""
     n = len(f)
-    # Each corner's indices contiguous: np.take then gathers 3x faster than
-    # indexing with a strided column (0.26 s against 0.85 s at 4.2M).
+    # Each corner's indices contiguous: np.take then gathers several times
+    # faster than indexing with a strided column.
     corners = np.ascontiguousarray(f.T)
     threads = _corner_threads(n)
     if threads:
@@ -216,8 +216,8 @@ def flatten(scene, with_sources=False, shading=True):
     """Returns (Geometry, obj_ranges, info), and with ``with_sources`` also
     (prim_object, prim_index).  Without ``shading`` (ray queries, which
     never shade) the meshes' shading normals, colours and texture
-    coordinates are left out: empty arrays (at 118k triangles the normals
-    took half of flattening's 30 ms).
+    coordinates are left out: empty arrays (the normals are half of
+    flattening's time).
 
     obj_ranges[j] = (first unified primitive id, count) of bounded object j
     (each mesh, each sphere), for per-object bounding volumes.  info holds

@@ -82,7 +82,7 @@ def load_scene(name_or_path, *, detail=None, view=None, azimuth=None, elevation=
         meshes = [part_mesh(p, Material(**MESH_MATERIAL), crease, flat, str(path)) for p in parts]
         extra = {k: v for k, v in dict(fov=fov, width=width, height=height).items() if v is not None}
         # One part (most files): its vertices frame the view as they are,
-        # not copied (50 MB for a 2.1M-vertex mesh).
+        # not copied.
         framed = parts[0].vertices if len(parts) == 1 else np.concatenate([p.vertices
                                                                            for p in parts])
         return mesh_scene(framed, None, name=path.stem,

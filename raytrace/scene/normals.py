@@ -11,7 +11,7 @@ vertex, as the renderer wants.  Copies repeat the position bit for bit:
 the triangles, and every hit, are unchanged.
 
 Vectorised NumPy throughout: a 1M-triangle mesh takes well under a second
-(docs/design.md).
+(docs/benchmarks.md, "Scene"; docs/history.md).
 """
 import math
 
@@ -20,7 +20,7 @@ import numpy as np
 from raytrace.options import CREASE
 from raytrace.scene.flatten import cross_rows, unit_rows
 
-DEFAULT_CREASE = CREASE.default   # degrees; why 35: docs/design.md, "Smooth shading"
+DEFAULT_CREASE = CREASE.default   # degrees; why 35: docs/design.md, "The scene"
 
 
 def face_normals(vertices, faces):
@@ -67,8 +67,8 @@ def crease_normals(vertices, faces, crease=DEFAULT_CREASE):
 
     # One output vertex per group: a vertex's first group (smallest root)
     # keeps its index, further groups are appended.
-    # (Masks and minimum.at, not np.unique: NumPy 2's hashed unique took
-    # 3 s on 4M corners.)
+    # (Masks and minimum.at, not np.unique: NumPy 2's hashed unique is slow
+    # on millions of corners.)
     is_root = groups == np.arange(len(groups))
     roots = np.flatnonzero(is_root)
     group_of_corner = (np.cumsum(is_root) - 1)[groups]
@@ -176,8 +176,7 @@ def file_normals(vertices, faces, normals):
     is replaced by the angle-weighted normal of the faces around it (zero
     if they are all degenerate: the renderer then uses the face normal)."""
     nrm = np.array(normals, dtype=np.float64)
-    # Column by column: NumPy's reductions along rows of 3 are slow (2.1M
-    # rows: 47 and 43 ms for all(axis=1) and any(axis=1)).
+    # Column by column: NumPy's reductions along rows of 3 are slow.
     x, y, z = nrm.T
     nrm[~(np.isfinite(x) & np.isfinite(y) & np.isfinite(z))] = 0.0
     nrm = unit_rows(nrm)

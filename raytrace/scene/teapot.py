@@ -49,9 +49,9 @@ def tessellate(detail=4):
 
 
 # From this many triangles on (--detail 125 and up), tessellate on every
-# thread (scene/tessellate.py): --detail 256's 4.2M triangles took 0.9-2
-# s in NumPy, most of it faulting in its temporaries' fresh pages.  Smaller
-# teapots (the 118k one takes 30 ms) do not compile the kernels.
+# thread (scene/tessellate.py): in NumPy, most of the time goes to faulting
+# in its temporaries' fresh pages.  Smaller teapots, quick in NumPy, do not
+# compile the kernels (docs/benchmarks.md, "Scene").
 KERNEL_MIN = 1_000_000
 
 
@@ -142,9 +142,8 @@ def _surface_points(b, ctrl, at=None):
     The sum of np.einsum("ui,vj,pijk->puvk", b, b, ctrl), term for term and
     in its order ((B_i(u) B_j(v)) C_ij, i then j, from 0.0), so the same
     bits, computed _ROWS (u, v) pairs at a time for every patch: 16 passes
-    over a block that stays in cache instead of einsum's loop (0.10 against
-    0.53 s at --detail 256).  Blocks of 8,192 pairs (6 MB) outgrew the L2
-    of an AMD EPYC Zen 1 (512 KB): 323 against 180 ms there.
+    over a block that stays in L2 cache instead of einsum's loop
+    (docs/benchmarks.md, "Scene").
     """
     n1, n_patches = len(b), len(ctrl)
     weight = _weights(b)
@@ -177,8 +176,8 @@ def _weld(verts, faces, seams):
 
     Only the rows in ``seams`` (patch edges, 1.6% of the vertices at detail
     256) are compared: Newell's patches meet edge to edge, and a grid's
-    interior vertices are its own.  Welding every row instead (np.unique on
-    6.3M rows) took 1 s of --detail 256's 2.6 s tessellation.  Welded seam
+    interior vertices are its own; welding every row instead (np.unique)
+    was a large share of a big tessellation.  Welded seam
     vertices come first, then the interior ones in row order
     (_vertex_normals relies on it).  Nothing else depends on the vertices'
     order: faces keep theirs.
@@ -228,16 +227,15 @@ def _vertex_normals(verts, faces, n_seam, n_patches, detail):
     by term in the same order (so the same bits): np.bincount for the
     welded seam vertices (the first n_seam), and for the rest, a grid's
     interior, the six triangles around each taken from the face grid by
-    slicing, in the order bincount would add them.  Bincount over every
-    corner took 0.4 s at --detail 256.  Everything runs a coordinate at a
-    time, on (faces,) and (vertices,) rows: NumPy's loops over rows of 3
-    (np.cross, norm along axis 1, slices of (..., 2, 3) face grids) took
-    0.92 of these steps' 1.5 s at --detail 256 here.
+    slicing, in the order bincount would add them (bincount over every
+    corner is slower).  Everything runs a coordinate at a time, on (faces,)
+    and (vertices,) rows: NumPy's loops over rows of 3 (np.cross, norm
+    along axis 1, slices of (..., 2, 3) face grids) are slow.
     """
     corners = np.ascontiguousarray(faces.T)     # np.take on contiguous rows: fast gathers
     xyz = np.ascontiguousarray(verts.T)
     # Face normals a chunk of faces at a time (the corners and edges of all
-    # faces at once were 500 MB of temporaries at --detail 256), np.cross's
+    # faces at once are hundreds of MB of temporaries), np.cross's
     # products and differences in its order, so the same bits.
     fn = np.empty((3, len(faces)))
     for s in range(0, len(faces), _CHUNK):

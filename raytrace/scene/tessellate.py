@@ -9,7 +9,7 @@ control points in turn; a face normal is np.cross's products and
 differences; a vertex normal is 0.0 plus its faces' normals in the order
 the NumPy path adds them, divided by ((x^2 + y^2) + z^2)'s root.  The
 NumPy path's temporaries (the gathered corners, the edges, the unwelded
-grid) are never made: at --detail 256 they were 700 MB of fresh pages.
+grid) are never made: at --detail 256 they were hundreds of MB of fresh pages.
 
 Vertices are numbered as the NumPy path's weld leaves them: the n_seam
 welded patch-edge vertices first, then each patch's interior grid

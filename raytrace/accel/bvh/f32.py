@@ -1,6 +1,6 @@
 """A float32's bits as an int32 and back, for stepping to the neighbouring
 float32 without a call (the builders round every node box outwards:
-libm's nextafterf, called through Numba, cost 8% of the SAH build).
+libm's nextafterf, called through Numba, was a visible share of the SAH build).
 
 The two conversions are Numba intrinsics, one LLVM bitcast each.
 """
@@ -36,8 +36,8 @@ def f32_from_bits(typingctx, bits):
     return types.float32(bits), codegen
 
 
-# Inlined in Numba's IR: compiled as a function of its own, it added
-# 0.15 s to the builder's cold compile.
+# Inlined in Numba's IR: compiled as a function of its own, it added to the
+# builder's cold compile more than it saves.
 @njit(**dict(BUILD_STEP, inline="always"))
 def f32_next(f, up):
     """The float32 after float32 ``f`` (up) or before it, as np.nextafter

@@ -6,14 +6,13 @@ each entry of the stack carries the mask of the rays that entered it).
 A node's 4 child boxes are tested against all the packet's rays at once
 (``simd.packet_aabb4``, one <16 x float> a plane), and a child is
 visited with the rays that enter it: for the closest hit nearest first by
-the least of their entries, for any hit in lane order (4% faster on the
-118k teapot's shadow rays, of which 92% are blocked by nothing).  A
+the least of their entries, for any hit in lane order (most shadow rays
+are blocked by nothing, so the order buys little and costs a sort).  A
 leaf's triangles are tested against its rays at once where they share
 their watertight axes (``simd.packet_triangle``, <16 x double>), one
 ray at a time otherwise.  Neighbouring camera and shadow
-rays enter nearly the same nodes: on the peer bench's 118k-triangle
-teapot, 8 shadow rays visit ~51 nodes one by one and ~11 as a packet, so
-a node's loads, box arithmetic and branches serve many rays.
+rays enter nearly the same nodes, so a node's loads, box arithmetic and
+branches serve many rays (docs/benchmarks.md, "BVH").
 
 Each ray gets its own answer, bit for bit the single-ray traversal's
 (accel/bvh/traverse.py): its box test is ray_aabb4's arithmetic, so it enters a
@@ -70,8 +69,8 @@ _CONST_ROWS = 12 * PACKET
 def _load(acc, origins, dirs, t_min, t_max, i0, pk):
     """Rays i0 .. i0 + PACKET - 1 into the packet's rows, with no hit yet:
     make_ray's and box_ray's values, computed for all the rays at once
-    (``packet_rays``: one ray at a time, this was 14.5 of the 83 ns a
-    shadow ray cost at 118k triangles).  Returns their shared near rows
+    (``packet_rays``: one ray at a time, it was a large share of a shadow
+    ray's cost).  Returns their shared near rows
     (nx, ny, nz), or nx = -1 where their near rows differ."""
     nx, ny, nz = packet_rays(origins, dirs, i0, acc.box_bound <= BOX32_RANGE, BOX32_RANGE,
                              NEAR_LIMIT, BOX32_MARGIN, pk.fields, pk.axes, pk.consts)

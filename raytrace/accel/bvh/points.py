@@ -4,7 +4,7 @@ through the BVH (whatever structure a RayScene casts rays with).
 The traversal keeps a stack of child nodes ordered by the squared distance
 from the point to their boxes, nearest on top, and skips any box farther
 than the best point found so far (the point-query form of the ray
-traversal in bvh.py).  Ties between primitives at the same distance go to
+traversal in traverse.py).  Ties between primitives at the same distance go to
 the smaller id, so the answer does not depend on the visiting order.
 """
 import numpy as np

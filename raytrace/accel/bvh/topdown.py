@@ -1,7 +1,7 @@
 """A top-down binary BVH builder driven by a split rule, for the builders
-that choose splits without the SAH: the object median (bvh_median.py) and
-the Morton-code radix split of LBVH (bvh_lbvh.py).  Output: the binned-SAH
-builder's binary layout (bvh.py), so collapse_bvh4 and the traversal are
+that choose splits without the SAH: the object median (median.py) and
+the Morton-code radix split of LBVH (lbvh.py).  Output: the binned-SAH
+builder's binary layout (build.py), so collapse_bvh4 and the traversal are
 the same for every builder, and so are the images."""
 import numpy as np
 from numba import njit
@@ -134,7 +134,7 @@ def build_topdown(lo, hi, prim_ids, codes, rule, leaf_size):
             for a in range(3):
                 node_lo[node, a] = min(node_lo[c1, a], node_lo[c2, a])
                 node_hi[node, a] = max(node_hi[c1, a], node_hi[c2, a])
-    # Padded as the SAH builder pads (bvh.py, BOX_PAD), once all are known,
+    # Padded as the SAH builder pads (build.py, BOX_PAD), once all are known,
     # so children's unpadded boxes made their parents'.
     for node in range(n_nodes):
         m = 0.0

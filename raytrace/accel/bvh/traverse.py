@@ -24,8 +24,8 @@ that loop, a round of each in turn (``count_stream``).
 The stack lives in the function's frame (``frame_array``, an alloca), not
 in ``np.empty``: that would need the reference-counted runtime and a heap
 allocation per ray, and a stack passed in as an argument makes LLVM assume
-its stores may alias the node arrays (measured 250 against 175 ns a ray,
-binary tree, docs/design.md).  Each node pushes at most 3 entries beyond the
+its stores may alias the node arrays and slows every ray
+(docs/benchmarks.md, "BVH").  Each node pushes at most 3 entries beyond the
 one it pops, and a 4-wide node lies at most MAX_DEPTH - 1 levels down, so
 the stack never holds more than 3 * (MAX_DEPTH - 1) + 4 entries.
 
@@ -126,7 +126,7 @@ def _push_children(node_box, node_child, node_count, node, br, t_box, stack, sta
     top (insertion into the entries pushed here, usually 1 or 2).  Returns
     the new stack pointer.  Lanes are chosen by the mask's bits rather than
     by their distances (and a node whose children all miss skips the
-    loop): 5% faster on the 1k and 118k teapots (docs/design.md)."""
+    loop), which is faster (docs/benchmarks.md, "BVH")."""
     mask, d = child_boxes(node_box, node, br, t_box)
     if mask == 0:
         return sp
@@ -230,7 +230,7 @@ def _count_chunks(geo, ray, leaf_tris, prim_ids, k, n, k2, n2, t_max):
     tests 49 triangles a ray and hits 2.7 (random rays through a bumpy
     20k-triangle sphere): the scalar test of the ~5 a ray whose edge
     functions agree cost a quarter of the count when only the edge
-    functions were in SIMD (docs/design.md)."""
+    functions were in SIMD (docs/history.md)."""
     inside = ((1 << n) - 1) | (((1 << n2) - 1) << CHUNK)
     m = crossing_mask(leaf_tris, k, k2, ray.kx, ray.ky, ray.kz, ray.okx, ray.oky, ray.okz,
                       ray.sx, ray.sy, ray.sz, ray.t_min, t_max)
@@ -267,11 +267,11 @@ def _next_chunk(queue, qn, i, k, end):
 @njit(**JIT)
 def _count_queue(geo, ray, leaf_tris, prim_ids, queue, qn, t_max):
     """Hits of the queued leaves: cut into chunks of at most CHUNK slots,
-    tested two chunks at a time, so that two small leaves (2.6 triangles
-    on average) share one 8-lane test (1.1x faster than a 4-lane test a
-    leaf, with AVX-512 or AVX2 code).  One call of the test, so it is
-    compiled once.  Returns (hits, triangles tested): the count of tests
-    taken from the chunks, where a loop over the queue of its own cost 2%."""
+    tested two chunks at a time, so that two small leaves share one
+    8-lane test (faster than a 4-lane test a leaf: docs/benchmarks.md,
+    "BVH").  One call of the test, so it is compiled once.  Returns (hits,
+    triangles tested): the count of tests taken from the chunks, not from
+    a loop over the queue of its own."""
     n_hits = 0
     n_tests = 0
     i, k, end, k1, n1 = _next_chunk(queue, qn, 0, 0, 0)
@@ -313,7 +313,7 @@ def _sort_lanes(lanes, node, mask, stack, sp, queue, qn):
 # tree is done), the stack and queue pointers, the ray's hits so far.
 CountState = namedtuple("CountState", ["node", "sp", "qn", "hits"])
 # The counts of every ray a loop has traced, added to the counter row once,
-# at the end (one ray's worth of counter updates cost 2% of a count).
+# at the end (per-ray counter updates were a visible share of a count).
 Tallies = namedtuple("Tallies", ["n_inner", "n_leaves", "n_tests", "n_hits"])
 
 
@@ -327,15 +327,13 @@ def _count_start(acc, has_ray):
 @njit(**JIT)
 def _count_round(geo, acc, ray, br, t_max, stack, queue, s, t):
     """One round of counting: ROUND (2) nodes where the stack holds them
-    (the second's loads and box tests do not wait on the first's: 1.2x
-    faster than one node a round, the same nodes and counts; three were
-    1.08x faster again for one ray at a time, and 1.03x slower than two
-    once count_stream kept two rays in flight).  A node's entered inner
-    children are pushed and its entered leaves queued without a branch.
-    The queued leaves are tested when the queue is nearly full or the tree
-    is done, in one loop of predictable length, instead of a loop of 0 to
-    8 leaves a round (1.07x faster).  Returns the state and the tallies t
-    after the round."""
+    (the second's loads and box tests do not wait on the first's; the same
+    nodes and counts).  A node's entered inner children are pushed and its
+    entered leaves queued without a branch.  The queued leaves are tested
+    when the queue is nearly full or the tree is done, in one loop of
+    predictable length, instead of a loop of 0 to 8 leaves a round.  The
+    ratios behind ROUND and the queue: docs/benchmarks.md, "BVH".  Returns
+    the state and the tallies t after the round."""
     node_box, lanes = acc.node_box, acc.lanes
     node, sp, qn = s.node, s.sp, s.qn
     # The round's other node, where the stack holds one (else it repeats
@@ -440,15 +438,13 @@ def count_stream(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
     one and then a round of the other, each slot taking the next ray when
     its own is done.  A round's box tests and pushes wait on the loads
     before them, and one ray's rounds on each other: the other ray's round
-    fills those waits (1.07-1.09x faster counts than one ray at a time;
-    two rays until both were done, 1.02x; three in flight no faster than
-    two, docs/design.md).  Rays come a chunk at a time by ticket, as in
-    kernels/cast.py, each slot taking the thread's next one.
+    fills those waits (two in flight: docs/benchmarks.md, "BVH").  Rays
+    come a chunk at a time by ticket, as in kernels/cast.py, each slot
+    taking the thread's next one.
 
     Not decorated: query.count_rays compiles it as its own implementation
     for the layout, so that no wrapper adds a level of calls (each level
-    compiles all the code below it again: with two levels more, the first
-    count took 9.6 s against 8.5 s, three nodes a round; docs/design.md)."""
+    compiles all the code below it again: docs/design.md, "Compile time")."""
     n = origins.shape[0]
     if n == 0:      # a slot always holds a ray, the last one past the end
         return

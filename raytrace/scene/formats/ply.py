@@ -1,9 +1,9 @@
 """The common binary PLY (a vertex element of x, y, z and optionally nx, ny,
 nz; a face element of triangles only) read straight into arrays.
 
-This is the layout of scans and of most exported meshes.  At a million
-triangles (bench/make_big.py 128) read_mesh_parts took 0.16-0.17 s
-through trimesh, its import included, and 0.02-0.04 s here.  Anything
+This is the layout of scans and of most exported meshes, and reading it
+here is several times faster than through trimesh (docs/benchmarks.md,
+"Scene").  Anything
 else (ASCII, colours, texture coordinates, quads, more elements, a size
 that does not add up) returns None and goes to trimesh, which reads every
 PLY: what a file means is trimesh's decision for everything but this one
