@@ -97,7 +97,7 @@ class RayHits(_Fields):
         return self._get("prim_id", lambda: self._prepared.ids(self._prim)[1])
 
     def _uv(self):
-        tri = self.hit & (self._prim < self._prepared.n_tris)
+        tri = (self._prim >= 0) & (self._prim < self._prepared.n_tris)
         return (np.where(tri, self._raw_uv[0], np.nan), np.where(tri, self._raw_uv[1], np.nan))
 
     @property
@@ -117,7 +117,7 @@ class RayHits(_Fields):
         return self._get("surface", self._surface)[1]
 
     def _surface(self):
-        return self._prepared.surface(self._prim, *self._raw_uv, self.t, *self._rays)
+        return self._prepared.surface(self._prim, *self._raw_uv, self.t.reshape(-1), *self._rays)
 
     def __len__(self):
         return len(self.t)
