@@ -59,7 +59,7 @@ def _mesh_arrays(mesh):
     or anything with .vertices and .faces."""
     if hasattr(mesh, "vertex") and hasattr(mesh, "triangle"):        # open3d.t.geometry
         return _array(mesh.vertex.positions), _array(mesh.triangle.indices)
-    if hasattr(mesh, "vertices") and hasattr(mesh, "triangles"):     # open3d.geometry
+    if _is_tensor(mesh) and hasattr(mesh, "triangles"):              # open3d.geometry
         return np.asarray(mesh.vertices), np.asarray(mesh.triangles)
     if hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
         return mesh.vertices, mesh.faces
