@@ -35,6 +35,9 @@ class _Fields:
     def items(self):
         return [(k, getattr(self, k)) for k in self.FIELDS]
 
+    def values(self):
+        return [getattr(self, k) for k in self.FIELDS]
+
 
 class RayHits(_Fields):
     """Closest hits of n rays.  Each field is an array over the rays,
@@ -613,7 +616,7 @@ def _listing_block(prepared, rays, check=True):
     traversal into LISTING_GUESS rows a ray, taken in slabs, the written
     rays' rows packed into place, the others traversed again."""
     n = len(rays[0])
-    start, found, first, cnt = _run_listing(prepared, rays, n * LISTING_GUESS, check=check)
+    start, found, first, cnt = _run_listing(prepared, rays, n * LISTING_GUESS, None, check)
     splits = _splits(found)
     out = tuple(np.empty(int(splits[-1]), a.dtype) for a in first)
     written = start >= 0
