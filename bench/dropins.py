@@ -10,8 +10,8 @@ import numpy as np
 import trimesh
 
 from raytrace import RayScene
-from raytrace.open3d_scene import RaycastingScene
-from raytrace.trimesh_ray import RayMeshIntersector
+from raytrace.cast.open3d_scene import RaycastingScene
+from raytrace.cast.trimesh_ray import RayMeshIntersector
 
 N_RAYS = 200_000
 REPS = 15

@@ -1,11 +1,11 @@
-"""The Open3D drop-in (raytrace.open3d_scene.RaycastingScene): Open3D's
+"""The Open3D drop-in (raytrace.cast.open3d_scene.RaycastingScene): Open3D's
 methods, keys, dtypes and conventions, without Open3D installed; and, where
 it is, the same answers as Open3D's own RaycastingScene."""
 import numpy as np
 import pytest
 
 from raytrace import RaytraceError
-from raytrace.open3d_scene import INVALID_ID, RaycastingScene
+from raytrace.cast.open3d_scene import INVALID_ID, RaycastingScene
 
 # The unit cube [0, 1]^3, 12 faces wound outward (Open3D's create_box layout).
 CUBE_V = np.array([[0, 0, 0], [1, 0, 0], [0, 0, 1], [1, 0, 1],

@@ -5,10 +5,9 @@ import numpy as np
 import pytest
 
 from raytrace import RayScene, RaytraceError
-from raytrace.rayscene import ClosestPoints, RayHits
-from raytrace.scene import Camera, Plane, Scene, Sphere
-
-from .structures import STRUCTURES
+from raytrace.cast.rayscene import ClosestPoints, RayHits
+from raytrace.scene.model import Camera, Plane, Scene, Sphere
+from tests.structures import STRUCTURES
 
 
 def cube(half=1.0, subdivide=0):

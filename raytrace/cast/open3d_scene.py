@@ -2,7 +2,7 @@
 methods, arguments, result keys, dtypes and INVALID_ID conventions,
 answered by a RayScene (float64, watertight, each crossing counted once):
 
-    from raytrace.open3d_scene import RaycastingScene
+    from raytrace.cast.open3d_scene import RaycastingScene
     scene = RaycastingScene()
     scene.add_triangles(mesh)          # an Open3D mesh, or vertex and index arrays
     ans = scene.cast_rays(rays)        # (..., 6) rays: ans["t_hit"], ans["primitive_ids"], ...
@@ -20,7 +20,7 @@ import sys
 
 import numpy as np
 
-from .errors import RaytraceError
+from raytrace.errors import RaytraceError
 
 INVALID_ID = 2 ** 32 - 1
 # A t_min below 0 counts hits at t = 0 (rayscene.py), as Embree's tnear = 0 does.
@@ -76,7 +76,7 @@ class RaycastingScene:
     INVALID_ID = INVALID_ID
 
     def __init__(self, nthreads=0, device=None, accel="bvh", tensors=None):
-        from .rayscene import RayScene
+        from raytrace.cast.rayscene import RayScene
         if device is not None and not str(device).upper().startswith("CPU"):
             raise RaytraceError(f"device: raytrace runs on the CPU, got {device}")
         self._scene = RayScene(accel=accel)
@@ -179,7 +179,7 @@ class RaycastingScene:
         """(height_px, width_px, 6) float32 rays of a pinhole camera, Open3D's
         two forms: (intrinsic_matrix, extrinsic_matrix, width_px, height_px)
         or (fov_deg, center, eye, up, width_px, height_px)."""
-        from .rayscene import create_rays_from_matrices, create_rays_pinhole
+        from raytrace.cast.rayscene import create_rays_from_matrices, create_rays_pinhole
         by_fov = ("fov_deg", "center", "eye", "up", "width_px", "height_px")
         by_matrix = ("intrinsic_matrix", "extrinsic_matrix", "width_px", "height_px")
         names = by_fov if len(args) + len(kwargs) == 6 else by_matrix
