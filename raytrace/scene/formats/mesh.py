@@ -22,6 +22,7 @@ from raytrace.scene.model import Material
 MESH_EXTENSIONS = (".obj", ".ply", ".stl", ".off", ".glb")
 
 
+
 def bad_coordinate_rows(a):
     """The first problem of an (n, 3) float64 array of coordinates:
     ("nonfinite" or "too large", first such row, number of such rows), or
