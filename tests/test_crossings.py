@@ -159,9 +159,9 @@ def test_rays_listed_in_blocks_and_traversed_again_give_the_same_hits(monkeypatc
     monkeypatch.setattr(cast, "SLAB", 8)
     run_listing, runs = rayscene._run_listing, []
 
-    def spy(prepared, rays, rows, start=None):
+    def spy(prepared, rays, rows, start=None, check=True):
         runs.append(start is None)
-        return run_listing(prepared, rays, rows, start)
+        return run_listing(prepared, rays, rows, start, check)
     monkeypatch.setattr(rayscene, "_run_listing", spy)
     v, f = _layers(12)
     rs = RayScene((v, f))

@@ -177,6 +177,12 @@ def test_dask_arrays_of_rays_give_the_one_batch_answers(scene, cluster):
         np.testing.assert_array_equal(lazy.compute(scheduler="threads"), want[name])
     assert 0 < want.hit.sum() < len(o)
     np.testing.assert_array_equal(cluster.compute(got["prim_id"]).result(), want.prim_id)
+    # One result type: read as a RayHits is, lazily or computed in one pass.
+    done = got.compute(scheduler="threads")
+    np.testing.assert_array_equal(done.hit, want.hit)
+    np.testing.assert_array_equal(got.hit.compute(scheduler="threads"), want.hit)
+    np.testing.assert_array_equal(done.normal, want.normal)
+    np.testing.assert_array_equal(done["object_id"], want.object_id)
     blocked = occluded(rays, da.from_array(o, chunks=1000), da.from_array(d, chunks=1000), t_max=1.0)
     np.testing.assert_array_equal(cluster.compute(blocked).result(),
                                   rays.occluded(o, d, t_max=1.0))

@@ -4,16 +4,42 @@ kernels (kernels/cast.py) behind validated inputs.
 
 Distances are parametric: a hit is at ``origin + t * direction``, so t is
 in units of the direction's length (directions need not be unit length).
-Only hits with t_min < t < t_max count.
+Only hits with t_min < t < t_max count; a negative t_min counts hits at
+the origin itself (t = 0) too, never behind it.
 """
 import numpy as np
 
 from raytrace.errors import RaytraceError
+from raytrace.kernels.limits import FROM_ORIGIN
 from raytrace.scene.formats.mesh import MAX_COORD, bad_coordinate_rows, check_mesh_arrays
 from raytrace.scene.model import Mesh, Scene
 
 
-class RayHits:
+class _Fields:
+    """A query's answer: named arrays read as attributes or, as from a
+    dict, by name (``r.t``, ``r["t"]``, ``r.keys()``, ``r.items()``)."""
+    FIELDS = ()
+    ALIASES = ()
+
+    def __getitem__(self, name):
+        if name not in self.FIELDS and name not in self.ALIASES:
+            raise KeyError(f"{name!r} (fields: {', '.join(self.FIELDS)})")
+        return getattr(self, name)
+
+    def keys(self):
+        return self.FIELDS
+
+    def __iter__(self):
+        return iter(self.FIELDS)
+
+    def items(self):
+        return [(k, getattr(self, k)) for k in self.FIELDS]
+
+    def values(self):
+        return [getattr(self, k) for k in self.FIELDS]
+
+
+class RayHits(_Fields):
     """Closest hits of n rays.  Each field is an array over the rays,
     reachable as an attribute or by name (``hits.t``, ``hits["t"]``):
 
@@ -32,12 +58,16 @@ class RayHits:
     ``object_id`` is another name for ``geometry_id``; ``hit`` is the boolean
     mask of rays that hit; ``stats`` the counters (primitive and box tests)
     under the renderer's names.  normal and point are computed when first
-    read, so a caller who wants t alone does not pay for them.
+    read, so a caller who wants t alone does not pay for them.  Rays given
+    in a shape such as (h, w, 6) answer in that shape: t is (h, w), normal
+    (h, w, 3).
     """
     FIELDS = ("t", "geometry_id", "prim_id", "u", "v", "normal", "point")
+    ALIASES = ("object_id",)
 
-    def __init__(self, t, prim, u, v, origins, directions, prepared, stats):
-        self.t = t
+    def __init__(self, t, prim, u, v, origins, directions, prepared, stats, shape=None):
+        self._shape = shape          # the rays' leading shape, None for (n,) rows
+        self.t = self._shaped(t)
         self._prim = prim            # the kernel's unified primitive ids
         self._raw_uv = (u, v)
         self._rays = (origins, directions)
@@ -45,14 +75,19 @@ class RayHits:
         self.stats = stats
         self._cache = {}
 
+    def _shaped(self, a):
+        return a if self._shape is None else a.reshape(self._shape + a.shape[1:])
+
     def _get(self, name, make):
         if name not in self._cache:
-            self._cache[name] = make()
+            made = make()
+            self._cache[name] = (tuple(self._shaped(a) for a in made) if isinstance(made, tuple)
+                                 else self._shaped(made))
         return self._cache[name]
 
     @property
     def hit(self):
-        return self._prim >= 0
+        return self._shaped(self._prim >= 0)
 
     @property
     def geometry_id(self):
@@ -65,7 +100,7 @@ class RayHits:
         return self._get("prim_id", lambda: self._prepared.ids(self._prim)[1])
 
     def _uv(self):
-        tri = self.hit & (self._prim < self._prepared.n_tris)
+        tri = (self._prim >= 0) & (self._prim < self._prepared.n_tris)
         return (np.where(tri, self._raw_uv[0], np.nan), np.where(tri, self._raw_uv[1], np.nan))
 
     @property
@@ -85,21 +120,13 @@ class RayHits:
         return self._get("surface", self._surface)[1]
 
     def _surface(self):
-        return self._prepared.surface(self._prim, *self._raw_uv, self.t, *self._rays)
-
-    def __getitem__(self, name):
-        if name not in self.FIELDS and name != "object_id":
-            raise KeyError(f"{name!r} (fields: {', '.join(self.FIELDS)})")
-        return getattr(self, name)
-
-    def keys(self):
-        return self.FIELDS
+        return self._prepared.surface(self._prim, *self._raw_uv, self.t.reshape(-1), *self._rays)
 
     def __len__(self):
         return len(self.t)
 
     def __repr__(self):
-        return f"RayHits({len(self)} rays, {int(self.hit.sum())} hits)"
+        return f"RayHits({self.t.size} rays, {int(self.hit.sum())} hits)"
 
 
 class HitList(RayHits):
@@ -123,6 +150,55 @@ class HitList(RayHits):
 
     def __repr__(self):
         return f"HitList({len(self.ray_splits) - 1} rays, {len(self)} hits)"
+
+
+class ClosestPoints(_Fields):
+    """The surfaces' point closest to each of n query points
+    (RayScene.closest_points), fields read as RayHits' are:
+
+    point        (n, 3) the closest point (NaN: empty scene)
+    distance     (n,) its distance from the query point (inf: empty scene)
+    geometry_id  (n,) the mesh or object it is on, as in RayHits (-1: empty scene)
+    prim_id      (n,) the face it is on (0 for a sphere or plane; -1: empty scene)
+    u, v         (n,) barycentric weights of the face's second and third vertices
+                 (NaN: sphere, plane)
+    normal       (n, 3) unit geometric normal of that primitive, as RayHits'
+                 (computed when first read)
+    """
+    FIELDS = ("point", "distance", "geometry_id", "prim_id", "u", "v", "normal")
+    ALIASES = ("object_id",)
+
+    def __init__(self, point, d2, prim, u, v, prepared, order):
+        self._raw = (point, prim, u, v)     # in the kernel's (Morton) order
+        self._prepared = prepared
+        self._order = order
+        gid, face = prepared.ids(prim)
+        tri = (prim >= 0) & (prim < prepared.n_tris)
+        self.point = _unsorted(point, order)
+        self.distance = _unsorted(np.sqrt(d2), order)
+        self.geometry_id = _unsorted(gid, order)
+        self.prim_id = _unsorted(face, order)
+        self.u = _unsorted(np.where(tri, u, np.nan), order)
+        self.v = _unsorted(np.where(tri, v, np.nan), order)
+        self._normal = None
+
+    object_id = property(lambda self: self.geometry_id)
+
+    @property
+    def normal(self):
+        if self._normal is None:
+            point, prim, u, v = self._raw
+            zero = np.zeros_like(point)
+            # The surface at t = 0 of a ray from the point itself.
+            n = self._prepared.surface(prim, u, v, zero[:, 0], point, zero)[0]
+            self._normal = _unsorted(n, self._order)
+        return self._normal
+
+    def __len__(self):
+        return len(self.distance)
+
+    def __repr__(self):
+        return f"ClosestPoints({len(self)} points)"
 
 
 class _Prepared:
@@ -250,6 +326,9 @@ class RayScene:
         self.accel = accel
         self._objects = []
         self._prepared = None
+        # Whether a bad ray (NaN, zero direction, t_min >= t_max) raises;
+        # the Open3D drop-in (open3d_scene.py) answers it as a miss instead.
+        self._check = True
         if isinstance(target, Scene):
             self._objects = list(target.objects)
         elif target is not None:
@@ -271,27 +350,32 @@ class RayScene:
             self._prepared = _Prepared(self._objects, self.accel)
         return self._prepared
 
-    def cast_rays(self, origins, directions, t_min=0.0, t_max=np.inf):
+    def cast_rays(self, origins, directions=None, t_min=0.0, t_max=np.inf):
         """Closest hit of each ray (origins[i], directions[i]) with
         t_min < t < t_max: a RayHits.  origins, directions: (n, 3) (one (3,)
-        origin serves every direction, one direction every origin); t_min,
-        t_max: numbers or (n,) arrays, 0 <= t_min < t_max (inf allowed)."""
-        rays = _rays(origins, directions, t_min, t_max)
-        o, d, tmin, tmax = rays
+        origin serves every direction, one direction every origin), or of
+        any shape (..., 3), answered in that shape; or one (..., 6) array
+        of (origin, direction) rows, as create_rays_pinhole and Open3D make
+        them.  t_min, t_max: numbers or arrays over the rays, t_min < t_max
+        (inf allowed); t_min < 0 counts hits at the origin (t = 0) too."""
+        rays, shape = _rays(origins, directions, t_min, t_max)
         p = self._built()
-        (t, prim, u, v), cnt = _closest(p.geo, p.acc, *rays)
-        return RayHits(t, prim, u, v, o, d, p, _counters(cnt, len(d)))
+        (t, prim, u, v), cnt = _closest(p.geo, p.acc, *rays, check=self._check)
+        return RayHits(t, prim, u, v, *rays[:2], p, _counters(cnt, len(t)), shape)
 
-    def occluded(self, origins, directions, t_min=0.0, t_max=np.inf):
+    def occluded(self, origins, directions=None, t_min=0.0, t_max=np.inf):
         """Whether anything is hit along each ray with t_min < t < t_max: a
-        boolean (n,) array.  For a shadow ray, pass the unnormalised
-        direction to the light and t_max = 1."""
+        boolean array over the rays (rays as cast_rays takes them).  For a
+        shadow ray, pass the unnormalised direction to the light and t_max = 1."""
+        rays, shape = _rays(origins, directions, t_min, t_max)
         p = self._built()
-        return _any_hit(p.geo, p.acc, *_rays(origins, directions, t_min, t_max))[0]
+        return _shaped(_any_hit(p.geo, p.acc, *rays, check=self._check)[0], shape)
 
-    def count_intersections(self, origins, directions, t_min=0.0, t_max=np.inf, max_hits=None):
+    def count_intersections(self, origins, directions=None, t_min=0.0, t_max=np.inf,
+                            max_hits=None):
         """How many times each ray meets the surfaces with t_min < t < t_max:
-        an int64 (n,) array.  A ray through a shared edge or vertex of a
+        an int64 array over the rays (rays as cast_rays takes them).  A ray
+        through a shared edge or vertex of a
         closed mesh crosses it once and is counted once; one grazing an
         edge where the surface folds away is counted 0 or 2 times, so the
         parity of the count still says inside or outside.  max_hits: stop
@@ -301,21 +385,23 @@ class RayScene:
         a BVH the first count or listing builds a tree of its own for
         counting and copies the triangles in its leaf order (about 95 bytes
         a triangle, kept with the scene)."""
-        rays = _rays(origins, directions, t_min, t_max)
+        rays, shape = _rays(origins, directions, t_min, t_max)
         p = self._built()
-        return np.minimum(_counts(p, rays), _max_hits(max_hits, p))
+        return _shaped(np.minimum(_counts(p, rays, self._check), _max_hits(max_hits, p)), shape)
 
-    def list_intersections(self, origins, directions, t_min=0.0, t_max=np.inf, max_hits=None):
+    def list_intersections(self, origins, directions=None, t_min=0.0, t_max=np.inf,
+                           max_hits=None):
         """Every hit along each ray with t_min < t < t_max, nearest first
         (ties in t: the smaller primitive id first), each crossing counted
         as in count_intersections, at most max_hits per ray (the nearest): a
-        HitList, flat arrays in Open3D's layout.  One traversal a ray,
+        HitList, flat arrays in Open3D's layout over the rays in row-major
+        order (rays as cast_rays takes them).  One traversal a ray,
         writing its hits into rows taken as they come (LISTING_GUESS rows a
         ray reserved in all); a second only for rays that find them spent."""
-        rays = _rays(origins, directions, t_min, t_max)
+        rays, _ = _rays(origins, directions, t_min, t_max)
         p = self._built()
         limit = _max_hits(max_hits, p)
-        splits, (t, prim, u, v), cnt = _listing(p, rays)
+        splits, (t, prim, u, v), cnt = _listing(p, rays, self._check)
         counts = np.diff(splits)
         if counts.max(initial=0) > limit:
             kept = np.minimum(counts, limit)
@@ -330,13 +416,13 @@ class RayScene:
         the scene's bounding box the short way (toward the box's nearest
         face, a little off the axis).  One ray is exact on a closed mesh,
         since each crossing counts once even through edges and vertices.
-        ``votes=3`` casts three rays, one along each axis toward its nearer
-        side, and takes the majority, so a small hole or a stray face cannot
-        decide alone (three times the cost).  On an open mesh the answer is
-        that parity, meaningful only where the mesh encloses the point; a
-        point on the surface may go either way."""
-        if votes not in (1, 3):
-            raise RaytraceError(f"votes: must be 1 or 3, got {votes!r}")
+        ``votes`` (odd) casts that many rays and takes the majority, so a
+        small hole or a stray face cannot decide alone (votes times the
+        cost): 3 go along each axis toward its nearer side, 5 and 6 add the
+        farther sides, more add directions spread over the sphere.  On an
+        open mesh the answer is that parity, meaningful only where the mesh
+        encloses the point; a point on the surface may go either way."""
+        votes = _votes(votes)
         q, order = _query_points(points)
         return _unsorted(self._contains(q, votes), order)
 
@@ -347,38 +433,35 @@ class RayScene:
         return 2 * odd > votes
 
     def closest_points(self, points):
-        """The surfaces' point closest to each query point: a dict of
-        ``point`` (n, 3), ``distance``, ``geometry_id`` and ``prim_id`` (as in
-        RayHits; -1 for an empty scene) and ``u``, ``v`` (barycentric weights
-        of a face's second and third vertex; NaN for spheres and planes).
-        Ties between primitives at one distance go to the smaller id.  Point
-        queries use a BVH whatever ``accel`` is, so every RayScene answers
-        alike."""
+        """The surfaces' point closest to each query point: a ClosestPoints,
+        fields ``point`` (n, 3), ``distance``, ``geometry_id``, ``prim_id``,
+        ``u``, ``v`` and ``normal``, read as RayHits' are.  Ties between
+        primitives at one distance go to the smaller id.  Point queries use
+        a BVH whatever ``accel`` is, so every RayScene answers alike."""
         q, order = _query_points(points)
-        return {k: _unsorted(a, order) for k, a in self._closest_points(q).items()}
+        return ClosestPoints(*self._closest_points(q), self._built(), order)
 
-    def _closest_points(self, q):
+    def _closest_points(self, q, order=None):
         p = self._built()
         from raytrace.accel.bvh.points import CHUNK, closest_points
         n = len(q)
         point, prim = np.empty((n, 3)), np.empty(n, np.int64)
         u, v, d2 = np.empty(n), np.empty(n), np.empty(n)
         closest_points(p.geo, p.bvh(), q, point, prim, u, v, d2, _blocks(n, CHUNK), _clock())
-        gid, face = p.ids(prim)
-        tri = (prim >= 0) & (prim < p.n_tris)
-        return {"point": point, "distance": np.sqrt(d2), "geometry_id": gid, "prim_id": face,
-                "u": np.where(tri, u, np.nan), "v": np.where(tri, v, np.nan)}
+        return point, d2, prim, u, v
 
     def distance(self, points):
         """Distance from each point to the nearest surface (inf if none)."""
         q, order = _query_points(points)
-        return _unsorted(self._closest_points(q)["distance"], order)
+        return _unsorted(np.sqrt(self._closest_points(q)[1]), order)
 
-    def signed_distance(self, points):
-        """distance(), negative inside the closed surfaces (contains())."""
+    def signed_distance(self, points, votes=1):
+        """distance(), negative inside the closed surfaces (contains(),
+        with its ``votes``)."""
+        votes = _votes(votes)
         q, order = _query_points(points)
-        d = self._closest_points(q)["distance"]
-        return _unsorted(np.where(self._contains(q, 1), -d, d), order)
+        d = np.sqrt(self._closest_points(q)[1])
+        return _unsorted(np.where(self._contains(q, votes), -d, d), order)
 
     def __repr__(self):
         return f"RayScene({len(self._objects)} geometries, accel={self.accel!r})"
@@ -393,20 +476,44 @@ _EXITS = np.array([[-1.0, 0.0311, 0.0457], [0.0123, -1.0, 0.0457], [0.0123, 0.03
                    [1.0, 0.0311, 0.0457], [0.0123, 1.0, 0.0457], [0.0123, 0.0311, 1.0]])
 
 
+def _votes(votes):
+    if isinstance(votes, bool) or not isinstance(votes, (int, np.integer)) or votes < 1 \
+            or votes % 2 == 0:
+        raise RaytraceError(f"votes: must be an odd positive integer, got {votes!r}")
+    return int(votes)
+
+
+def _spread_directions(k):
+    """k unit directions spread over the sphere (a golden-angle spiral),
+    each turned off the axes like _EXITS' rows."""
+    i = np.arange(k) + 0.5
+    z = 1.0 - 2.0 * i / k
+    phi = i * np.pi * (3.0 - np.sqrt(5.0)) + 0.0457
+    r = np.sqrt(1.0 - z * z)
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+
+
 def _exit_directions(q, bounds, votes):
     """The directions of contains' rays from points q (n, 3): one array
-    toward the nearest face of the box ``bounds`` (votes=1), or three,
-    along x, y and z toward each axis' nearer side (votes=3)."""
+    toward the nearest face of the box ``bounds`` (votes=1); along x, y
+    and z toward each axis' nearer side (votes=3); then toward the farther
+    sides (up to 6), then fixed directions spread over the sphere."""
     if bounds is None:     # nothing bounded: any direction does
-        return [_EXITS[3 + a] for a in range(votes)]
-    lo, hi = bounds
-    # Per axis: the distance to the nearer side and whether that is + (a
-    # point outside the box has a negative distance on its side: out it goes).
-    near = [np.minimum(q[:, a] - lo[a], hi[a] - q[:, a]) for a in range(3)]
-    plus = [hi[a] - q[:, a] < q[:, a] - lo[a] for a in range(3)]
-    rows = [a + 3 * plus[a] for a in range(3)]
-    if votes == 3:
-        return [_EXITS[r] for r in rows]
+        near_rows, far_rows = list(_EXITS[3:]), list(_EXITS[:3])
+        if votes == 1:
+            return near_rows[:1]
+    else:
+        lo, hi = bounds
+        # Per axis: the distance to the nearer side and whether that is + (a
+        # point outside the box has a negative distance on its side: out it goes).
+        near = [np.minimum(q[:, a] - lo[a], hi[a] - q[:, a]) for a in range(3)]
+        plus = [hi[a] - q[:, a] < q[:, a] - lo[a] for a in range(3)]
+        rows = [a + 3 * plus[a] for a in range(3)]
+        near_rows = [_EXITS[r] for r in rows]
+        far_rows = [_EXITS[(r + 3) % 6] for r in rows]
+    if votes >= 3:
+        out = (near_rows + far_rows)[:votes]
+        return out + list(_spread_directions(votes - len(out))) if votes > 6 else out
     axis = np.where(near[0] <= near[1], np.where(near[0] <= near[2], 0, 2),
                     np.where(near[1] <= near[2], 1, 2))
     return [_EXITS[np.choose(axis, rows)]]
@@ -423,13 +530,15 @@ def _max_hits(max_hits, prepared):
     return int(max_hits)
 
 
-def _counts(prepared, rays):
-    """How many hits each ray has (cast_counts); RaytraceError if a ray is bad."""
+def _counts(prepared, rays, check=True):
+    """How many hits each ray has (cast_counts); RaytraceError if a ray is
+    bad (with ``check``; else its count is 0)."""
     from raytrace.kernels.cast import cast_counts
     counts = np.empty(len(rays[0]), np.int64)
     cnt = _counter_rows(len(counts))
     cast_counts(prepared.geo, prepared.counting(), *rays, counts, cnt, _clock())
-    _check_rays(cnt, rays)
+    if check:
+        _check_rays(cnt, rays)
     return counts
 
 
@@ -443,18 +552,18 @@ LISTING_GUESS = 4
 LISTING_ROWS = 1 << 22
 
 
-def _listing(prepared, rays):
+def _listing(prepared, rays, check=True):
     """(splits, (t, prim, u, v), counters): every hit of each ray, ray i's
     in rows splits[i]:splits[i + 1], in order of (t, primitive id); the
     counters of one traversal a ray."""
     n = len(rays[0])
     block = max(1, LISTING_ROWS // LISTING_GUESS)
     if n <= block:
-        return _listing_block(prepared, rays)
+        return _listing_block(prepared, rays, check)
     parts = []
     for s in range(0, n, block):
         try:
-            parts.append(_listing_block(prepared, [a[s:s + block] for a in rays]))
+            parts.append(_listing_block(prepared, [a[s:s + block] for a in rays], check))
         except RaytraceError:
             _name_the_problem(*rays)    # the bad ray by its index in the whole call
             raise
@@ -463,7 +572,7 @@ def _listing(prepared, rays):
     return splits, out, sum(c for _, _, c in parts)
 
 
-def _run_listing(prepared, rays, rows, start=None):
+def _run_listing(prepared, rays, rows, start=None, check=True):
     """cast_listing into ``rows`` fresh rows: (start, found, rows, counters).
     With ``start`` (splits), each ray's rows are given; without, taken in
     slabs, and start[i] is -1 for a ray not written (rows spent)."""
@@ -480,7 +589,8 @@ def _run_listing(prepared, rays, rows, start=None):
     slab = max(1, min(SLAB, rows // (4 * len(cnt))))
     cast_listing(prepared.geo, prepared.counting(), *rays, start, fixed, slab, *out, found,
                  cnt, np.zeros(2, np.int64))
-    _check_rays(cnt, rays)
+    if check:
+        _check_rays(cnt, rays)
     return start[:n], found, out, cnt.sum(axis=0)
 
 
@@ -500,12 +610,12 @@ def _rows_of(rays, counts):
     return ray, np.arange(len(ray)) - np.repeat(ends - counts, counts)
 
 
-def _listing_block(prepared, rays):
+def _listing_block(prepared, rays, check=True):
     """_listing for rays whose reserved rows fit in LISTING_ROWS: one
     traversal into LISTING_GUESS rows a ray, taken in slabs, the written
     rays' rows packed into place, the others traversed again."""
     n = len(rays[0])
-    start, found, first, cnt = _run_listing(prepared, rays, n * LISTING_GUESS)
+    start, found, first, cnt = _run_listing(prepared, rays, n * LISTING_GUESS, None, check)
     splits = _splits(found)
     out = tuple(np.empty(int(splits[-1]), a.dtype) for a in first)
     written = start >= 0
@@ -517,7 +627,8 @@ def _listing_block(prepared, rays):
     if len(again):
         sub = [np.ascontiguousarray(a[again]) for a in rays]
         sub_splits = _splits(found[again])
-        _, found_again, rows, _ = _run_listing(prepared, sub, int(sub_splits[-1]), sub_splits)
+        _, found_again, rows, _ = _run_listing(prepared, sub, int(sub_splits[-1]), sub_splits,
+                                               check)
         if not np.array_equal(found_again, found[again]):   # the same tests, both times
             raise RuntimeError("list_intersections: the second pass found other hits than "
                                "the first (a bug: please report it)")
@@ -544,16 +655,46 @@ def _as_rows(name, a):
     return kernel_array(arr)
 
 
-def _interval_end(name, value, n):
-    """An (n,) float64 array from a number or an (n,) array-like."""
+def _ray_rows(name, a, width=3):
+    """(n, width) rows of an array of shape (..., width), real numbers of
+    any dtype (kernel_array converts them, once), and that leading shape
+    (None for (n, width), or (width,) as one row)."""
+    try:
+        arr = np.asarray(a)
+        if np.iscomplexobj(arr):
+            raise RaytraceError(f"{name}: complex numbers are not coordinates")
+        if arr.dtype.kind not in "biuf":
+            arr = arr.astype(np.float64)
+    except (TypeError, ValueError) as exc:   # ragged rows, text
+        raise RaytraceError(f"{name}: not convertible to float64 ({exc})") from None
+    if arr.ndim < 1 or arr.shape[-1] != width:
+        raise RaytraceError(f"{name}: expected shape (n, {width}) or (..., {width}), "
+                            f"got {arr.shape}")
+    if arr.ndim > 2:
+        return arr.reshape(-1, width), arr.shape[:-1]
+    return (arr[None, :] if arr.ndim == 1 else arr), None
+
+
+def _shaped(a, shape):
+    """A per-ray answer in the rays' leading shape."""
+    return a if shape is None else a.reshape(shape + a.shape[1:])
+
+
+def _interval_end(name, value, n, shape=None):
+    """An (n,) float64 array from a number or an array over the rays: (n,)
+    or the rays' leading shape."""
     try:
         a = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise RaytraceError(f"{name}: not convertible to float64 ({exc})") from None
     if a.ndim == 0:
-        return _filled(n, float(a))
-    if a.shape != (n,):
-        raise RaytraceError(f"{name}: expected a number or shape ({n},), got shape {a.shape}")
+        x = float(a)
+        return _filled(n, FROM_ORIGIN if name == "t_min" and x < 0 else x)
+    if a.shape != (n,) and (shape is None or a.shape != shape):
+        raise RaytraceError(f"{name}: expected a number or shape {shape or (n,)}, got shape {a.shape}")
+    a = a.reshape(n)
+    if name == "t_min" and (a < 0).any():
+        a = np.where(a < 0, FROM_ORIGIN, a)
     return kernel_array(a)
 
 
@@ -579,19 +720,30 @@ def _filled(n, value):
 
 
 def _rays(origins, directions, t_min, t_max):
-    """Validated kernel arrays (origins, directions, t_min, t_max)."""
-    o = _as_rows("origins", origins)
-    d = _as_rows("directions", directions)
-    if len(o) == 1 and len(d) > 1:     # one origin for every direction
-        o = np.ascontiguousarray(np.broadcast_to(o, d.shape))
-    if len(d) == 1 and len(o) > 1:     # one direction for every origin
-        d = np.ascontiguousarray(np.broadcast_to(d, o.shape))
-    if len(o) != len(d):
-        raise RaytraceError(f"origins and directions differ in length ({len(o)} and {len(d)})")
+    """Validated kernel arrays (origins, directions, t_min, t_max), and the
+    rays' leading shape (None for rows).  ``directions`` None: ``origins``
+    holds (origin, direction) rows of 6."""
+    if directions is None:
+        rows, shape = _ray_rows("rays", origins, 6)
+        o, d = kernel_array(rows[:, :3]), kernel_array(rows[:, 3:])
+    else:
+        o, o_shape = _ray_rows("origins", origins)
+        d, d_shape = _ray_rows("directions", directions)
+        if o_shape != d_shape and len(o) > 1 and len(d) > 1:
+            raise RaytraceError(f"origins and directions differ in shape "
+                                f"({o_shape or o.shape} and {d_shape or d.shape})")
+        shape = d_shape if len(o) == 1 else o_shape
+        o, d = kernel_array(o), kernel_array(d)
+        if len(o) == 1 and len(d) > 1:     # one origin for every direction
+            o = np.ascontiguousarray(np.broadcast_to(o, d.shape))
+        if len(d) == 1 and len(o) > 1:     # one direction for every origin
+            d = np.ascontiguousarray(np.broadcast_to(d, o.shape))
+        if len(o) != len(d):
+            raise RaytraceError(f"origins and directions differ in length ({len(o)} and {len(d)})")
     n = len(d)
-    tmin = _interval_end("t_min", t_min, n)
-    tmax = _interval_end("t_max", t_max, n)
-    return o, d, tmin, tmax
+    tmin = _interval_end("t_min", t_min, n, shape)
+    tmax = _interval_end("t_max", t_max, n, shape)
+    return (o, d, tmin, tmax), shape
 
 
 def _check_rays(cnt, rays):
@@ -664,10 +816,9 @@ def _name_the_problem(o, d, tmin, tmax):
     if bad.any():
         raise RaytraceError(f"t_max[{int(np.argmax(bad))}]: must be positive (inf allowed), "
                             f"got {tmax[np.argmax(bad)]}")
-    bad = ~((tmin >= 0) & (tmin < tmax))
+    bad = ~((tmin >= FROM_ORIGIN) & (tmin < tmax))
     k = int(np.argmax(bad))
-    raise RaytraceError(f"t_min[{k}]: must be finite, at least 0 and below t_max "
-                        f"({tmax[k]}), got {tmin[k]}")
+    raise RaytraceError(f"t_min[{k}]: must be a number below t_max ({tmax[k]}), got {tmin[k]}")
 
 
 def kernel_array(a, dtype=np.float64):
@@ -701,26 +852,29 @@ def _clock():
     return np.zeros(1, np.int64)
 
 
-def _closest(geo, acc, origins, dirs, t_min, t_max):
+def _closest(geo, acc, origins, dirs, t_min, t_max, check=True):
     """((t, prim, b1, b2), counters) for (n, 3) rays and (n,) bounds;
-    RaytraceError if a ray is bad."""
+    RaytraceError if a ray is bad (with ``check``; else it misses)."""
     from raytrace.kernels.cast import cast_closest
     n = len(origins)
     out = (np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n))
     cnt = _counter_rows(n)
     cast_closest(geo, acc, origins, dirs, t_min, t_max, *out, cnt, _clock())
-    _check_rays(cnt, (origins, dirs, t_min, t_max))
+    if check:
+        _check_rays(cnt, (origins, dirs, t_min, t_max))
     return out, cnt.sum(axis=0)
 
 
-def _any_hit(geo, acc, origins, dirs, t_min, t_max):
-    """(occluded bool array, counters); RaytraceError if a ray is bad."""
+def _any_hit(geo, acc, origins, dirs, t_min, t_max, check=True):
+    """(occluded bool array, counters); RaytraceError if a ray is bad (with
+    ``check``; else it is not occluded)."""
     from raytrace.kernels.cast import cast_occluded
     n = len(origins)
     hit = np.empty(n, np.bool_)
     cnt = _counter_rows(n)
     cast_occluded(geo, acc, origins, dirs, t_min, t_max, hit, cnt, _clock())
-    _check_rays(cnt, (origins, dirs, t_min, t_max))
+    if check:
+        _check_rays(cnt, (origins, dirs, t_min, t_max))
     return hit, cnt.sum(axis=0)
 
 

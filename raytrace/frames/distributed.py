@@ -15,6 +15,7 @@ from concurrent.futures import CancelledError
 
 import numpy as np
 
+from raytrace.cast.rayscene import RayHits, _Fields
 from raytrace.errors import RaytraceError
 
 EXTRA = "pip install 'raytrace[distributed]'"
@@ -225,15 +226,42 @@ def _ray_blocks(scene, origins, directions, why):
     return da, o, d, dask.delayed(scene, pure=True)
 
 
+class DaskHits(_Fields):
+    """RayHits' fields (t, geometry_id, prim_id, u, v, normal, point) as
+    lazy Dask arrays, read as a RayHits' are (``h.t``, ``h["t"]``,
+    ``h.hit``, ``h.items()``); ``compute()`` gives them all as NumPy arrays
+    in one DaskHits, from one pass over the blocks."""
+    FIELDS = RayHits.FIELDS
+    ALIASES = RayHits.ALIASES
+
+    def __init__(self, fields):
+        self.__dict__.update(fields)
+
+    @property
+    def hit(self):
+        return self.geometry_id >= 0
+
+    @property
+    def object_id(self):
+        return self.geometry_id
+
+    def compute(self, **kwargs):
+        import dask
+        return DaskHits(dict(zip(self.FIELDS, dask.compute(*self.values(), **kwargs))))
+
+    def __repr__(self):
+        return f"DaskHits({len(self.t)} rays)"
+
+
 def cast_rays(scene, origins, directions, t_min=0.0, t_max=float("inf")):
     """Closest hits of a Dask array of rays against a RayScene, block by
-    block (map_blocks): a dict of lazy Dask arrays, the fields of RayHits
-    (t, geometry_id, prim_id, u, v, normal, point).  Compute them on any
-    Dask scheduler; billions of rays never need to fit in one memory."""
+    block (map_blocks): a DaskHits, the fields of RayHits as lazy Dask
+    arrays (t, geometry_id, prim_id, u, v, normal, point).  Compute them on
+    any Dask scheduler; billions of rays never need to fit in one memory."""
     da, o, d, shared = _ray_blocks(scene, origins, directions, "cast_rays on Dask arrays")
     records = da.map_blocks(_hits_block, o, d, shared, t_min, t_max, drop_axis=1,
                             dtype=HIT_RECORD, meta=np.empty(0, HIT_RECORD))
-    return {name: records[name] for name in HIT_RECORD.names}
+    return DaskHits({name: records[name] for name in HIT_RECORD.names})
 
 
 def occluded(scene, origins, directions, t_min=0.0, t_max=float("inf")):

@@ -132,11 +132,13 @@ def _triangle(ray, v0, v1, v2, i, t_max, crossing):
     bz *= sz
     cz *= sz
     t_scaled = e0 * az + e1 * bz + e2 * cz
+    # Behind the origin is out; t = 0 is left to the t_min test, so that a
+    # t_min of FROM_ORIGIN counts a face the ray starts on.
     if det < 0.0:
-        if t_scaled >= 0.0 or t_scaled <= t_max * det:
+        if t_scaled > 0.0 or t_scaled <= t_max * det:
             return np.inf, 0.0, 0.0
     else:
-        if t_scaled <= 0.0 or t_scaled >= t_max * det:
+        if t_scaled < 0.0 or t_scaled >= t_max * det:
             return np.inf, 0.0, 0.0
     inv_det = 1.0 / det
     t = t_scaled * inv_det

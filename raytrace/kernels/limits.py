@@ -8,6 +8,12 @@
 # of 1e300s framed a camera at infinity and failed without naming the file.
 MAX_COORD = 1e100
 
+# A ray query's t_min that counts hits at the origin itself (t = 0): the
+# largest float below zero, so t > FROM_ORIGIN holds for t = 0 (and -0.0)
+# and for nothing behind the origin.  A negative t_min given to RayScene
+# becomes this (trimesh, Embree and Open3D count a face the ray starts on).
+FROM_ORIGIN = -5e-324
+
 # Most mirror and glass bounces a ray is followed for (--max-depth): the
 # render kernel keeps a stack of pending rays this deep.
 MAX_BOUNCES = 16

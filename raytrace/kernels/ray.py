@@ -6,7 +6,7 @@ import numpy as np
 from numba import njit
 
 from raytrace.kernels.jit import JIT
-from raytrace.kernels.limits import MAX_COORD
+from raytrace.kernels.limits import FROM_ORIGIN, MAX_COORD
 
 # A ray with the per-ray constants every test along it shares: the inverse
 # direction for slab tests (a zero component gives +-inf) and the axis
@@ -37,7 +37,7 @@ Hit = namedtuple("Hit", ["t", "prim", "u", "v"])
 def make_ray(ox, oy, oz, dx, dy, dz, t_min=0.0):
     """A Ray from origin and direction (Woop, Benthin & Wald 2013,
     "Watertight Ray/Triangle Intersection", for the shear constants);
-    t_min >= 0 is the near end of its interval."""
+    t_min (FROM_ORIGIN or more) is the near end of its interval."""
     idx = 1.0 / dx
     idy = 1.0 / dy
     idz = 1.0 / dz
@@ -99,11 +99,11 @@ def closer(t, p, best):
 @njit(**JIT)
 def ray_ok(origins, dirs, t_min, t_max, i):
     """Whether ray i's origin and direction components are finite and within
-    MAX_COORD, its direction is not zero, and 0 <= t_min < t_max (t_max may
-    be inf).  Comparisons are written so that NaN fails them."""
+    MAX_COORD, its direction is not zero, and FROM_ORIGIN <= t_min < t_max
+    (t_max may be inf).  Comparisons are written so that NaN fails them."""
     ox, oy, oz = origins[i, 0], origins[i, 1], origins[i, 2]
     dx, dy, dz = dirs[i, 0], dirs[i, 1], dirs[i, 2]
     return ((abs(ox) <= MAX_COORD) & (abs(oy) <= MAX_COORD) & (abs(oz) <= MAX_COORD)
             & (abs(dx) <= MAX_COORD) & (abs(dy) <= MAX_COORD) & (abs(dz) <= MAX_COORD)
             & ((dx != 0.0) | (dy != 0.0) | (dz != 0.0))
-            & (t_min[i] >= 0.0) & (t_min[i] < t_max[i]))
+            & (t_min[i] >= FROM_ORIGIN) & (t_min[i] < t_max[i]))

@@ -59,8 +59,8 @@ def _within_interval(builder, edges, corners, sz, t_min, t_max):
                                          builder.fmul(e1, builder.fmul(bz, sz))),
                             builder.fmul(e2, builder.fmul(cz, sz)))
     bound = builder.fmul(t_max, det)
-    out_neg = builder.or_(cmp(">=", t_scaled, zero), cmp("<=", t_scaled, bound))
-    out_pos = builder.or_(cmp("<=", t_scaled, zero), cmp(">=", t_scaled, bound))
+    out_neg = builder.or_(cmp(">", t_scaled, zero), cmp("<=", t_scaled, bound))
+    out_pos = builder.or_(cmp("<", t_scaled, zero), cmp(">=", t_scaled, bound))
     out = builder.select(cmp("<", det, zero), out_neg, out_pos)
     t = builder.fmul(t_scaled, builder.fdiv(one, det))
     within = builder.and_(cmp(">", t, t_min), cmp("<", t, t_max))
