@@ -4,12 +4,12 @@ traverse the tree together (Wald, Slusallek, Benthin & Wagner 2001,
 each entry of the stack carries the mask of the rays that entered it).
 
 A node's 4 child boxes are tested against all the packet's rays at once
-(``simd.packet_aabb4``, one <16 x float> a plane), and a child is
+(``simd_packets.packet_aabb4``, one <16 x float> a plane), and a child is
 visited with the rays that enter it: for the closest hit nearest first by
 the least of their entries, for any hit in lane order (most shadow rays
 are blocked by nothing, so the order buys little and costs a sort).  A
 leaf's triangles are tested against its rays at once where they share
-their watertight axes (``simd.packet_triangle``, <16 x double>), one
+their watertight axes (``simd_packets.packet_triangle``, <16 x double>), one
 ray at a time otherwise.  Neighbouring camera and shadow
 rays enter nearly the same nodes, so a node's loads, box arithmetic and
 branches serve many rays (docs/benchmarks.md, "BVH").
@@ -36,7 +36,7 @@ from numba import njit
 from numba.cpython.unsafe.numbers import trailing_zeros
 
 from raytrace.accel.bvh.layout import BVH, WIDTH
-from raytrace.accel.bvh.simd import packet_aabb4, packet_rays, packet_triangle
+from raytrace.accel.bvh.simd_packets import packet_aabb4, packet_rays, packet_triangle
 from raytrace.accel.bvh.traverse import (
     _DONE,
     _LANE_BITS,
