@@ -145,6 +145,10 @@ class MeshPart:
     face_colors: np.ndarray = None   # (m, 3) linear RGB per face, or None
     uv: np.ndarray = None            # (n, 2) texture coordinates, or None
 
+    # Every array with a row per vertex: a split, weld or reorder of the
+    # vertices applies to each of them (part_mesh).  A new one is added here.
+    PER_VERTEX = ("vertices", "colors", "uv")
+
 
 def read_mesh(path):
     """(vertices (n, 3) float64, faces (m, 3) int64) of a mesh file; a file
@@ -237,22 +241,29 @@ def _check_surface_arrays(path, part, warn):
 
 def part_mesh(part, base, crease, flat, name):
     """A scene Mesh of a MeshPart: its file's material (else ``base``) and
-    shading normals."""
-    from raytrace.scene.model import Mesh
-    from raytrace.scene.normals import shading_normals
-    vertices, faces, normals = shading_normals(part.vertices, part.faces, part.normals,
-                                               crease=crease, flat=bool(flat))
-    colors, uv = part.colors, part.uv
+    shading normals.  Every per-vertex array (MeshPart.PER_VERTEX) follows
+    the vertices through the crease split and the face-colour split."""
+    from ..normals import shading_split
+    from ..scene import Mesh
+    arrays = {k: getattr(part, k) for k in MeshPart.PER_VERTEX if getattr(part, k) is not None}
+    # Vertices that carry more than a position stay apart where they meet.
+    keep = len(arrays) > 1
+    source, faces, normals = shading_split(part.vertices, part.faces, part.normals,
+                                           crease=crease, flat=bool(flat), keep=keep)
     if part.face_colors is not None:
         # A colour per face: each face gets vertices of its own, after the
         # shading normals were found from the shared ones.
         corners = faces.reshape(-1)
-        vertices, normals = vertices[corners], normals[corners] if normals is not None else None
-        uv = uv[corners] if uv is not None else None
-        colors = np.repeat(part.face_colors, 3, axis=0)
+        source = corners if source is None else source[corners]
+        normals = normals[corners] if normals is not None else None
         faces = np.arange(len(corners), dtype=np.int64).reshape(-1, 3)
-    return Mesh(vertices, faces, part.material or base, normals=normals, name=name,
-                colors=colors, uv=uv)
+        arrays.pop("colors", None)
+    if source is not None:
+        arrays = {k: a[source] for k, a in arrays.items()}
+    if part.face_colors is not None:
+        arrays["colors"] = np.repeat(part.face_colors, 3, axis=0)
+    return Mesh(arrays["vertices"], faces, part.material or base, normals=normals, name=name,
+                colors=arrays.get("colors"), uv=arrays.get("uv"))
 
 
 def _part(trimesh, scene, node, library, source, warn, base):
