@@ -53,6 +53,15 @@ def unit3(x, y, z):
 
 
 @njit(**BUILD_STEP)
+def face_unit_normal(v, f, face):
+    """flatten.unit_rows(flatten.cross_rows(e1, e2)) of one face."""
+    a, b, d = f[face, 0], f[face, 1], f[face, 2]
+    e1x, e1y, e1z = v[b, 0] - v[a, 0], v[b, 1] - v[a, 1], v[b, 2] - v[a, 2]
+    e2x, e2y, e2z = v[d, 0] - v[a, 0], v[d, 1] - v[a, 1], v[d, 2] - v[a, 2]
+    return unit3(e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x)
+
+
+@njit(**BUILD_STEP)
 def corner_frame(v, f, c):
     """(unit face normal x, y, z, angle at corner c) of corner c's face."""
     face, k = c // 3, c % 3
@@ -125,15 +134,13 @@ def join(parent, i, j):
 
 
 @njit(**BUILD_STEP)
-def link_if_smooth(pf, fan, nrm, cos_crease, parent, i, j):
+def link_if_smooth(fan, far, nrm, cos_crease, parent, i, j):
     """Join fan corners i and j if their faces differ, share an edge at
-    this position and bend by at most the crease angle."""
-    ci, cj = fan[i], fan[j]
-    fi, fj = ci // 3, cj // 3
-    if fi == fj:
+    this position (far[i] holds the positions at its face's other two
+    corners) and bend by at most the crease angle."""
+    if fan[i] // 3 == fan[j] // 3:
         return
-    ai, bi = pf[fi, (ci % 3 + 1) % 3], pf[fi, (ci % 3 + 2) % 3]
-    aj, bj = pf[fj, (cj % 3 + 1) % 3], pf[fj, (cj % 3 + 2) % 3]
+    ai, bi, aj, bj = far[i, 0], far[i, 1], far[j, 0], far[j, 1]
     if not (ai == aj or ai == bj or bi == aj or bi == bj):
         return
     if nrm[i, 0] * nrm[j, 0] + nrm[i, 1] * nrm[j, 1] + nrm[i, 2] * nrm[j, 2] >= cos_crease:
@@ -141,7 +148,7 @@ def link_if_smooth(pf, fan, nrm, cos_crease, parent, i, j):
 
 
 @njit(**BUILD_STEP)
-def group_fan(pf, fan, nrm, cos_crease, parent):
+def group_fan(fan, far, nrm, cos_crease, parent):
     """parent[:d] = each fan corner's group root (its first corner)."""
     d = len(fan)
     for i in range(d):
@@ -149,22 +156,18 @@ def group_fan(pf, fan, nrm, cos_crease, parent):
     if d <= SMALL_FAN:
         for i in range(d):
             for j in range(i):
-                link_if_smooth(pf, fan, nrm, cos_crease, parent, i, j)
+                link_if_smooth(fan, far, nrm, cos_crease, parent, i, j)
     else:
         # Each corner's two edges keyed by the position at their far end:
         # corners whose faces share an edge are then neighbours once sorted.
-        key = np.empty(2 * d, np.int64)
-        for i in range(d):
-            c = fan[i]
-            key[2 * i] = pf[c // 3, (c % 3 + 1) % 3]
-            key[2 * i + 1] = pf[c // 3, (c % 3 + 2) % 3]
+        key = far[:d].copy().reshape(2 * d)
         order = sort_order(key)
         start = 0
         for t in range(1, 2 * d + 1):
             if t == 2 * d or key[order[t]] != key[order[start]]:
                 for u in range(start, t):
                     for w in range(start, u):
-                        link_if_smooth(pf, fan, nrm, cos_crease, parent, order[u] // 2,
+                        link_if_smooth(fan, far, nrm, cos_crease, parent, order[u] // 2,
                                        order[w] // 2)
                 start = t
     for i in range(d):
@@ -186,13 +189,17 @@ def fan_groups(v, f, pf, offsets, corners, cos_crease, keep, first, last, packed
     gid = np.empty(widest, np.int64)
     label = np.empty(widest, np.int64)
     nrm = np.empty((widest, 3))
+    far = np.empty((widest, 2), np.int64)
     for p in range(first, last):
         fan = corners[offsets[p]:offsets[p + 1]]
         d = len(fan)
         for i in range(d):
-            nx, ny, nz, _ = corner_frame(v, f, fan[i])
+            c = fan[i]
+            face, k = c // 3, c % 3
+            nx, ny, nz = face_unit_normal(v, f, face)
             nrm[i, 0], nrm[i, 1], nrm[i, 2] = nx, ny, nz
-        group_fan(pf, fan, nrm, cos_crease, parent)
+            far[i, 0], far[i, 1] = pf[face, (k + 1) % 3], pf[face, (k + 2) % 3]
+        group_fan(fan, far, nrm, cos_crease, parent)
         n_groups = 0
         for i in range(d):
             if parent[i] == i:

@@ -129,10 +129,14 @@ def _positions(v):
     2.1M vertices), with an exact check of the bits."""
     n = len(v)
     bits = np.ascontiguousarray(v).view(np.uint64)
+    # Multiply-xorshift mixing (as in splitmix64): coordinates read from
+    # float32 have 29 zero low bits, which a bare multiply keeps zero.
+    h = np.zeros(n, np.uint64)
     with np.errstate(over="ignore"):
-        h = bits[:, 0] * np.uint64(0x9E3779B97F4A7C15)
-        h ^= bits[:, 1] * np.uint64(0xC2B2AE3D27D4EB4F)
-        h ^= bits[:, 2] * np.uint64(0x165667B19E3779F9)
+        for k in range(3):
+            h ^= bits[:, k]
+            h *= np.uint64(0x9E3779B97F4A7C15)
+            h ^= h >> np.uint64(31)
     order = np.argsort(h)
     hs = h[order]
     del h
