@@ -2,7 +2,7 @@
 have, for the mesh-reading benchmark (issue 43): files go to OUT_DIR (keep
 them out of the repository; /tmp or bench-out/).
 
-    python bench/make_layouts.py DETAIL OUT_DIR    # 128: 1.05M triangles, 256: 4.19M
+    python bench/make_layouts.py DETAIL OUT_DIR [NAME...]   # 128: 1.05M triangles, 256: 4.19M
 
 Writes, each named teapot-DETAIL-LAYOUT.EXT:
   ply-plain   binary PLY, float x y z, uchar int triangles, no normals
@@ -45,7 +45,8 @@ def write_plain_ply(path, v, f):
 def write_rich_ply(path, v, f, n):
     """Big-endian, doubles, colours, texture coordinates, and the triangle
     pairs of each quad written as one quad where the file's order allows
-    (the teapot's tessellation emits a quad as faces 2k, 2k + 1)."""
+    (the teapot's tessellation emits quad (a, d, b, c) as faces 2k =
+    (a, b, c) and 2k + 1 = (a, d, b)), so quads and triangles mix."""
     props = [("double", "x"), ("double", "y"), ("double", "z"), ("float", "nx"),
              ("float", "ny"), ("float", "nz"), ("uchar", "red"), ("uchar", "green"),
              ("uchar", "blue"), ("float", "s"), ("float", "t")]
@@ -59,10 +60,9 @@ def write_rich_ply(path, v, f, n):
     for k, c in enumerate(("red", "green", "blue")):
         vert[c] = rgb[:, k]
     vert["s"], vert["t"] = (v[:, 0] - lo[0]) / span[0], (v[:, 2] - lo[2]) / span[2]
-    # A quad (a, b, c, d) where faces 2k = (a, b, c) and 2k + 1 = (a, c, d).
     pairs = f[: len(f) // 2 * 2].reshape(-1, 2, 3)
-    quad = (pairs[:, 0, 0] == pairs[:, 1, 0]) & (pairs[:, 0, 2] == pairs[:, 1, 1])
-    quads = np.concatenate([pairs[quad][:, 0], pairs[quad][:, 1, 2:]], axis=1)
+    quad = (pairs[:, 0, 0] == pairs[:, 1, 0]) & (pairs[:, 0, 1] == pairs[:, 1, 2])
+    quads = np.concatenate([pairs[quad][:, 1], pairs[quad][:, 0, 2:]], axis=1)
     tris = np.concatenate([pairs[~quad].reshape(-1, 3), f[len(f) // 2 * 2:]])
     with open(path, "wb") as fh:
         fh.write(ply_header("binary_big_endian", len(v), props, len(quads) + len(tris),
@@ -104,12 +104,15 @@ def write_stl(path, v, f):
 
 def main():
     detail, out = int(sys.argv[1]), Path(sys.argv[2])
+    only = sys.argv[3:]
     out.mkdir(parents=True, exist_ok=True)
     v, f, n = tessellate(detail)
     for name, write in (("ply-plain.ply", lambda p: write_plain_ply(p, v, f)),
                         ("ply-rich.ply", lambda p: write_rich_ply(p, v, f, n)),
                         ("obj.obj", lambda p: write_obj(p, v, f, n)),
                         ("stl.stl", lambda p: write_stl(p, v, f))):
+        if only and name not in only:
+            continue
         t0 = time.perf_counter()
         path = out / f"teapot-{detail}-{name}"
         write(path)

@@ -179,7 +179,7 @@ def read_mesh_parts(path, warn=None, base=None):
     except MemoryError:
         raise RaytraceError(f"{path}: out of memory reading the mesh") from None
     if simple is not None:
-        parts = [MeshPart(*simple)]
+        parts = [MeshPart(**simple)]
     else:
         library = None
         if ext == ".obj":
