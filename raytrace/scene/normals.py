@@ -124,46 +124,23 @@ def _positions(v):
     """(id of each vertex's position, number of positions): vertices with
     the same coordinates, bit for bit, share an id, numbered in order of
     their first vertex.  (None, n) when no two vertices share a position,
-    the usual case for a PLY or glTF.  Sorted by a hash of the three
-    coordinates' bits, one 64-bit key (a lexsort of three keys took 1 s at
-    2.1M vertices), with an exact check of the bits."""
-    n = len(v)
-    bits = np.ascontiguousarray(v).view(np.uint64)
-    # Multiply-xorshift mixing (as in splitmix64): coordinates read from
-    # float32 have 29 zero low bits, which a bare multiply keeps zero.
-    h = np.zeros(n, np.uint64)
-    with np.errstate(over="ignore"):
-        for k in range(3):
-            h ^= bits[:, k]
-            h *= np.uint64(0x9E3779B97F4A7C15)
-            h ^= h >> np.uint64(31)
-    order = np.argsort(h)
-    hs = h[order]
-    del h
-    same_hash = hs[1:] == hs[:-1]
-    del hs
-    if not same_hash.any():
-        return None, n
-    ordered = bits[order]
-    same = same_hash.copy()
-    for k in range(3):
-        same &= ordered[1:, k] == ordered[:-1, k]
-    del ordered
-    if not np.array_equal(same, same_hash):   # a collision: sort the bits themselves
-        order = np.lexsort(bits.T[::-1])
-        ordered = bits[order]
-        same = np.ones(n - 1, dtype=bool)
-        for k in range(3):
-            same &= ordered[1:, k] == ordered[:-1, k]
-        del ordered
-    # Each run of one position: its smallest vertex stands for it.
-    starts = np.flatnonzero(np.concatenate([[True], ~same]))
-    first = np.minimum.reduceat(order, starts)
-    rep = np.empty(n, np.int64)
-    rep[order] = np.repeat(first, np.diff(np.append(starts, n)))
-    is_rep = rep == np.arange(n)
-    ids = np.cumsum(is_rep) - 1
-    return ids[rep], int(is_rep.sum())
+    the usual case for a PLY or glTF."""
+    ids, first, count = equal_rows(np.ascontiguousarray(v, dtype=np.float64))
+    return (None, count) if count == len(v) else (ids, count)
+
+
+def equal_rows(a):
+    """(ids, first, count) of the rows of a 2-D float array, compared bit
+    for bit: ids[i] numbers row i's value in order of first appearance,
+    first[k] is the first row of value k (kernels/weld.py)."""
+    from .kernels.weld import first_rows
+    if len(a) >= 1 << 31:
+        raise ValueError("more than 2^31 vertices")
+    keys = a.view(np.uint32).reshape(len(a), -1)
+    ids = np.empty(len(a), np.int64)
+    first = np.empty(len(a), np.int64)
+    count = first_rows(keys, ids, first)
+    return ids, first[:count], count
 
 
 def file_normals(vertices, faces, normals):

@@ -175,7 +175,8 @@ def read_mesh_parts(path, warn=None, base=None):
     if path.stat().st_size == 0:
         raise RaytraceError(f"{path}: file is empty")
     try:
-        simple = read_simple_ply(path) if ext == ".ply" else None
+        simple = (read_simple_ply(path) if ext == ".ply"
+                  else _binary_stl(path) if ext == ".stl" else None)
     except MemoryError:
         raise RaytraceError(f"{path}: out of memory reading the mesh") from None
     if simple is not None:
@@ -187,6 +188,13 @@ def read_mesh_parts(path, warn=None, base=None):
             check_obj_indices(path, data)
             library = _obj_materials(path, data, warn)
         parts = _read_with_trimesh(path, ext, library, warn, base)
+        if ext == ".stl":      # an ASCII STL's triangle soup
+            from .stl import weld
+            for p in parts:
+                if p is not None:
+                    p.vertices, p.faces = weld(np.asarray(p.vertices, np.float64),
+                                               np.asarray(p.faces, np.int64))
+                    p.normals = None
     parts = [p for p in parts if p is not None and len(p.faces)]
     if not parts:
         raise RaytraceError(f"{path}: no non-degenerate triangles (no faces found: damaged, or "
@@ -197,6 +205,12 @@ def read_mesh_parts(path, warn=None, base=None):
             p.normals = None
         _check_surface_arrays(path, p, warn)
     return parts
+
+
+def _binary_stl(path):
+    from .stl import read_binary_stl
+    read = read_binary_stl(path)
+    return None if read is None else dict(vertices=read[0], faces=read[1])
 
 
 def _read_with_trimesh(path, ext, library, warn, base):
