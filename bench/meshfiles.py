@@ -44,9 +44,11 @@ def loaders():
     """{name: load(path)}: the readers that are importable here."""
     import warnings
 
-    import raytrace
     import trimesh
-    out = {"raytrace": lambda p: sum(len(m.faces) for m in raytrace.load_scene(p).objects),
+
+    import raytrace
+    out = {"raytrace": lambda p: sum(len(getattr(o, "faces", ()))
+                                     for o in raytrace.load_scene(p).objects),
            "trimesh": lambda p: len(trimesh.load(str(p), process=False).faces)}
     try:
         with warnings.catch_warnings():

@@ -92,7 +92,6 @@ def test_simple_layouts_read_as_trimesh_reads_them(tmp_path, layout):
 
 def test_other_layouts_go_to_trimesh(tmp_path):
     v, f, _ = mesh()
-    quads = np.concatenate([f, f[:, :1]], axis=1)
     cases = {
         "face colours": dict(extra_face=(("uchar", "red"), ("uchar", "green"), ("uchar", "blue"))),
         "float colours": dict(extra_vertex=(("float", "red"), ("float", "green"), ("float", "blue"))),
