@@ -102,6 +102,9 @@ def write_stl(path, v, f):
         fh.write(rec.tobytes())
 
 
+NAMES = ("ply-plain.ply", "ply-rich.ply", "obj.obj", "stl.stl")
+
+
 def main():
     detail, out = int(sys.argv[1]), Path(sys.argv[2])
     only = sys.argv[3:]
