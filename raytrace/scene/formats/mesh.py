@@ -52,11 +52,54 @@ _OBJ_ZERO_INDEX = re.compile(rb"(?m)^[ \t]*f[ \t](?:[^\r\n]*[ \t])?[+-]?0+(?=[/ 
 
 def check_obj_indices(path, data):
     """Raise for an OBJ face that uses vertex index 0."""
-    m = _OBJ_ZERO_INDEX.search(data)
-    if m:
-        line = data.count(b"\n", 0, m.start()) + 1
-        raise RaytraceError(f"{path}: line {line}: face uses vertex index 0, out of range "
-                            "(OBJ indices start at 1)")
+    for start in _zero_tokens(data):
+        line_start = data.rfind(b"\n", 0, start) + 1
+        m = _OBJ_ZERO_INDEX.match(data, line_start, data.find(b"\n", start) % (len(data) + 1))
+        if m:
+            line = data.count(b"\n", 0, m.start()) + 1
+            raise RaytraceError(f"{path}: line {line}: face uses vertex index 0, out of range "
+                                "(OBJ indices start at 1)")
+
+
+def _zero_tokens(data, chunk=1 << 24):
+    """Offsets of the tokens that are a zero integer ("0", "-0", "000")
+    after a blank and before a blank, a slash or the end: the only places
+    _OBJ_ZERO_INDEX can match, found with whole-array tests a chunk at a
+    time (the regex alone read 114 MB at 7 MB/s; an exported file has few
+    such tokens, in "v 0 0 0" lines if anywhere)."""
+    arr = np.frombuffer(data, np.uint8)
+    n = len(arr)
+    zero_byte = ord("0")
+    blank, sign, end = (np.zeros(256, bool) for _ in range(3))
+    blank[list(b" \t")] = sign[list(b"+-")] = end[list(b"/ \t\r\n")] = True
+    for lo in range(0, n, chunk):
+        hi = min(n, lo + chunk)
+        top = hi
+        while top < n and arr[top] == zero_byte:    # a run of zeros ends in this window
+            top += 1
+        base = max(lo - 2, 0)
+        w = arr[base:min(top + 1, n)]
+        # Runs of zeros begun after a blank or a sign: the first byte of
+        # the window is never one (a run there began in the last chunk).
+        run_start = np.flatnonzero(w[1:] == zero_byte) + 1
+        run_start = run_start[(blank | sign)[w[run_start - 1]]]
+        run_start = run_start[(run_start + base >= lo) & (run_start + base < hi)]
+        # Where each run ends: the next byte that is not a zero.
+        after = run_start + 1
+        more = np.flatnonzero(after < len(w))
+        while len(more):
+            more = more[w[after[more]] == zero_byte]
+            after[more] += 1
+            more = more[after[more] < len(w)]
+        ok = np.ones(len(run_start), bool)
+        inside = after < len(w)
+        ok[inside] = end[w[after[inside]]]
+        ok &= inside | (base + len(w) == n)
+        signed = sign[w[run_start - 1]]
+        token = run_start - signed
+        ok &= token >= 1
+        ok[ok] = blank[w[token[ok] - 1]]
+        yield from (base + token[ok]).tolist()
 
 
 # Bytes of memory a byte of input file may take while it is read (a text
@@ -354,7 +397,8 @@ def _obj_materials(path, data, warn):
     """{name: MtlMaterial} of an OBJ's first ``mtllib`` (the one trimesh
     reads), or None; a missing or unreadable library is a warning."""
     from raytrace.scene.formats.mtl import parse_mtl
-    m = _MTLLIB.search(data)
+    # bytes.find before the regex: it reads 114 MB in a tenth of the time.
+    m = _MTLLIB.search(data) if b"mtllib" in data else None
     if m is None:
         return None
     name = m.group(1).decode("utf-8", "replace")
@@ -374,7 +418,8 @@ def _obj_materials(path, data, warn):
     except UnicodeDecodeError:
         text = raw.decode("latin-1")
     library = parse_mtl(text, mtl.name, warn)
-    used = dict.fromkeys(u.decode("utf-8", "replace") for u in _USEMTL.findall(data))
+    used = dict.fromkeys(u.decode("utf-8", "replace")
+                         for u in (_USEMTL.findall(data) if b"usemtl" in data else ()))
     for u in used:
         if u not in library:
             warn(f"{path.name}: material {u!r} is not in {mtl.name}; {fallback}")
