@@ -21,7 +21,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from raytrace.scenes.teapot import tessellate  # noqa: E402
+from raytrace.scene.teapot import tessellate  # noqa: E402
 
 
 def ply_header(fmt, n_vertices, vertex_props, n_faces, count_type, index_type):

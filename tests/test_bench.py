@@ -150,8 +150,8 @@ def test_mesh_layouts_read_back_as_the_teapot(tmp_path):
 
     import make_layouts
 
-    from raytrace.io.mesh import read_mesh_parts
-    from raytrace.scenes.teapot import tessellate
+    from raytrace.scene.formats.mesh import read_mesh_parts
+    from raytrace.scene.teapot import tessellate
     subprocess.run([sys.executable, make_layouts.__file__, "3", str(tmp_path)], check=True,
                    capture_output=True)
     v, f, _ = tessellate(3)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from raytrace.errors import RaytraceError
-from raytrace.io.mesh import _OBJ_ZERO_INDEX, _zero_tokens, check_obj_indices
+from raytrace.scene.formats.mesh import _OBJ_ZERO_INDEX, _zero_tokens, check_obj_indices
 
 TOKENS = [b"f", b"v", b"0", b"-0", b"00", b"+0", b"10", b"01", b"0/1", b"1/0", b"0//2", b"a0", b" ",
           b"\t", b"\n", b"\r\n", b"5"]

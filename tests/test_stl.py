@@ -5,8 +5,8 @@ import pytest
 import trimesh
 
 from raytrace.errors import RaytraceError
-from raytrace.io.mesh import _read_with_trimesh, read_mesh_parts
-from raytrace.io.stl import read_binary_stl, weld
+from raytrace.scene.formats.mesh import _read_with_trimesh, read_mesh_parts
+from raytrace.scene.formats.stl import read_binary_stl, weld
 
 
 def sphere():

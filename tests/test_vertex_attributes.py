@@ -8,11 +8,11 @@ import pytest
 import trimesh
 from click.testing import CliRunner
 
-from raytrace.cli import main
-from raytrace.io.mesh import part_mesh, read_mesh_parts
-from raytrace.kernels.creases import SMALL_FAN
-from raytrace.normals import crease_split, face_normals
-from raytrace.scene import Material
+from raytrace.cli.main import main
+from raytrace.scene.creases import SMALL_FAN
+from raytrace.scene.formats.mesh import part_mesh, read_mesh_parts
+from raytrace.scene.model import Material
+from raytrace.scene.normals import crease_split, face_normals
 
 
 def reference_groups(v, f, crease, keep):

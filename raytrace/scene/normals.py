@@ -12,7 +12,7 @@ the triangles, and every hit, are unchanged.
 
 The split is a map from input vertices (``crease_split``'s ``source``), so
 colours and texture coordinates follow it as the positions do.  The fans
-are grouped in a small kernel (kernels/creases.py), one vertex position at
+are grouped in a small kernel (scene/creases.py), one vertex position at
 a time on every thread, in memory linear in the mesh (docs/design.md).
 """
 import math
@@ -72,7 +72,7 @@ def crease_split(vertices, faces, crease=DEFAULT_CREASE, keep=False):
     order of their position's first vertex, so a mesh without creases or
     repeated positions keeps its numbering.
     """
-    from .kernels.creases import corner_lists, fan_groups, fan_normals
+    from raytrace.scene.creases import corner_lists, fan_groups, fan_normals
     v = np.ascontiguousarray(vertices, dtype=np.float64)
     f = np.ascontiguousarray(faces, dtype=np.int64)
     n, m = len(v), len(f)
@@ -116,7 +116,7 @@ def _runs(offsets):
 def _on_threads(kernel, calls):
     from functools import partial
 
-    from .threads import run_on_threads
+    from raytrace.kernels.threads import run_on_threads
     run_on_threads([partial(kernel, *args) for args in calls])
 
 
@@ -132,8 +132,8 @@ def _positions(v):
 def equal_rows(a):
     """(ids, first, count) of the rows of a 2-D float array, compared bit
     for bit: ids[i] numbers row i's value in order of first appearance,
-    first[k] is the first row of value k (kernels/weld.py)."""
-    from .kernels.weld import first_rows
+    first[k] is the first row of value k (scene/weld.py)."""
+    from raytrace.scene.weld import first_rows
     if len(a) >= 1 << 31:
         raise ValueError("more than 2^31 vertices")
     keys = a.view(np.uint32).reshape(len(a), -1)

@@ -232,7 +232,7 @@ def read_mesh_parts(path, warn=None, base=None):
             library = _obj_materials(path, data, warn)
         parts = _read_with_trimesh(path, ext, library, warn, base)
         if ext == ".stl":      # an ASCII STL's triangle soup
-            from .stl import weld
+            from raytrace.scene.formats.stl import weld
             for p in parts:
                 if p is not None:
                     p.vertices, p.faces = weld(np.asarray(p.vertices, np.float64),
@@ -251,7 +251,7 @@ def read_mesh_parts(path, warn=None, base=None):
 
 
 def _binary_stl(path):
-    from .stl import read_binary_stl
+    from raytrace.scene.formats.stl import read_binary_stl
     read = read_binary_stl(path)
     return None if read is None else dict(vertices=read[0], faces=read[1])
 
@@ -300,8 +300,8 @@ def part_mesh(part, base, crease, flat, name):
     """A scene Mesh of a MeshPart: its file's material (else ``base``) and
     shading normals.  Every per-vertex array (MeshPart.PER_VERTEX) follows
     the vertices through the crease split and the face-colour split."""
-    from ..normals import shading_split
-    from ..scene import Mesh
+    from raytrace.scene.model import Mesh
+    from raytrace.scene.normals import shading_split
     arrays = {k: getattr(part, k) for k in MeshPart.PER_VERTEX if getattr(part, k) is not None}
     # Vertices that carry more than a position stay apart where they meet.
     keep = len(arrays) > 1

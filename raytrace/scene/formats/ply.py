@@ -97,7 +97,7 @@ def read_simple_ply(path):
     del index
     colors = None
     if _COLOURS <= names:
-        from .materials import decode_colours
+        from raytrace.scene.formats.materials import decode_colours
         colors = decode_colours(_columns(vertex_data, _COLOURS_ORDER, np.uint8), linear=False)
     return dict(vertices=_columns(vertex_data, "xyz"), faces=faces,
                 normals=_columns(vertex_data, ("nx", "ny", "nz")) if _NORMALS <= names else None,
@@ -136,7 +136,7 @@ def _polygons(path, offset, n_faces, face_props, endian):
     if len(face_props) != 1:
         return None, None
     _, count_type, index_type, _ = face_props[0]
-    from ..kernels.polygons import polygon_lists
+    from raytrace.scene.formats.polygons import polygon_lists
     data = np.fromfile(path, np.uint8, offset=offset)
     count_size, index_size = np.dtype(_TYPES[count_type]).itemsize, np.dtype(_TYPES[index_type]).itemsize
     counts = np.empty(n_faces, np.int64)

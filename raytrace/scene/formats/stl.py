@@ -3,7 +3,7 @@ welded: an STL repeats each vertex for every face (3 vertices a triangle,
 72 bytes of float64 positions), and vertices with the same coordinates, bit
 for bit, become one.  The facet normals are not read: they are the faces'
 own, often zero or stale, and shading computes its own (normals.py).
-ASCII files are trimesh's to read (io/mesh.py), then welded here too.
+ASCII files are trimesh's to read (scene/formats/mesh.py), then welded here too.
 
 The format: an 80-byte header, a uint32 triangle count, then 50 bytes a
 triangle (normal, three vertices, float32 little-endian; a uint16).
@@ -12,7 +12,7 @@ import os
 
 import numpy as np
 
-from ..normals import equal_rows
+from raytrace.scene.normals import equal_rows
 
 _RECORD = np.dtype([("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")])
 

@@ -16,7 +16,7 @@ and a dot product), operation for operation.
 import numpy as np
 from numba import njit
 
-from .jit import BUILD, BUILD_STEP
+from raytrace.kernels.jit import BUILD, BUILD_STEP
 
 ENTRY = dict(BUILD, nogil=True)
 # A fan of more corners than this pairs its edges by sorting (a cone's

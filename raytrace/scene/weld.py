@@ -1,11 +1,11 @@
 """Equal rows of a key array found with a hash table (open addressing,
 linear probing): one pass, where sorting 12.6M corners of an STL took
 3 s and gathering them by the sorted order 3 s more (normals._positions,
-io/stl.py)."""
+scene/formats/stl.py)."""
 import numpy as np
 from numba import njit
 
-from .jit import BUILD
+from raytrace.kernels.jit import BUILD
 
 MIX = np.uint64(0x9E3779B97F4A7C15)
 

@@ -1,9 +1,9 @@
 """A binary PLY face element of mixed polygons (triangles and quads, say)
 read record by record: each record's place depends on every count before
-it, so this one loop is serial (io/ply.py; only such files compile it)."""
+it, so this one loop is serial (scene/formats/ply.py; only such files compile it)."""
 from numba import njit
 
-from .jit import BUILD
+from raytrace.kernels.jit import BUILD
 
 
 @njit(**BUILD)
