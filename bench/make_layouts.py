@@ -8,7 +8,8 @@ Writes, each named teapot-DETAIL-LAYOUT.EXT:
   ply-plain   binary PLY, float x y z, uchar int triangles, no normals
               (trimesh's export: the common scan/export layout)
   ply-rich    big-endian PLY, double x y z, float nx ny nz, uchar red green
-              blue, float s t, int count and uint indices, quads
+              blue, float s t, int count and uint indices, quads (and triangles
+              where a pair is not one)
   obj         OBJ with v, vt, vn and f a/b/c corners (trimesh's export)
   stl         binary STL (a triangle soup: the reader welds it)
 Deterministic: the same DETAIL writes the same bytes.
@@ -46,7 +47,7 @@ def write_rich_ply(path, v, f, n):
     """Big-endian, doubles, colours, texture coordinates, and the triangle
     pairs of each quad written as one quad where the file's order allows
     (the teapot's tessellation emits quad (a, d, b, c) as faces 2k =
-    (a, b, c) and 2k + 1 = (a, d, b)), so quads and triangles mix."""
+    (a, b, c) and 2k + 1 = (a, d, b)): at these details every pair is one."""
     props = [("double", "x"), ("double", "y"), ("double", "z"), ("float", "nx"),
              ("float", "ny"), ("float", "nz"), ("uchar", "red"), ("uchar", "green"),
              ("uchar", "blue"), ("float", "s"), ("float", "t")]

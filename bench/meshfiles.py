@@ -111,6 +111,6 @@ def markdown(res):
            "alone). Whole command: a fresh `raytrace FILE --width 320 --height 240`, its wall "
            "time and peak resident memory. Layouts (bench/make_layouts.py): ply-plain float "
            "x y z, triangles, no normals; ply-rich big-endian doubles, normals, colours, "
-           "texture coordinates, int counts, quads and triangles mixed; obj v/vt/vn with "
+           "texture coordinates, int counts, quads; obj v/vt/vn with "
            "f a/b/c; stl binary."]
     return "\n".join(out)
