@@ -22,6 +22,10 @@ convergence  soft-shadow error against run time for each sampling pattern
 turntable    a 36-frame teapot turntable in this process against --workers 2
              (a local Dask cluster): frames/s, Dask's overhead as a ratio,
              compile/load per worker (turntable.py; needs the distributed extra).
+meshfiles    mesh files of several layouts (PLY, OBJ, STL) at 1M and 4.2M
+             triangles: load time against trimesh and Open3D, the whole
+             command's time and peak memory (meshfiles.py; the files go to
+             bench-out/meshes).
 coldstart    each entry point's first run in a fresh process with an empty
              Numba cache, and what each option adds (coldstart.py).  First,
              so that nothing else competes with it for the cores.
@@ -41,7 +45,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import common  # noqa: E402
 from common import ACCELS, STRUCTURES, fmt_g, fmt_s, interleaved, log, markdown_table, median  # noqa: E402
 
-SECTIONS = ("coldstart", "workshop", "scaling", "structures", "peer", "convergence", "turntable")
+SECTIONS = ("coldstart", "workshop", "scaling", "structures", "peer", "convergence", "turntable",
+            "meshfiles")
 # The scaling table's structures: those whose cost grows slower than the
 # mesh, each with a visit counter of its own (nodes, cells).
 HIERARCHICAL = tuple(n for n, s in STRUCTURES.items() if s.visit_metric)
@@ -320,6 +325,10 @@ def main(quick, json_path, plot_path, sections):
         import turntable
         report["turntable"] = turntable.measure(repeat=1 if quick else 3)
         print(turntable.markdown(report["turntable"]) + "\n", flush=True)
+    if "meshfiles" in chosen:
+        import meshfiles
+        report["meshfiles"] = meshfiles.run(quick)
+        print(meshfiles.markdown(report["meshfiles"]) + "\n", flush=True)
     try:
         load = [round(x, 2) for x in __import__("os").getloadavg()]
     except OSError:

@@ -140,3 +140,29 @@ def test_payload_is_what_a_worker_unpickles():
     assert len(data) > n * 72 + setup.acc.node_box.nbytes      # corners and node boxes
     geo = pickle.loads(data)[0]
     assert np.array_equal(geo.tri_v0, setup.geo.tri_v0)
+
+
+def test_mesh_layouts_read_back_as_the_teapot(tmp_path):
+    """bench/make_layouts.py's files (the meshfiles section's input), read
+    by read_mesh_parts, hold the teapot's triangles: the rich PLY's quads
+    and triangles, the OBJ's a/b/c corners, the STL's welded soup."""
+    import subprocess
+
+    import make_layouts
+
+    from raytrace.scene.formats.mesh import read_mesh_parts
+    from raytrace.scene.teapot import tessellate
+    subprocess.run([sys.executable, make_layouts.__file__, "3", str(tmp_path)], check=True,
+                   capture_output=True)
+    v, f, _ = tessellate(3)
+
+    def triangles(vertices, faces):
+        """The triangles' corners as float32, each from its least corner on
+        (winding kept), sorted."""
+        t = vertices[faces].astype(np.float32).tolist()
+        return sorted(min(r[k:] + r[:k] for k in range(3)) for r in t)
+    obj_v = np.array([[float(f"{x:.8g}") for x in row] for row in v.tolist()])   # as written
+    for name in make_layouts.NAMES:
+        (part,) = read_mesh_parts(tmp_path / f"teapot-3-{name}")
+        want = triangles(obj_v if name == "obj.obj" else v, f)
+        assert triangles(part.vertices, part.faces) == want, name

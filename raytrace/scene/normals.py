@@ -10,8 +10,10 @@ differ by at most the crease angle -- so the normals array stays per
 vertex, as the renderer wants.  Copies repeat the position bit for bit:
 the triangles, and every hit, are unchanged.
 
-Vectorised NumPy throughout: a 1M-triangle mesh takes well under a second
-(docs/benchmarks.md, "Scene"; docs/history.md).
+The split is a map from input vertices (``crease_split``'s ``source``), so
+colours and texture coordinates follow it as the positions do.  The fans
+are grouped in a small kernel (scene/creases.py), one vertex position at
+a time on every thread, in memory linear in the mesh (docs/design.md).
 """
 import math
 
@@ -47,128 +49,98 @@ def crease_normals(vertices, faces, crease=DEFAULT_CREASE):
 
     Faces whose normals differ by more than ``crease`` degrees do not share
     a normal at their common edge's vertices; such a vertex is copied once
-    per smooth group (appended after the original vertices, whose indices
-    stay as they were), so a cube's faces use 24 vertices and 6 normals and
+    per smooth group, so a cube's faces use 24 vertices and 6 normals and
     a sphere keeps its vertices.  A group whose weighted normals cancel takes
     one of its faces' normals.
     """
     v = np.asarray(vertices, dtype=np.float64)
-    f = np.asarray(faces, dtype=np.int64)
+    source, f, normals = crease_split(v, faces, crease)
+    return v[source], f, normals
+
+
+def crease_split(vertices, faces, crease=DEFAULT_CREASE, keep=False):
+    """(source, faces, normals): crease_normals's mesh as a map from input
+    vertices, so that every per-vertex array follows the split: output
+    vertex i copies input vertex ``source[i]`` (its position, colour,
+    texture coordinates), and ``normals`` are the output vertices'.
+
+    Faces meet where their corners share a position, whether or not they
+    share a vertex index (an STL file repeats each vertex for every face),
+    and the corners of one smooth group become one output vertex -- unless
+    ``keep``: then vertices of one position keep apart (a texture seam, a
+    colour boundary), each with the group's normal.  Output vertices come in
+    order of their position's first vertex, so a mesh without creases or
+    repeated positions keeps its numbering.
+    """
+    from raytrace.scene.creases import corner_lists, fan_groups, fan_normals
+    v = np.ascontiguousarray(vertices, dtype=np.float64)
+    f = np.ascontiguousarray(faces, dtype=np.int64)
     n, m = len(v), len(f)
     if m == 0:
-        return v, f, np.zeros_like(v)
-    cross, angles = _face_frame(v, f)
-    fn = unit_rows(cross)
-    corner_vertex = f.ravel()                     # corner c = 3 * face + k
-    # Faces meet where their corners share a position, whether or not they
-    # share a vertex index: an STL file repeats each vertex for every face.
+        return np.arange(n), f.reshape(0, 3), np.zeros((n, 3))
     position, n_positions = _positions(v)
-    groups = _smooth_groups(position[f], n_positions, fn, math.cos(math.radians(crease)))
+    pf = f if position is None else position[f]
+    corner_position = pf.reshape(-1)
+    offsets = np.zeros(n_positions + 1, np.int64)
+    np.cumsum(np.bincount(corner_position, minlength=n_positions), out=offsets[1:])
+    corners = np.empty(3 * m, np.int64)
+    corner_lists(corner_position, offsets, corners)
+    del corner_position
+    packed = np.empty(3 * m, np.int64)
+    counts = np.zeros(n_positions, np.int64)
+    cos_crease = math.cos(math.radians(crease))
+    position_runs = _runs(offsets)
+    _on_threads(fan_groups, [(v, f, pf, offsets, corners, cos_crease, bool(keep), a, b, packed,
+                              counts) for a, b in position_runs])
+    del pf, position
+    out_offsets = np.zeros(n_positions + 1, np.int64)
+    np.cumsum(counts, out=out_offsets[1:])
+    del counts
+    n_out = int(out_offsets[-1])
+    source = np.empty(n_out, np.int64)
+    normals = np.empty((n_out, 3))
+    _on_threads(fan_normals, [(v, f, offsets, corners, out_offsets, a, b, packed, source, normals)
+                              for a, b in position_runs])
+    return source, packed.reshape(m, 3), normals
 
-    # One output vertex per group: a vertex's first group (smallest root)
-    # keeps its index, further groups are appended.
-    # (Masks and minimum.at, not np.unique: NumPy 2's hashed unique is slow
-    # on millions of corners.)
-    is_root = groups == np.arange(len(groups))
-    roots = np.flatnonzero(is_root)
-    group_of_corner = (np.cumsum(is_root) - 1)[groups]
-    root_vertex = corner_vertex[roots]
-    first_root = np.full(n, len(roots))
-    np.minimum.at(first_root, root_vertex, np.arange(len(roots)))
-    first = first_root[root_vertex] == np.arange(len(roots))
-    new_index = np.where(first, root_vertex, n + np.cumsum(~first) - 1)
-    out_v = np.concatenate([v, v[root_vertex[~first]]])
 
-    summed = np.stack([np.bincount(group_of_corner, weights=(angles * fn[:, a, None]).ravel(),
-                                   minlength=len(roots)) for a in range(3)], axis=1)
-    normals = unit_rows(summed)
-    # Cancelled (or all faces degenerate): the normal of the group's first face.
-    flat = ~normals.any(axis=1)
-    normals[flat] = fn[roots[flat] // 3]
-    out_n = np.zeros_like(out_v)
-    out_n[new_index] = normals
-    return out_v, new_index[group_of_corner].reshape(m, 3), out_n
+def _runs(offsets):
+    """Runs of positions, one a thread, of about equal numbers of corners."""
+    import numba
+    threads = max(1, min(numba.get_num_threads(), (int(offsets[-1]) >> 16) + 1))
+    cuts = np.searchsorted(offsets, [offsets[-1] * k // threads for k in range(threads + 1)])
+    cuts[0], cuts[-1] = 0, len(offsets) - 1
+    return [(int(a), int(b)) for a, b in zip(cuts[:-1], cuts[1:]) if b > a]
+
+
+def _on_threads(kernel, calls):
+    from functools import partial
+
+    from raytrace.kernels.threads import run_on_threads
+    run_on_threads([partial(kernel, *args) for args in calls])
 
 
 def _positions(v):
     """(id of each vertex's position, number of positions): vertices with
-    the same coordinates, bit for bit, share an id."""
-    bits = np.ascontiguousarray(v).view(np.int64)
-    order = np.lexsort(bits.T[::-1])
-    ordered = bits[order]
-    new = np.ones(len(v), dtype=bool)
-    new[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
-    ids = np.empty(len(v), dtype=np.int64)
-    ids[order] = np.cumsum(new) - 1
-    return ids, int(new.sum())
+    the same coordinates, bit for bit, share an id, numbered in order of
+    their first vertex.  (None, n) when no two vertices share a position,
+    the usual case for a PLY or glTF."""
+    ids, first, count = equal_rows(np.ascontiguousarray(v, dtype=np.float64))
+    return (None, count) if count == len(v) else (ids, count)
 
 
-def _smooth_groups(f, n, fn, cos_crease):
-    """For each corner, the smallest corner index of its smooth group: the
-    corners at the same position (``f`` holds the n position ids) linked
-    through edges shared by two faces whose normals are within the crease
-    angle."""
-    # Half-edge h = 3 * face + k runs from corner k to corner k + 1.
-    a = f.ravel()
-    b = f[:, [1, 2, 0]].ravel()
-    key = np.minimum(a, b) * (n + 1) + np.maximum(a, b)
-    order = np.argsort(key)
-    ks = key[order]
-    # Half-edges on one edge are adjacent once sorted: link each to the next
-    # (an edge of three or more faces becomes a chain).
-    paired = ks[1:] == ks[:-1]
-    pair = np.flatnonzero(paired)
-    h1, h2 = order[pair], order[pair + 1]
-    f1, f2 = h1 // 3, h2 // 3
-    smooth = (np.einsum("ij,ij->i", fn[f1], fn[f2]) >= cos_crease) & (f1 != f2)
-    # A vertex on no crease and no open edge has one group: all its corners.
-    # Only the others need the search for components.
-    lone = np.ones(len(a), dtype=bool)
-    lone[1:] &= ~paired
-    lone[:-1] &= ~paired
-    creased = np.zeros(n, dtype=bool)
-    for h in (h1[~smooth], h2[~smooth], order[lone]):
-        creased[a[h]] = creased[b[h]] = True
-    labels = np.full(n, len(a))
-    np.minimum.at(labels, a, np.arange(len(a)))
-    labels = labels[a]                             # the vertex's first corner
-    at_crease = creased[a]
-    labels[at_crease] = np.flatnonzero(at_crease)
-    h1, h2 = h1[smooth], h2[smooth]
-    near = creased[a[h1]] | creased[b[h1]]
-    h1, h2 = h1[near], h2[near]
-    # Corners of h1 at its two ends, and the corners of h2's face at the same
-    # vertices (h2 runs the other way, unless the windings disagree).
-    nxt = h1 - h1 % 3 + (h1 % 3 + 1) % 3, h2 - h2 % 3 + (h2 % 3 + 1) % 3
-    same = a[h2] == a[h1]
-    la = np.concatenate([h1, nxt[0]])
-    lb = np.concatenate([np.where(same, h2, nxt[1]), np.where(same, nxt[1], h2)])
-    keep = creased[a[la]]
-    return _components(labels, la[keep], lb[keep])
-
-
-def _components(parent, a, b):
-    """Connected components of nodes linked by pairs (a[i], b[i]), starting
-    from ``parent`` (each node its own root, or already joined to a smaller
-    node that is a root): each node's label becomes the smallest node of
-    its component.  Each round hooks the larger of two roots onto the
-    smaller, then jumps pointers (Shiloach & Vishkin 1982), in whole-array
-    steps over the linked nodes only: a few rounds for a mesh's fans."""
-    linked = np.zeros(len(parent), dtype=bool)
-    linked[a] = linked[b] = True
-    nodes = np.flatnonzero(linked)
-    while True:
-        ra, rb = parent[a], parent[b]
-        todo = ra != rb
-        if not todo.any():
-            return parent
-        a, b, ra, rb = a[todo], b[todo], ra[todo], rb[todo]
-        np.minimum.at(parent, np.maximum(ra, rb), np.minimum(ra, rb))
-        while True:
-            up = parent[parent[nodes]]
-            if np.array_equal(up, parent[nodes]):
-                break
-            parent[nodes] = up
+def equal_rows(a):
+    """(ids, first, count) of the rows of a 2-D float array, compared bit
+    for bit: ids[i] numbers row i's value in order of first appearance,
+    first[k] is the first row of value k (scene/weld.py)."""
+    from raytrace.scene.weld import first_rows
+    if len(a) >= 1 << 31:
+        raise ValueError("more than 2^31 vertices")
+    keys = a.view(np.uint32).reshape(len(a), -1)
+    ids = np.empty(len(a), np.int64)
+    first = np.empty(len(a), np.int64)
+    count = first_rows(keys, ids, first)
+    return ids, first[:count], count
 
 
 def file_normals(vertices, faces, normals):
@@ -197,8 +169,18 @@ def shading_normals(vertices, faces, normals=None, crease=DEFAULT_CREASE, flat=F
     """(vertices, faces, normals) as a Mesh takes them: normals None (flat
     shading) with ``flat``; the file's ``normals`` if it has them; else
     computed, split at ``crease`` degrees."""
+    source, f, n = shading_split(vertices, faces, normals, crease, flat)
+    return (vertices if source is None else np.asarray(vertices)[source]), f, n
+
+
+def shading_split(vertices, faces, normals=None, crease=DEFAULT_CREASE, flat=False, keep=False):
+    """shading_normals as (source, faces, normals): output vertex i copies
+    input vertex ``source[i]``, or source is None when the vertices stay as
+    they are.  A caller applies ``source`` to every per-vertex array it
+    holds (positions, colours, texture coordinates), so they all follow the
+    split; ``keep``: see crease_split."""
     if flat:
-        return vertices, faces, None
+        return None, faces, None
     if normals is not None:
-        return vertices, faces, file_normals(vertices, faces, normals)
-    return crease_normals(vertices, faces, crease)
+        return None, faces, file_normals(vertices, faces, normals)
+    return crease_split(vertices, faces, crease, keep)

@@ -52,11 +52,54 @@ _OBJ_ZERO_INDEX = re.compile(rb"(?m)^[ \t]*f[ \t](?:[^\r\n]*[ \t])?[+-]?0+(?=[/ 
 
 def check_obj_indices(path, data):
     """Raise for an OBJ face that uses vertex index 0."""
-    m = _OBJ_ZERO_INDEX.search(data)
-    if m:
-        line = data.count(b"\n", 0, m.start()) + 1
-        raise RaytraceError(f"{path}: line {line}: face uses vertex index 0, out of range "
-                            "(OBJ indices start at 1)")
+    for start in _zero_tokens(data):
+        line_start = data.rfind(b"\n", 0, start) + 1
+        m = _OBJ_ZERO_INDEX.match(data, line_start, data.find(b"\n", start) % (len(data) + 1))
+        if m:
+            line = data.count(b"\n", 0, m.start()) + 1
+            raise RaytraceError(f"{path}: line {line}: face uses vertex index 0, out of range "
+                                "(OBJ indices start at 1)")
+
+
+def _zero_tokens(data, chunk=1 << 24):
+    """Offsets of the tokens that are a zero integer ("0", "-0", "000")
+    after a blank and before a blank, a slash or the end: the only places
+    _OBJ_ZERO_INDEX can match, found with whole-array tests a chunk at a
+    time (the regex alone read 114 MB at 7 MB/s; an exported file has few
+    such tokens, in "v 0 0 0" lines if anywhere)."""
+    arr = np.frombuffer(data, np.uint8)
+    n = len(arr)
+    zero_byte = ord("0")
+    blank, sign, end = (np.zeros(256, bool) for _ in range(3))
+    blank[list(b" \t")] = sign[list(b"+-")] = end[list(b"/ \t\r\n")] = True
+    for lo in range(0, n, chunk):
+        hi = min(n, lo + chunk)
+        top = hi
+        while top < n and arr[top] == zero_byte:    # a run of zeros ends in this window
+            top += 1
+        base = max(lo - 2, 0)
+        w = arr[base:min(top + 1, n)]
+        # Runs of zeros begun after a blank or a sign: the first byte of
+        # the window is never one (a run there began in the last chunk).
+        run_start = np.flatnonzero(w[1:] == zero_byte) + 1
+        run_start = run_start[(blank | sign)[w[run_start - 1]]]
+        run_start = run_start[(run_start + base >= lo) & (run_start + base < hi)]
+        # Where each run ends: the next byte that is not a zero.
+        after = run_start + 1
+        more = np.flatnonzero(after < len(w))
+        while len(more):
+            more = more[w[after[more]] == zero_byte]
+            after[more] += 1
+            more = more[after[more] < len(w)]
+        ok = np.ones(len(run_start), bool)
+        inside = after < len(w)
+        ok[inside] = end[w[after[inside]]]
+        ok &= inside | (base + len(w) == n)
+        signed = sign[w[run_start - 1]]
+        token = run_start - signed
+        ok &= token >= 1
+        ok[ok] = blank[w[token[ok] - 1]]
+        yield from (base + token[ok]).tolist()
 
 
 # Bytes of memory a byte of input file may take while it is read (a text
@@ -145,6 +188,10 @@ class MeshPart:
     face_colors: np.ndarray = None   # (m, 3) linear RGB per face, or None
     uv: np.ndarray = None            # (n, 2) texture coordinates, or None
 
+    # Every array with a row per vertex: a split, weld or reorder of the
+    # vertices applies to each of them (part_mesh).  A new one is added here.
+    PER_VERTEX = ("vertices", "colors", "uv")
+
 
 def read_mesh(path):
     """(vertices (n, 3) float64, faces (m, 3) int64) of a mesh file; a file
@@ -171,11 +218,12 @@ def read_mesh_parts(path, warn=None, base=None):
     if path.stat().st_size == 0:
         raise RaytraceError(f"{path}: file is empty")
     try:
-        simple = read_simple_ply(path) if ext == ".ply" else None
+        simple = (read_simple_ply(path) if ext == ".ply"
+                  else _binary_stl(path) if ext == ".stl" else None)
     except MemoryError:
         raise RaytraceError(f"{path}: out of memory reading the mesh") from None
     if simple is not None:
-        parts = [MeshPart(*simple)]
+        parts = [MeshPart(**simple)]
     else:
         library = None
         if ext == ".obj":
@@ -183,6 +231,13 @@ def read_mesh_parts(path, warn=None, base=None):
             check_obj_indices(path, data)
             library = _obj_materials(path, data, warn)
         parts = _read_with_trimesh(path, ext, library, warn, base)
+        if ext == ".stl":      # an ASCII STL's triangle soup
+            from raytrace.scene.formats.stl import weld
+            for p in parts:
+                if p is not None:
+                    p.vertices, p.faces = weld(np.asarray(p.vertices, np.float64),
+                                               np.asarray(p.faces, np.int64))
+                    p.normals = None
     parts = [p for p in parts if p is not None and len(p.faces)]
     if not parts:
         raise RaytraceError(f"{path}: no non-degenerate triangles (no faces found: damaged, or "
@@ -193,6 +248,12 @@ def read_mesh_parts(path, warn=None, base=None):
             p.normals = None
         _check_surface_arrays(path, p, warn)
     return parts
+
+
+def _binary_stl(path):
+    from raytrace.scene.formats.stl import read_binary_stl
+    read = read_binary_stl(path)
+    return None if read is None else dict(vertices=read[0], faces=read[1])
 
 
 def _read_with_trimesh(path, ext, library, warn, base):
@@ -237,22 +298,29 @@ def _check_surface_arrays(path, part, warn):
 
 def part_mesh(part, base, crease, flat, name):
     """A scene Mesh of a MeshPart: its file's material (else ``base``) and
-    shading normals."""
+    shading normals.  Every per-vertex array (MeshPart.PER_VERTEX) follows
+    the vertices through the crease split and the face-colour split."""
     from raytrace.scene.model import Mesh
-    from raytrace.scene.normals import shading_normals
-    vertices, faces, normals = shading_normals(part.vertices, part.faces, part.normals,
-                                               crease=crease, flat=bool(flat))
-    colors, uv = part.colors, part.uv
+    from raytrace.scene.normals import shading_split
+    arrays = {k: getattr(part, k) for k in MeshPart.PER_VERTEX if getattr(part, k) is not None}
+    # Vertices that carry more than a position stay apart where they meet.
+    keep = len(arrays) > 1
+    source, faces, normals = shading_split(part.vertices, part.faces, part.normals,
+                                           crease=crease, flat=bool(flat), keep=keep)
     if part.face_colors is not None:
         # A colour per face: each face gets vertices of its own, after the
         # shading normals were found from the shared ones.
         corners = faces.reshape(-1)
-        vertices, normals = vertices[corners], normals[corners] if normals is not None else None
-        uv = uv[corners] if uv is not None else None
-        colors = np.repeat(part.face_colors, 3, axis=0)
+        source = corners if source is None else source[corners]
+        normals = normals[corners] if normals is not None else None
         faces = np.arange(len(corners), dtype=np.int64).reshape(-1, 3)
-    return Mesh(vertices, faces, part.material or base, normals=normals, name=name,
-                colors=colors, uv=uv)
+        arrays.pop("colors", None)
+    if source is not None:
+        arrays = {k: a[source] for k, a in arrays.items()}
+    if part.face_colors is not None:
+        arrays["colors"] = np.repeat(part.face_colors, 3, axis=0)
+    return Mesh(arrays["vertices"], faces, part.material or base, normals=normals, name=name,
+                colors=arrays.get("colors"), uv=arrays.get("uv"))
 
 
 def _part(trimesh, scene, node, library, source, warn, base):
@@ -329,7 +397,8 @@ def _obj_materials(path, data, warn):
     """{name: MtlMaterial} of an OBJ's first ``mtllib`` (the one trimesh
     reads), or None; a missing or unreadable library is a warning."""
     from raytrace.scene.formats.mtl import parse_mtl
-    m = _MTLLIB.search(data)
+    # bytes.find before the regex: it reads 114 MB in a tenth of the time.
+    m = _MTLLIB.search(data) if b"mtllib" in data else None
     if m is None:
         return None
     name = m.group(1).decode("utf-8", "replace")
@@ -349,7 +418,8 @@ def _obj_materials(path, data, warn):
     except UnicodeDecodeError:
         text = raw.decode("latin-1")
     library = parse_mtl(text, mtl.name, warn)
-    used = dict.fromkeys(u.decode("utf-8", "replace") for u in _USEMTL.findall(data))
+    used = dict.fromkeys(u.decode("utf-8", "replace")
+                         for u in (_USEMTL.findall(data) if b"usemtl" in data else ()))
     for u in used:
         if u not in library:
             warn(f"{path.name}: material {u!r} is not in {mtl.name}; {fallback}")

@@ -1,13 +1,17 @@
-"""The common binary PLY (a vertex element of x, y, z and optionally nx, ny,
-nz; a face element of triangles only) read straight into arrays.
+"""Binary PLY files of the usual layouts read straight into arrays: a
+vertex element of scalar properties (x, y, z of any type; optionally nx,
+ny, nz; 8-bit red, green, blue; others such as confidence or texture
+coordinates without a texture are skipped) and a face element of one index
+list (any integer count and index types, either byte order) of triangles
+or quads, beside any scalar properties.
 
-This is the layout of scans and of most exported meshes, and reading it
-here is several times faster than through trimesh (docs/benchmarks.md,
-"Scene").  Anything
-else (ASCII, colours, texture coordinates, quads, more elements, a size
-that does not add up) returns None and goes to trimesh, which reads every
-PLY: what a file means is trimesh's decision for everything but this one
-layout, and tests check that both read it alike (tests/test_ply.py).
+These are the layouts of scans and of most exported meshes, read here
+several times faster than through trimesh (docs/benchmarks.md, "Scene").
+Anything else (ASCII, a texture, face colours, mixed polygons, more
+elements, a size that does not add up) returns None and goes to trimesh,
+which reads every PLY: what a file means is trimesh's decision for
+everything but these layouts, and tests check that both read them alike
+(tests/test_ply.py).
 
 The format: http://paulbourke.net/dataformats/ply/ (Greg Turk, 1994).
 """
@@ -19,7 +23,6 @@ _TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
           "short": "i2", "int16": "i2", "ushort": "u2", "uint16": "u2",
           "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
           "float": "f4", "float32": "f4", "double": "f8", "float64": "f8"}
-_VERTEX_FIELDS = ({"x", "y", "z"}, {"x", "y", "z", "nx", "ny", "nz"})
 _INDEX_NAMES = ("vertex_indices", "vertex_index")
 _HEADER_LIMIT = 1 << 16     # bytes: a header longer than this is not the simple layout
 
@@ -54,10 +57,13 @@ def _header(head):
 
 
 def read_simple_ply(path):
-    """(vertices (n, 3) float64, faces (m, 3) int64, normals (n, 3) float64
-    or None) of a PLY file in the simple layout, or None if it is not."""
+    """A dict of MeshPart fields (vertices (n, 3) float64, faces (m, 3)
+    int64, normals (n, 3) float64 or None, colors (n, 3) linear RGB or
+    None) of a binary PLY in a layout read here, or None if it is not."""
     with open(path, "rb") as f:
         head = f.read(_HEADER_LIMIT)
+    if b"TextureFile" in head[:head.find(b"end_header")]:
+        return None          # a texture and its coordinates: trimesh's reading
     parsed = _header(head)
     if parsed is None:
         return None
@@ -65,37 +71,139 @@ def read_simple_ply(path):
     if [e[0] for e in elements] != ["vertex", "face"]:
         return None
     (_, n_vertices, vertex_props), (_, n_faces, face_props) = elements
-    names = [p[-1] for p in vertex_props]
-    if (any(len(p) != 2 or p[0] not in _TYPES for p in vertex_props)
-            or len(set(names)) != len(names) or set(names) not in _VERTEX_FIELDS):
+    vertex_type = _scalar_type(vertex_props, endian)
+    if vertex_type is None or not {"x", "y", "z"} <= set(vertex_type.names):
         return None
-    if (len(face_props) != 1 or len(face_props[0]) != 4 or face_props[0][0] != "list"
-            or face_props[0][3] not in _INDEX_NAMES
-            or not (_is_integer(face_props[0][1]) and _is_integer(face_props[0][2]))):
+    layout = _face_layout(face_props, endian)
+    if layout is None:
         return None
-    vertex_type = np.dtype([(name, endian + _TYPES[t]) for t, name in vertex_props])
-    # Triangles only: every face is a count of 3 and three indices.
-    face_type = np.dtype([("count", endian + _TYPES[face_props[0][1]]),
-                          ("index", endian + _TYPES[face_props[0][2]], (3,))])
-    need = offset + n_vertices * vertex_type.itemsize + n_faces * face_type.itemsize
-    if os.path.getsize(path) != need:
-        return None          # quads or mixed polygons, trailing data, or truncated
+    face_offset = offset + n_vertices * vertex_type.itemsize
+    k = _first_count(path, face_offset, layout) if n_faces else 3
+    face_type = layout(max(k, 0))
+    if (3 <= k <= 4 and os.path.getsize(path) == face_offset + n_faces * face_type.itemsize):
+        face_data = np.fromfile(path, face_type, n_faces, offset=face_offset)
+        if not (face_data["count"] == k).all():
+            return None
+        counts, index = None, face_data["index"]
+        del face_data
+    else:
+        counts, index = _polygons(path, face_offset, n_faces, face_props, endian)
+        if counts is None:
+            return None      # not polygon records that fill the file
     vertex_data = np.fromfile(path, vertex_type, n_vertices, offset=offset)
-    face_data = np.fromfile(path, face_type, n_faces, offset=offset + vertex_data.nbytes)
-    if not (face_data["count"] == 3).all():
+    names = set(vertex_type.names)
+    faces = triangulate(index, counts)
+    del index
+    colors = None
+    if _COLOURS <= names:
+        from raytrace.scene.formats.materials import decode_colours
+        colors = decode_colours(_columns(vertex_data, _COLOURS_ORDER, np.uint8), linear=False)
+    return dict(vertices=_columns(vertex_data, "xyz"), faces=faces,
+                normals=_columns(vertex_data, ("nx", "ny", "nz")) if _NORMALS <= names else None,
+                colors=colors)
+
+
+def triangulate(index, counts=None):
+    """(m, 3) int64 triangles of polygons: ``index`` (n, k) rows of one size
+    (counts None) or all the polygons' indices one after another with
+    ``counts``.  Triangles stay triangles; a quad (a, b, c, d) becomes
+    (a, b, c) and (c, d, a), every quad's first triangle before any
+    second; a larger polygon a fan from its first vertex: trimesh's
+    triangulation, in its order, so both read a file alike."""
+    if counts is None:
+        k = index.shape[1]
+        if k == 3:
+            return index.astype(np.int64)
+        counts, index = np.full(len(index), k), index.reshape(-1)
+    starts = np.cumsum(counts) - counts
+    out = [index[starts[counts == 3, None] + np.arange(3)]]
+    quads = starts[counts == 4, None]
+    out += [index[quads + [0, 1, 2]], index[quads + [2, 3, 0]]]
+    big = counts > 4
+    if big.any():
+        # Fan triangle t of a polygon starting at s: (s, s + t + 1, s + t + 2).
+        fans = counts[big] - 2
+        first = np.repeat(starts[big], fans)
+        t = np.arange(len(first)) - np.repeat(np.cumsum(fans) - fans, fans)
+        out.append(index[np.stack([first, first + t + 1, first + t + 2], axis=1)])
+    return np.concatenate(out).astype(np.int64, copy=False)
+
+
+def _polygons(path, offset, n_faces, face_props, endian):
+    """(counts, indices) of a face element of one index list of polygons
+    of any sizes, or (None, None)."""
+    if len(face_props) != 1:
+        return None, None
+    _, count_type, index_type, _ = face_props[0]
+    from raytrace.scene.formats.polygons import polygon_lists
+    data = np.fromfile(path, np.uint8, offset=offset)
+    count_size, index_size = np.dtype(_TYPES[count_type]).itemsize, np.dtype(_TYPES[index_type]).itemsize
+    counts = np.empty(n_faces, np.int64)
+    # At most this many indices: every record holds a count and three or more.
+    indices = np.empty(max(0, (len(data) - n_faces * count_size) // index_size), np.int64)
+    k = polygon_lists(data, n_faces, count_size, index_size, _TYPES[index_type][0] == "i",
+                      endian == ">", counts, indices)
+    if k < 0:
+        return None, None
+    return counts, indices[:k]
+
+
+_NORMALS = {"nx", "ny", "nz"}
+_COLOURS_ORDER = ("red", "green", "blue")
+_COLOURS = set(_COLOURS_ORDER)
+_FACE_COLOURS = {"red", "green", "blue", "alpha"}
+
+
+def _scalar_type(props, endian):
+    """The record dtype of an element of scalar properties, or None (a list
+    property, an unknown type, a repeated name, colours not 8-bit)."""
+    names = [p[-1] for p in props]
+    if any(len(p) != 2 or p[0] not in _TYPES for p in props) or len(set(names)) != len(names):
         return None
-    vertices = _columns(vertex_data, "xyz")
-    normals = _columns(vertex_data, ("nx", "ny", "nz")) if "nx" in names else None
-    return vertices, face_data["index"].astype(np.int64), normals
+    types = dict((name, t) for t, name in props)
+    if _COLOURS <= set(names) and any(_TYPES[types[c]] != "u1" for c in _COLOURS_ORDER):
+        return None          # float or 16-bit colours: trimesh's scaling
+    return np.dtype([(name, endian + _TYPES[t]) for t, name in props])
+
+
+def _face_layout(props, endian):
+    """A function of k giving the face record dtype for k-gons (fields
+    count and index), or None if the face element is not one index list
+    among scalar properties (face colours go to trimesh)."""
+    lists = [i for i, p in enumerate(props) if p[0] == "list"]
+    if len(lists) != 1:
+        return None
+    (li,) = lists
+    lp = props[li]
+    if (len(lp) != 4 or lp[3] not in _INDEX_NAMES
+            or not (_is_integer(lp[1]) and _is_integer(lp[2]))):
+        return None
+    scalars = props[:li] + props[li + 1:]
+    if _scalar_type(scalars, endian) is None or _FACE_COLOURS & {p[-1] for p in scalars}:
+        return None
+
+    def layout(k):
+        fields = [(f"_{i}", endian + _TYPES[p[0]]) for i, p in enumerate(props[:li])]
+        fields += [("count", endian + _TYPES[lp[1]]), ("index", endian + _TYPES[lp[2]], (k,))]
+        fields += [(f"_{li + 1 + i}", endian + _TYPES[p[0]]) for i, p in enumerate(props[li + 1:])]
+        return np.dtype(fields)
+    return layout
+
+
+def _first_count(path, offset, layout):
+    """The vertex count of the first face record (-1 if none)."""
+    t = layout(1)
+    first = np.fromfile(path, t, 1, offset=offset)
+    return int(first["count"][0]) if len(first) else -1
 
 
 def _is_integer(name):
     return _TYPES.get(name, "f")[0] in "iu"
 
 
-def _columns(records, names):
-    """An (n, 3) float64 array of three fields of a record array."""
-    out = np.empty((len(records), 3))
+def _columns(records, names, dtype=np.float64):
+    """An (n, 3) array of three fields of a record array."""
+    out = np.empty((len(records), 3), dtype)
     for k, name in enumerate(names):
         out[:, k] = records[name]
     return out

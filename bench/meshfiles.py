@@ -1,0 +1,116 @@
+"""Reading mesh files of the layouts users have (issue 43): the big teapot
+written as each layout by make_layouts.py (into bench-out/meshes, kept out
+of the repository), loaded by raytrace, trimesh and Open3D (if importable)
+in interleaved rounds, and each file rendered by a fresh `raytrace FILE
+--width 320 --height 240` for the whole command's time and peak memory.
+
+    python bench/bench.py --sections meshfiles [--quick]
+
+raytrace's time is load_scene's: reading, welding and the crease-angle
+smoothing (shading normals), all a render needs.  trimesh's is
+`trimesh.load(FILE, process=False)` and Open3D's `read_triangle_mesh`:
+their readers alone (neither computes normals).
+"""
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import common
+from common import fmt_s, interleaved, log, markdown_table, median
+
+LAYOUTS = ("ply-plain.ply", "ply-rich.ply", "obj.obj", "stl.stl")
+FULL_DETAILS = (128, 256)         # 1.05M and 4.19M triangles
+QUICK_DETAILS = (32,)             # 65,536 triangles
+OUT = common.ROOT / "bench-out" / "meshes"
+
+
+def make_files(detail):
+    """{layout: path}, writing the files that are not there yet."""
+    import make_layouts
+    paths = {name: OUT / f"teapot-{detail}-{name}" for name in LAYOUTS}
+    missing = [name for name, p in paths.items() if not p.exists()]
+    if missing:
+        log(f"meshfiles: writing {', '.join(missing)} at detail {detail} to {OUT}")
+        OUT.mkdir(parents=True, exist_ok=True)
+        import subprocess
+        subprocess.run([sys.executable, str(Path(make_layouts.__file__)), str(detail), str(OUT),
+                        *missing], check=True, stdout=subprocess.DEVNULL)
+    return paths
+
+
+def loaders():
+    """{name: load(path)}: the readers that are importable here."""
+    import warnings
+
+    import trimesh
+
+    import raytrace
+    out = {"raytrace": lambda p: sum(len(getattr(o, "faces", ()))
+                                     for o in raytrace.load_scene(p).objects),
+           "trimesh": lambda p: len(trimesh.load(str(p), process=False).faces)}
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            import open3d
+        open3d.utility.set_verbosity_level(open3d.utility.VerbosityLevel.Error)
+        out["open3d"] = lambda p: len(open3d.io.read_triangle_mesh(str(p)).triangles)
+    except ImportError:
+        pass
+    return out
+
+
+def run(quick):
+    reads = loaders()
+    rows = []
+    for detail in QUICK_DETAILS if quick else FULL_DETAILS:
+        paths = make_files(detail)
+        for name, path in paths.items():
+            def once(reader, path=path):
+                t0 = time.perf_counter()
+                triangles = reads[reader](path)
+                return time.perf_counter() - t0, triangles
+            reads["raytrace"](path)             # compiles or loads the kernels, untimed
+            times, got = interleaved(tuple(reads), once, 0.0, 3, min_runs=1 if detail > 128 else 3)
+            # A reader that read no triangles failed (Open3D on mixed polygons).
+            times = {r: (t if got[r] else []) for r, t in times.items()}
+            with tempfile.TemporaryDirectory() as tmp:
+                wall, stats, peak = common.run_cli([path, "--width", 320, "--height", 240, "-o",
+                                                    Path(tmp) / "m.png"], env=dict(os.environ),
+                                                   cwd=tmp)
+            row = {"layout": name, "detail": detail, "triangles": stats["triangles"],
+                   "file_mb": path.stat().st_size / 1e6,
+                   "load_s": {r: median(t) for r, t in times.items()},
+                   "load_times_s": times, "whole_s": wall, "peak_mb": peak,
+                   "time": stats["time"]}
+            log(f"  {path.name}: " + ", ".join(f"{r} {fmt_s(s)} s" for r, s in row["load_s"].items())
+                + f"; whole command {fmt_s(wall)} s, peak {peak or 0:,.0f} MB")
+            rows.append(row)
+    return {"readers": list(reads), "rows": rows}
+
+
+def markdown(res):
+    readers = res["readers"]
+    header = (["File", "Triangles", "MB"] + [f"{r} load s" for r in readers]
+              + ["Whole command s", "Peak MB", "Peak B/triangle"])
+    body = []
+    for row in res["rows"]:
+        peak = row["peak_mb"]
+        body.append([f"teapot-{row['detail']}-{row['layout']}", f"{row['triangles']:,}",
+                     f"{row['file_mb']:,.0f}"]
+                    + [fmt_s(row["load_s"][r]) if row["load_times_s"][r] else "failed" for r in readers]
+                    + [fmt_s(row["whole_s"]),
+                       f"{peak:,.0f}" if peak else "n/a",
+                       f"{peak * 2**20 / row['triangles']:,.0f}" if peak else "n/a"])
+    out = ["### Mesh files: reading and the whole command, 320x240", "",
+           markdown_table(header, body, align="lrr" + "r" * (len(readers) + 3)), "",
+           "Load s: medians of interleaved rounds in this process (1 round at 4.2M triangles, "
+           "3 below). raytrace: `load_scene` (read, weld, crease-angle shading normals); "
+           "trimesh: `trimesh.load(process=False)`; open3d: `read_triangle_mesh` (readers "
+           "alone). Whole command: a fresh `raytrace FILE --width 320 --height 240`, its wall "
+           "time and peak resident memory. Layouts (bench/make_layouts.py): ply-plain float "
+           "x y z, triangles, no normals; ply-rich big-endian doubles, normals, colours, "
+           "texture coordinates, int counts, quads; obj v/vt/vn with "
+           "f a/b/c; stl binary."]
+    return "\n".join(out)
