@@ -57,7 +57,9 @@ def run(tree, case, size, out, cache):
 @click.option("--width", default=160)
 @click.option("--height", default=120)
 @click.option("--quick", is_flag=True, help="six cases, not all")
-def main(rev, width, height, quick):
+@click.option("--cache", type=click.Path(file_okay=False), default=None,
+              help="keep each tree's kernel cache here (cache-a, cache-b) for the next run")
+def main(rev, width, height, quick, cache):
     size = ["--width", str(width), "--height", str(height)]
     cases = [CASES[k] for k in QUICK] if quick else CASES
     with tempfile.TemporaryDirectory() as tmp:
@@ -73,8 +75,9 @@ def main(rev, width, height, quick):
             print(f"| case ({width}x{height}) | pixels | counters | structure |")
             print("| --- | --- | --- | --- |")
             for k, case in enumerate(cases):
-                a_img, a = run(ROOT, case, size, tmp / f"a{k}.png", tmp / "cache-a")
-                b_img, b = run(other, case, size, tmp / f"b{k}.png", tmp / "cache-b")
+                caches = Path(cache) if cache else tmp
+                a_img, a = run(ROOT, case, size, tmp / f"a{k}.png", caches / "cache-a")
+                b_img, b = run(other, case, size, tmp / f"b{k}.png", caches / "cache-b")
                 same = [a_img.shape == b_img.shape and bool((a_img == b_img).all()),
                         a["counters"] == b["counters"], a.get("structure") == b.get("structure")]
                 bad += not all(same)

@@ -48,12 +48,12 @@ WIDTH = 4
 # (1k and 100k triangle meshes) while the build slows with more bins.
 N_BINS = 12
 # Leaves hold at most this many primitives unless no split is possible; the
-# SAH may still make a smaller node a leaf.  2, 4 and 8 measured within
-# noise (+-5% rays/s) on 1k and 100k triangle meshes.  --leaf-size sets it.
+# SAH may still make a smaller node a leaf.  2, 4 and 8 trace alike fast
+# (docs/benchmarks.md, "BVH").  --leaf-size sets it.
 MAX_LEAF = 4
 # Cost of one node visit (two child box tests) relative to one primitive
 # test, in the SAH: C = TRAVERSAL_COST + (A_L N_L + A_R N_R) / A.  0.5, 1
-# and 2 measured within noise.
+# and 2 trace alike fast (docs/benchmarks.md, "BVH").
 TRAVERSAL_COST = 1.0
 # Leaves are forced at this depth, so traversal's fixed-size stack (at most 3
 # pending children per level of the 4-wide tree, accel/bvh/traverse.py) can never
@@ -75,10 +75,8 @@ BOX_PAD = 1e-9
 PARALLEL_MIN = 100_000
 # Subtrees of at most n / SPLIT primitives are built in parallel; the top
 # levels above them are serial passes over every primitive, and smaller
-# subtrees balance the threads better.  4, 8 and 16 built alike fast at 1M
-# and 4.2M triangles on 2 threads (32 and 128 slower), but each run of
-# rows wastes up to a huge page (2 MB) at its ends: at 4.2M the peak was
-# 1065 MB with 8, 1003 MB with 4.
+# subtrees balance the threads better; but each run of rows wastes up to a
+# huge page at its ends, so few runs peak lowest (docs/benchmarks.md, "BVH").
 SPLIT = 4
 # At most this many subtrees split again to even out the threads' shares.
 REFINE = 4

@@ -76,10 +76,8 @@ def build_bvh_kernel(boxes, prim_ids, start, end, depth, max_leaf, traversal_cos
     and was no faster.  Each primitive's bins are found in a pass of their
     own (``bin_of``) before the bins are grown: with the bin computed
     inline, the next loads waited on each update's address, which waits
-    on the float-to-int arithmetic (one count a primitive cost 14 ns
-    inline, 6 ns with a precomputed address; Zen 1).  The sweeps skip
-    empty bins.  Together: the same tree, 143-152 -> 118-124 ms for the
-    118k-triangle teapot on one thread (docs/design.md).
+    on the float-to-int arithmetic.  The sweeps skip empty bins.  The same
+    tree, built faster (docs/benchmarks.md, "BVH").
 
     ``boxes``: the primitives' box rows (box_rows; accel/bvh/box8.py).  A
     node's box and centroid box and each bin grow 8 lanes at a time, and
@@ -316,8 +314,7 @@ _NO_TASKS = np.empty((0, 4), np.int64)
 #
 # Tasks go to threads largest first, each to the least loaded (LPT
 # scheduling).  Where that leaves one thread much more work than the mean
-# (7 near-equal subtrees on 2 threads: 3 against 4, 42.8 against 53.4 ms
-# at 118k triangles), the largest task's root is split first, serially
+# (7 near-equal subtrees on 2 threads: 3 against 4), the largest task's root is split first, serially
 # (one pass over its primitives), its two children taking its place, at
 # most REFINE times.  The root's row goes after the top's, so the top stays
 # one run of rows.

@@ -116,9 +116,8 @@ def ray_aabb4(typingctx, node_box, node, nx, ny, nz, onx, ony, onz, ofx, ofy, of
     0 where the ray starts inside), inf where the ray misses the box or
     enters beyond t_max.
 
-    LLVM does not vectorise the scalar form of this (measured: all scalar
-    vmulsd); the explicit <4 x double> form measured 1.2x faster BVH
-    queries, and this float32 one another 1.01-1.08x (docs/design.md).
+    LLVM does not vectorise the scalar form of this; the explicit vector
+    form is faster, and float32 faster again (docs/benchmarks.md, "BVH").
     """
     args = (node_box, node, nx, ny, nz, onx, ony, onz, ofx, ofy, ofz, inx, iny, inz,
             ifx, ify, ifz, t_max)

@@ -9,8 +9,8 @@ from raytrace.accel.bvh.layout import MAX_DEPTH, TRAVERSAL_COST, WIDTH
 def levels(bvh):
     """The wide nodes level by level from the root's: (depth, rows, lanes),
     lanes being the rows' lanes as indices into the (m * 4,) raveled lane
-    arrays.  Flat takes: 2-D fancy indexing with a boolean mask was 2x
-    slower (4.2M triangles: 97 against 45 ms for the whole walk)."""
+    arrays.  Flat takes, not 2-D fancy indexing with a boolean mask,
+    which is slower (docs/benchmarks.md, "BVH")."""
     child = bvh.node_child.ravel()
     inner = (bvh.node_count.ravel() == 0) & (child >= 0)
     rows, d = np.zeros(1, np.int64), 0
