@@ -132,7 +132,8 @@ def run_case(detail, width, height, runs, peer_list):
 
     import raytrace
     from raytrace.accel.registry import build_structure
-    from raytrace.cast.rayscene import RayScene, _any_hit, _closest
+    from raytrace.cast.rays import _any_hit, _closest
+    from raytrace.cast.rayscene import RayScene
     from raytrace.scene.flatten import flatten
     from raytrace.scene.model import Mesh, Scene
 

@@ -15,8 +15,8 @@ from raytrace.errors import RaytraceError, RaytraceWarning
 __all__ = ["load_scene", "render", "render_frames", "RayScene", "cast_rays", "occluded",
            "create_rays_pinhole", "create_rays_from_matrices", "RaytraceError", "RaytraceWarning"]
 # Imported on first use, so that `import raytrace` stays light.
-_LAZY = {"RayScene": "cast.rayscene", "create_rays_pinhole": "cast.rayscene",
-         "create_rays_from_matrices": "cast.rayscene"}
+_LAZY = {"RayScene": "cast.rayscene", "create_rays_pinhole": "cast.cameras",
+         "create_rays_from_matrices": "cast.cameras"}
 
 
 def load_scene(name_or_path, **opts):

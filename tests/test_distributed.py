@@ -172,7 +172,7 @@ def test_dask_arrays_of_rays_give_the_one_batch_answers(scene, cluster):
     d = rng.normal(size=(5000, 3)) - o
     want = rays.cast_rays(o, d)
     got = cast_rays(rays, da.from_array(o, chunks=(701, 3)), da.from_array(d, chunks=(701, 3)))
-    assert set(got) == set(raytrace.cast.rayscene.RayHits.FIELDS)
+    assert set(got) == set(raytrace.cast.results.RayHits.FIELDS)
     for name, lazy in got.items():
         np.testing.assert_array_equal(lazy.compute(scheduler="threads"), want[name])
     assert 0 < want.hit.sum() < len(o)

@@ -8,7 +8,7 @@ from numba import njit
 
 from raytrace.accel.grid.build import GRID_MAX_RES, Grid, _fill_cells, build_grid, grid_eps
 from raytrace.accel.registry import build_structure as build_accel
-from raytrace.cast.rayscene import _any_hit, _closest
+from raytrace.cast.rays import _any_hit, _closest
 from raytrace.kernels.counters import BOX_TESTS, CELLS_VISITED, PRIM_TESTS
 from raytrace.kernels.query import closest_hit, occluded
 from raytrace.kernels.ray import make_ray

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from raytrace import RayScene, RaytraceError
-from raytrace.cast.rayscene import create_rays_pinhole
+from raytrace.cast.cameras import create_rays_pinhole
 from raytrace.kernels.jit import python_callable
 from raytrace.kernels.lowlevel import PACKET
 from raytrace.scene.builtin import teapot

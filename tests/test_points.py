@@ -96,7 +96,7 @@ def test_bad_points():
 def test_a_big_batch_answers_as_small_ones_do():
     # From _ORDER_MIN points on, the queries run in Morton order and are put
     # back: each point's answers must be those of a batch too small to sort.
-    from raytrace.cast.rayscene import _ORDER_MIN
+    from raytrace.cast.rays import _ORDER_MIN
     v, f = box(3)
     rs = RayScene((v, f))
     rng = np.random.default_rng(9)
@@ -117,7 +117,7 @@ def test_a_big_batch_answers_as_small_ones_do():
 def test_a_big_batch_in_a_flat_or_tiny_or_huge_box(spread):
     # The Morton order's grid spans the points' box: one point repeated, a
     # subnormal extent, a huge one.
-    from raytrace.cast.rayscene import _ORDER_MIN
+    from raytrace.cast.rays import _ORDER_MIN
     v, f = box(2)
     rs = RayScene((v, f))
     rng = np.random.default_rng(2)

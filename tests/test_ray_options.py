@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from raytrace import RayScene, RaytraceError
-from raytrace.cast.rayscene import ClosestPoints, RayHits
+from raytrace.cast.results import ClosestPoints, RayHits
 from raytrace.scene.model import Camera, Plane, Scene, Sphere
 from tests.structures import STRUCTURES
 

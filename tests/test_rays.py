@@ -222,7 +222,8 @@ def test_secondary_rays_hit_alike_in_every_structure(name):
     image only between brute force and the default structure
     (tests/structures.py): a structure enters the render kernel through
     these two queries alone."""
-    from raytrace.cast.rayscene import RayScene, create_rays_pinhole
+    from raytrace.cast.cameras import create_rays_pinhole
+    from raytrace.cast.rayscene import RayScene
     from raytrace.kernels.render import RAY_OFFSET
     from raytrace.scene.assets import assets_dir
     from raytrace.scene.load import load_scene

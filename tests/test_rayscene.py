@@ -133,14 +133,15 @@ def test_one_block_in_the_calling_thread_answers_as_the_threads_do(monkeypatch, 
     """A query of one block runs without Numba's threads (kernels/cast.py):
     every query, forced into one block and into three, gives the same
     answers and the same counters."""
-    from raytrace.cast import rayscene
+    from raytrace.cast import rays, rayscene
     rng = np.random.default_rng(5)
     v, f = rng.normal(size=(90, 3)), rng.integers(0, 90, size=(60, 3))
     n = 2500     # three chunks of rays; 40 of points (accel/bvh/points.py)
     o, d, q = rng.normal(size=(n, 3)) * 3, rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
     runs = {}
     for blocks in (1, 3):
-        monkeypatch.setattr(rayscene, "_blocks", lambda n, chunk=None, k=blocks: k)
+        for module in (rays, rayscene):
+            monkeypatch.setattr(module, "_blocks", lambda n, chunk=None, k=blocks: k)
         s = RayScene((v, f), accel=accel)
         h = s.cast_rays(o, d)
         hits = s.list_intersections(o, d)
@@ -260,7 +261,7 @@ def test_bad_camera_arguments(call, message):
 def test_bounds_given_as_numbers_are_filled_once_for_each_size_and_value():
     """Scalar t_min and t_max are filled out for the kernels and kept for
     the next call of that size (rayscene._filled), by their bits."""
-    from raytrace.cast.rayscene import _filled
+    from raytrace.cast.rays import _filled
     a = _filled(1000, np.inf)
     assert a is _filled(1000, np.inf) and (a == np.inf).all() and a.flags.writeable
     assert _filled(999, np.inf) is not a and len(_filled(999, np.inf)) == 999

@@ -179,7 +179,7 @@ class RaycastingScene:
         """(height_px, width_px, 6) float32 rays of a pinhole camera, Open3D's
         two forms: (intrinsic_matrix, extrinsic_matrix, width_px, height_px)
         or (fov_deg, center, eye, up, width_px, height_px)."""
-        from raytrace.cast.rayscene import create_rays_from_matrices, create_rays_pinhole
+        from raytrace.cast.cameras import create_rays_from_matrices, create_rays_pinhole
         by_fov = ("fov_deg", "center", "eye", "up", "width_px", "height_px")
         by_matrix = ("intrinsic_matrix", "extrinsic_matrix", "width_px", "height_px")
         names = by_fov if len(args) + len(kwargs) == 6 else by_matrix

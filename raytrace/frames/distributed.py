@@ -15,7 +15,7 @@ from concurrent.futures import CancelledError
 
 import numpy as np
 
-from raytrace.cast.rayscene import RayHits, _Fields
+from raytrace.cast.results import RayHits, _Fields
 from raytrace.errors import RaytraceError
 
 EXTRA = "pip install 'raytrace[distributed]'"

@@ -11,7 +11,7 @@ from numba.np.numpy_support import from_dtype
 from raytrace.accel.bvh.layout import BOX, WIDTH
 
 
-def splat(builder, vec, x):
+def broadcast(builder, vec, x):
     """Scalar x in every lane of vector type ``vec``."""
     v = builder.insert_element(ir.Constant(vec, ir.Undefined), x, ir.Constant(ir.IntType(32), 0))
     return builder.shuffle_vector(v, ir.Constant(vec, ir.Undefined), ir.Constant(
@@ -140,7 +140,7 @@ def ray_aabb4(typingctx, node_box, node, nx, ny, nz, onx, ony, onz, ofx, ofy, of
         i32 = ir.IntType(32)
 
         def splat(x):
-            return splat(builder, vec, x)
+            return broadcast(builder, vec, x)
 
         base = builder.mul(node, ir.Constant(i64, 6 * WIDTH))
 
@@ -232,12 +232,12 @@ def box_ray_f32(typingctx, ox, oy, oz, ix, iy, iz, near_limit, margin, bounded):
         negative = builder.fcmp_ordered("<", inv, ir.Constant(v64, [0.0] * 4))
         near_o = builder.select(negative, down, up)
         far_o = builder.select(negative, up, down)
-        one = splat(builder, v64, ir.Constant(f64, 1.0))
-        margin = splat(builder, v64, margin)
+        one = broadcast(builder, v64, ir.Constant(f64, 1.0))
+        margin = broadcast(builder, v64, margin)
         near = builder.fmul(inv, builder.fsub(one, margin))
         far = builder.fmul(inv, builder.fadd(one, margin))
         size = fabs(near, i64x4, 0x7FFFFFFFFFFFFFFF)
-        limit = splat(builder, v64, limit)
+        limit = broadcast(builder, v64, limit)
         cut = builder.and_(builder.fcmp_ordered(">", size, limit),
                            builder.fcmp_ordered("<", size, ir.Constant(v64, [float("inf")] * 4)))
         sign = builder.and_(builder.bitcast(near, i64x4), ir.Constant(i64x4, [1 << 63] * 4))
@@ -248,7 +248,7 @@ def box_ray_f32(typingctx, ox, oy, oz, ix, iy, iz, near_limit, margin, bounded):
             context.cast(builder, llargs[8], sig.args[8], types.boolean),
             builder.icmp_unsigned("==", builder.bitcast(vanishing, ir.IntType(4)),
                                   ir.Constant(ir.IntType(4), 0)))
-        bounded = splat(builder, ir.VectorType(ir.IntType(1), 4), bounded)
+        bounded = broadcast(builder, ir.VectorType(ir.IntType(1), 4), bounded)
         big = float(np.finfo(np.float32).max)
         columns = [builder.select(bounded, v, ir.Constant(v32, [x] * 4)) for v, x in (
             (near_o, big), (far_o, -big), (builder.fptrunc(near, v32), float("inf")),
@@ -304,7 +304,7 @@ def crossing_mask(typingctx, leaf_tris, k, k2, kx, ky, kz, okx, oky, okz, sx, sy
         k, k2, kx, ky, kz = [context.cast(builder, llargs[j], sig.args[j], types.int64)
                              for j in range(1, 6)]
         okx, oky, okz, sx, sy, sz, t_min, t_max = [
-            splat(builder, vec, context.cast(builder, llargs[j], sig.args[j], types.float64))
+            broadcast(builder, vec, context.cast(builder, llargs[j], sig.args[j], types.float64))
             for j in range(6, 14)]
 
         def coordinate(corner, axis):

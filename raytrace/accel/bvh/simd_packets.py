@@ -9,7 +9,7 @@ from numba import types
 from numba.extending import intrinsic
 
 from raytrace.accel.bvh.layout import WIDTH
-from raytrace.accel.bvh.simd import BOX_ARRAY, VERTICES, edge_functions, splat, within_interval
+from raytrace.accel.bvh.simd import BOX_ARRAY, VERTICES, broadcast, edge_functions, within_interval
 from raytrace.kernels.lowlevel import PACKET
 
 _F32_ROW = types.Array(types.float32, 1, "C")
@@ -73,7 +73,7 @@ def packet_aabb4(typingctx, node_box, node, nx, ny, nz, consts, t_far):
         for child in range(WIDTH):
             def plane(r, child=child):
                 p = builder.gep(data, [builder.add(base, builder.add(r, ir.Constant(i64, child)))])
-                return splat(builder, vec, builder.load(p))
+                return broadcast(builder, vec, builder.load(p))
             t0, t1 = zero, t_far
             for a in range(3):
                 tn = builder.fmul(builder.fsub(plane(near_rows[a]), consts[a]), consts[6 + a])
@@ -142,7 +142,7 @@ def packet_triangle(typingctx, v0, v1, v2, p, kx, ky, kz, fields, far):
 
         def coordinate(vertices, axis, origin):
             x = builder.load(builder.gep(vertices, [builder.add(base, axis)]))
-            return builder.fsub(splat(builder, vec, x), origin)
+            return builder.fsub(broadcast(builder, vec, x), origin)
 
         corners = [(coordinate(vertices, kx, okx), coordinate(vertices, ky, oky),
                     coordinate(vertices, kz, okz)) for vertices in data]
@@ -254,12 +254,12 @@ def packet_rays(typingctx, origins, dirs, i0, tree_bounded, box_range, near_limi
         # box_ray: the tree's and the origin's reach ...
         reach = builder.select(gt(">", fabs(o[1]), fabs(o[0])), fabs(o[1]), fabs(o[0]))
         reach = builder.select(gt(">", fabs(o[2]), reach), fabs(o[2]), reach)
-        bounded = builder.and_(gt("<=", reach, splat(builder, vd, box_range)),
-                               splat(builder, vb, tree_ok))
+        bounded = builder.and_(gt("<=", reach, broadcast(builder, vd, box_range)),
+                               broadcast(builder, vb, tree_ok))
         # ... and box_ray_f32's constants, axis by axis.
-        scale_near = builder.fsub(one, splat(builder, vd, margin))
-        scale_far = builder.fadd(one, splat(builder, vd, margin))
-        limit_v = splat(builder, vd, limit)
+        scale_near = builder.fsub(one, broadcast(builder, vd, margin))
+        scale_far = builder.fadd(one, broadcast(builder, vd, margin))
+        limit_v = broadcast(builder, vd, limit)
         sign = const(vi, 1 << 63)
         near_o, far_o, near_i, far_i = [], [], [], []
         usable = bounded

@@ -1,0 +1,111 @@
+"""A RayScene's objects as the kernels see them: flattened buffers, the
+structure, the counting layout and the BVH the point queries walk, built
+on first use, and the surface (ids, normals, points) at hits."""
+import numpy as np
+
+from raytrace.errors import RaytraceError
+from raytrace.scene.model import Scene
+
+
+class _Prepared:
+    """A built scene: kernel buffers, the structure, and the maps from the
+    kernel's unified primitive ids back to the user's geometry and faces."""
+
+    def __init__(self, objects, accel):
+        from raytrace.accel.registry import build_structure
+        from raytrace.scene.flatten import flatten
+        scene = Scene(name="rays", camera=None, objects=objects)
+        # No shading normals: a ray query reports the geometric normal.
+        self.geo, self.obj_ranges, _, (self.prim_object, self.prim_face) = flatten(
+            scene, with_sources=True, shading=False)
+        self.accel = accel
+        self.acc, self.build_s = build_structure(accel, self.geo, self.obj_ranges)
+        self.n_tris = self.geo.tri_v0.shape[0]
+        self._counting = None
+        self._bvh = None
+        self._bounds = None
+
+    def bounds(self):
+        """(lo, hi) of the bounded primitives (triangles, spheres); None if
+        there are none."""
+        if self._bounds is None:
+            g = self.geo
+            lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+            for k in range(3):    # by column: reductions along axis 0 of (n, 3) are slow
+                cols = [a[:, k] for a in (g.tri_v0, g.tri_v1, g.tri_v2)]
+                cols += [g.sph_center[:, k] - g.sph_radius, g.sph_center[:, k] + g.sph_radius]
+                for c in cols:
+                    if len(c):
+                        lo[k], hi[k] = min(lo[k], c.min()), max(hi[k], c.max())
+            self._bounds = (lo, hi) if lo[0] <= hi[0] else ()
+        return self._bounds or None
+
+    def counting(self):
+        """The layout that counts and lists every hit (made on first use:
+        the BVH's holds a copy of the triangles, registry.Structure.counting_layout)."""
+        if self._counting is None:
+            from raytrace.accel.registry import get
+            self._counting = get(self.accel).counting_layout(self.acc, self.geo)
+        return self._counting
+
+    def bvh(self):
+        """The BVH that point queries use, whatever structure casts rays."""
+        if self._bvh is None:
+            from raytrace.accel.registry import build_structure
+            self._bvh = (self.acc if self.accel == "bvh"
+                         else build_structure("bvh", self.geo, self.obj_ranges)[0])
+        return self._bvh
+
+    def ids(self, prim):
+        hit = prim >= 0
+        safe = np.where(hit, prim, 0)
+        if not len(self.prim_object):
+            return np.full(len(prim), -1), np.full(len(prim), -1)
+        return (np.where(hit, self.prim_object[safe], -1), np.where(hit, self.prim_face[safe], -1))
+
+    def surface(self, prim, u, v, t, origins, directions):
+        """(normal, point) of each hit, NaN rows for misses."""
+        g = self.geo
+        n = len(prim)
+        normal = np.full((n, 3), np.nan)
+        point = np.full((n, 3), np.nan)
+        n_tris, n_sph = self.n_tris, g.sph_center.shape[0]
+        tri = np.flatnonzero((prim >= 0) & (prim < n_tris))
+        if len(tri):
+            p = prim[tri]
+            a, b, c = g.tri_v0[p], g.tri_v1[p], g.tri_v2[p]
+            uu, vv = u[tri, None], v[tri, None]
+            point[tri] = (1.0 - uu - vv) * a + uu * b + vv * c
+            from raytrace.scene.flatten import cross_rows, unit_rows
+            normal[tri] = unit_rows(cross_rows(b - a, c - a))
+        if n_sph + g.pl_normal.shape[0] == 0:    # triangles only: the usual scene
+            return normal, point
+        sph = np.flatnonzero((prim >= n_tris) & (prim < n_tris + n_sph))
+        if len(sph):
+            k = prim[sph] - n_tris
+            c, r = g.sph_center[k], g.sph_radius[k, None]
+            d = origins[sph] + t[sph, None] * directions[sph] - c
+            d /= np.linalg.norm(d, axis=1, keepdims=True)
+            normal[sph] = d
+            point[sph] = c + r * d
+        pl = np.flatnonzero(prim >= n_tris + n_sph)
+        if len(pl):
+            k = prim[pl] - n_tris - n_sph
+            nn, q = g.pl_normal[k], g.pl_point[k]
+            x = origins[pl] + t[pl, None] * directions[pl]
+            normal[pl] = nn
+            point[pl] = x - np.einsum("ij,ij->i", x - q, nn)[:, None] * nn
+        return normal, point
+
+
+def _mesh_arrays(mesh, faces=None):
+    """(vertices, faces) from a pair, from two arguments, or from an object
+    with .vertices and .faces (a trimesh.Trimesh, a raytrace Mesh)."""
+    if faces is not None:
+        return mesh, faces
+    if hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
+        return mesh.vertices, mesh.faces
+    if isinstance(mesh, (tuple, list)) and len(mesh) == 2:
+        return mesh
+    raise RaytraceError("target must be a (vertices, faces) pair, a mesh with .vertices and "
+                        f".faces (such as a trimesh.Trimesh), or a Scene; got {type(mesh).__name__}")

@@ -1,0 +1,263 @@
+"""Rays and points from the caller to the kernels: shapes, dtypes and
+values checked (a bad one named by argument and row), query points put in
+Morton order, and the batch kernels called over counter rows."""
+import numpy as np
+
+from raytrace.errors import RaytraceError
+from raytrace.kernels.limits import FROM_ORIGIN
+from raytrace.scene.formats.mesh import MAX_COORD, bad_coordinate_rows
+
+
+def _as_rows(name, a):
+    """(n, 3) float64 array, or (3,) as one row; values are checked later."""
+    try:
+        raw = np.asarray(a)
+        if np.iscomplexobj(raw):
+            raise RaytraceError(f"{name}: complex numbers are not coordinates")
+        arr = raw.astype(np.float64, copy=False)
+    except (TypeError, ValueError) as exc:   # ragged rows, text
+        raise RaytraceError(f"{name}: not convertible to float64 ({exc})") from None
+    if arr.ndim == 1 and arr.shape[0] == 3:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise RaytraceError(f"{name}: expected shape (n, 3), got {arr.shape}")
+    return kernel_array(arr)
+
+
+def _ray_rows(name, a, width=3):
+    """(n, width) rows of an array of shape (..., width), real numbers of
+    any dtype (kernel_array converts them, once), and that leading shape
+    (None for (n, width), or (width,) as one row)."""
+    try:
+        arr = np.asarray(a)
+        if np.iscomplexobj(arr):
+            raise RaytraceError(f"{name}: complex numbers are not coordinates")
+        if arr.dtype.kind not in "biuf":
+            arr = arr.astype(np.float64)
+    except (TypeError, ValueError) as exc:   # ragged rows, text
+        raise RaytraceError(f"{name}: not convertible to float64 ({exc})") from None
+    if arr.ndim < 1 or arr.shape[-1] != width:
+        raise RaytraceError(f"{name}: expected shape (n, {width}) or (..., {width}), "
+                            f"got {arr.shape}")
+    if arr.ndim > 2:
+        return arr.reshape(-1, width), arr.shape[:-1]
+    return (arr[None, :] if arr.ndim == 1 else arr), None
+
+
+def _shaped(a, shape):
+    """A per-ray answer in the rays' leading shape."""
+    return a if shape is None else a.reshape(shape + a.shape[1:])
+
+
+def _interval_end(name, value, n, shape=None):
+    """An (n,) float64 array from a number or an array over the rays: (n,)
+    or the rays' leading shape."""
+    try:
+        a = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise RaytraceError(f"{name}: not convertible to float64 ({exc})") from None
+    if a.ndim == 0:
+        x = float(a)
+        return _filled(n, FROM_ORIGIN if name == "t_min" and x < 0 else x)
+    if a.shape != (n,) and (shape is None or a.shape != shape):
+        raise RaytraceError(f"{name}: expected a number or shape {shape or (n,)}, got shape {a.shape}")
+    a = a.reshape(n)
+    if name == "t_min" and (a < 0).any():
+        a = np.where(a < 0, FROM_ORIGIN, a)
+    return kernel_array(a)
+
+
+# Bounds given as numbers, filled out for the kernels and kept for the next
+# call with the same size: a fresh (n,) array faults its pages in on first
+# write, a visible share of a big call (docs/benchmarks.md, "Ray queries").
+# The kernels only read them, and they are never handed out.
+_FILLED = {}
+
+
+_FILLED_MAX = 4                  # arrays kept
+
+
+_FILLED_MAX_BYTES = 8 << 20      # each
+
+
+def _filled(n, value):
+    key = (n, value.hex())    # by bits: -0.0 is not 0.0, and NaN is NaN
+    a = _FILLED.get(key)
+    if a is None:
+        a = np.full(n, value)
+        if a.nbytes <= _FILLED_MAX_BYTES:
+            if len(_FILLED) >= _FILLED_MAX:
+                _FILLED.clear()
+            _FILLED[key] = a
+    return a
+
+
+def _rays(origins, directions, t_min, t_max):
+    """Validated kernel arrays (origins, directions, t_min, t_max), and the
+    rays' leading shape (None for rows).  ``directions`` None: ``origins``
+    holds (origin, direction) rows of 6."""
+    if directions is None:
+        rows, shape = _ray_rows("rays", origins, 6)
+        o, d = kernel_array(rows[:, :3]), kernel_array(rows[:, 3:])
+    else:
+        o, o_shape = _ray_rows("origins", origins)
+        d, d_shape = _ray_rows("directions", directions)
+        if o_shape != d_shape and len(o) > 1 and len(d) > 1:
+            raise RaytraceError(f"origins and directions differ in shape "
+                                f"({o_shape or o.shape} and {d_shape or d.shape})")
+        shape = d_shape if len(o) == 1 else o_shape
+        o, d = kernel_array(o), kernel_array(d)
+        if len(o) == 1 and len(d) > 1:     # one origin for every direction
+            o = np.ascontiguousarray(np.broadcast_to(o, d.shape))
+        if len(d) == 1 and len(o) > 1:     # one direction for every origin
+            d = np.ascontiguousarray(np.broadcast_to(d, o.shape))
+        if len(o) != len(d):
+            raise RaytraceError(f"origins and directions differ in length ({len(o)} and {len(d)})")
+    n = len(d)
+    tmin = _interval_end("t_min", t_min, n, shape)
+    tmax = _interval_end("t_max", t_max, n, shape)
+    return (o, d, tmin, tmax), shape
+
+
+def _check_rays(cnt, rays):
+    """After a query kernel: raise RaytraceError naming the first bad ray
+    if the kernel found any (kernels/cast.py checks each ray as it reads
+    it, instead of a pass of its own before the call)."""
+    from raytrace.kernels.counters import BAD_RAYS
+    if cnt[..., BAD_RAYS].any():
+        _name_the_problem(*rays)
+
+
+# Point queries run in Morton order of a 32^3 grid over the points' bounds
+# (a 15-bit key: NumPy's stable argsort of 16-bit keys is a radix sort), so
+# neighbouring queries visit the same BVH nodes while they are in cache
+# (docs/benchmarks.md, "Ray queries").  Smaller batches gain too little to
+# pay for the ordering.
+_ORDER_MIN = 20_000
+
+
+_MORTON_BITS = 5
+
+
+_SPREAD = np.array([sum(((v >> b) & 1) << (3 * b) for b in range(_MORTON_BITS))
+                    for v in range(1 << _MORTON_BITS)], np.uint16)
+
+
+def _query_points(points):
+    """(validated (n, 3) points in the order the kernels take them, the
+    permutation that made that order or None)."""
+    q = _as_rows("points", points)
+    _check_coordinates("points", q)
+    if len(q) < _ORDER_MIN:
+        return q, None
+    # Column by column: NumPy's reductions along axis 0 of an (n, 3) array
+    # are much slower.
+    lo = np.array([q[:, a].min() for a in range(3)])
+    hi = np.array([q[:, a].max() for a in range(3)])
+    # (q - lo) / span is in [0, 1] for any span > 0, subnormal too (a scale
+    # factor 31 / span would overflow there); a flat axis gets span 1.
+    span = np.where(hi > lo, hi - lo, 1.0)
+    cell = ((q - lo) / span * ((1 << _MORTON_BITS) - 1)).astype(np.intp)
+    key = _SPREAD[cell[:, 0]] | (_SPREAD[cell[:, 1]] << 1) | (_SPREAD[cell[:, 2]] << 2)
+    order = np.argsort(key, kind="stable")
+    return np.take(q, order, axis=0), order
+
+
+def _unsorted(a, order):
+    """Results for points in _query_points' order, back in the caller's."""
+    if order is None:
+        return a
+    out = np.empty_like(a)
+    out[order] = a
+    return out
+
+
+def _check_coordinates(name, arr):
+    """Raise RaytraceError naming the first row of NaN, inf or too large values."""
+    bad = bad_coordinate_rows(arr)
+    if bad is not None and bad[0] == "nonfinite":
+        raise RaytraceError(f"{name}[{bad[1]}]: NaN or infinite value ({bad[2]} such rows)")
+    if bad is not None:
+        raise RaytraceError(f"{name}[{bad[1]}]: a value beyond {MAX_COORD:g} "
+                            f"(products of such values overflow; {bad[2]} such rows)")
+
+
+def _name_the_problem(o, d, tmin, tmax):
+    """Raise RaytraceError naming the first bad ray and how many share it."""
+    _check_coordinates("origins", o)
+    _check_coordinates("directions", d)
+    zero = (d[:, 0] == 0.0) & (d[:, 1] == 0.0) & (d[:, 2] == 0.0)
+    if zero.any():
+        raise RaytraceError(f"directions[{int(np.argmax(zero))}]: zero vector (a ray needs a direction)")
+    bad = ~(tmax > 0)   # also catches NaN
+    if bad.any():
+        raise RaytraceError(f"t_max[{int(np.argmax(bad))}]: must be positive (inf allowed), "
+                            f"got {tmax[np.argmax(bad)]}")
+    bad = ~((tmin >= FROM_ORIGIN) & (tmin < tmax))
+    k = int(np.argmax(bad))
+    raise RaytraceError(f"t_min[{k}]: must be a number below t_max ({tmax[k]}), got {tmin[k]}")
+
+
+def kernel_array(a, dtype=np.float64):
+    """``a`` as a C-contiguous, aligned, writeable array of ``dtype`` (a copy
+    only when it is not one already): a read-only or strided array would
+    compile the kernels again for its type."""
+    a = np.asarray(a)
+    if a.dtype != dtype or not (a.flags.c_contiguous and a.flags.aligned and a.flags.writeable):
+        a = np.array(a, dtype=dtype, order="C", copy=True)
+    return a
+
+
+def _blocks(n, chunk=None):
+    """Counter rows: one per thread (kernels/cast.py: each takes chunks of
+    rays, or of points, by ticket), fewer when there are fewer chunks than
+    threads.  One block runs in the calling thread, without waking Numba's."""
+    import numba
+
+    from raytrace.kernels.cast import CHUNK
+    return max(1, min(numba.get_num_threads(), -(-n // (chunk or CHUNK))))
+
+
+def _counter_rows(n):
+    """Zeroed counter rows for a query kernel over n rays (kernels/cast.py)."""
+    from raytrace.kernels.cast import COLUMNS
+    return np.zeros((_blocks(n), COLUMNS), np.int64)
+
+
+def _clock():
+    """A query kernel's chunk clock (kernels/cast.py): the first ticket is 0."""
+    return np.zeros(1, np.int64)
+
+
+def _closest(geo, acc, origins, dirs, t_min, t_max, check=True):
+    """((t, prim, b1, b2), counters) for (n, 3) rays and (n,) bounds;
+    RaytraceError if a ray is bad (with ``check``; else it misses)."""
+    from raytrace.kernels.cast import cast_closest
+    n = len(origins)
+    out = (np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n))
+    cnt = _counter_rows(n)
+    cast_closest(geo, acc, origins, dirs, t_min, t_max, *out, cnt, _clock())
+    if check:
+        _check_rays(cnt, (origins, dirs, t_min, t_max))
+    return out, cnt.sum(axis=0)
+
+
+def _any_hit(geo, acc, origins, dirs, t_min, t_max, check=True):
+    """(occluded bool array, counters); RaytraceError if a ray is bad (with
+    ``check``; else it is not occluded)."""
+    from raytrace.kernels.cast import cast_occluded
+    n = len(origins)
+    hit = np.empty(n, np.bool_)
+    cnt = _counter_rows(n)
+    cast_occluded(geo, acc, origins, dirs, t_min, t_max, hit, cnt, _clock())
+    if check:
+        _check_rays(cnt, (origins, dirs, t_min, t_max))
+    return hit, cnt.sum(axis=0)
+
+
+def _counters(cnt, n):
+    from raytrace.renderer.stats import counters_from_rows
+    c = counters_from_rows(cnt[None, :])
+    return {"rays": n, "prim_tests": c["prim_tests"], "prim_hits": c["prim_hits"],
+            "box_tests": c["box_tests"], "nodes_visited": c["nodes_visited"],
+            "cells_visited": c["cells_visited"]}
