@@ -68,7 +68,7 @@ if CACHING:
     from raytrace.kernels.kernel_cache import install
     install(numba.config.CACHE_DIR)
 else:
-    from raytrace.errors import warn
+    from raytrace.kernels.kernel_cache import warn
     warn(f"kernel cache {numba.config.CACHE_DIR}: cannot write ({_why}); compiling "
          "without a cache (set NUMBA_CACHE_DIR to a writable directory)")
 

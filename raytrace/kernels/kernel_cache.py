@@ -13,10 +13,18 @@ has them.
 import hashlib
 import os
 import shutil
+import warnings
 
 from numba.core import caching
 
-from raytrace.errors import warn
+
+class KernelCacheWarning(UserWarning):
+    """The cache was damaged or cannot be written; the run goes on (this
+    floor sits below raytrace.errors, so its own warning class)."""
+
+
+def warn(message):
+    warnings.warn(message, KernelCacheWarning, stacklevel=3)
 
 MAGIC = b"raytrace-kernel-cache-1\n"
 _DIGEST = hashlib.sha256().digest_size
