@@ -47,6 +47,7 @@ def render(scene, client=None, tiles=None, **options):
     AOVs then stay unassembled (None / not available).
     """
     scene = _scene(scene)
+    tiles = _tiles(tiles)
     if client is None and tiles is None:
         from raytrace.renderer.driver import render as _render
         return _render(scene, **options)
@@ -73,11 +74,23 @@ def render_frames(scene, cameras=None, turntable=None, output=None, fps=24, resu
     from raytrace.frames.batch import animate
     from raytrace.renderer.driver import options_with
     from raytrace.scene.animation import camera_path
+    from raytrace.scene.model import Camera
     scene = _scene(scene)
+    tiles = _tiles(tiles, 1)
+    if progress is not None and not callable(progress):
+        raise RaytraceError(f"progress must be a function (frames done, frames) or None, "
+                            f"got {progress!r}")
     if cameras is None:
         cameras = camera_path(scene, turntable)
     elif turntable is not None:
         raise RaytraceError("give cameras or turntable, not both")
+    else:
+        if isinstance(cameras, (str, bytes)) or not hasattr(cameras, "__iter__"):
+            raise RaytraceError(f"cameras: expected a list of Cameras, got {type(cameras).__name__}")
+        cameras = list(cameras)
+        for i, cam in enumerate(cameras):
+            if not isinstance(cam, Camera):
+                raise RaytraceError(f"cameras[{i}]: expected a Camera, got {type(cam).__name__}")
     if output is not None:
         from raytrace.frames.writers import check_frame_output
         check_frame_output(str(output), resume=resume)
@@ -100,8 +113,23 @@ def _scene(scene):
 def _runner(client):
     if client is None:
         return None
+    if not all(hasattr(client, a) for a in ("submit", "scatter", "gather")):
+        hint = " (connect first: distributed.Client(address))" if isinstance(client, str) else ""
+        raise RaytraceError(f"client: expected a dask.distributed Client, got "
+                            f"{type(client).__name__}{hint}")
     from raytrace.frames.distributed import DaskRunner
     return DaskRunner(client, None)
+
+
+def _tiles(tiles, default=None):
+    """tiles: None (``default``) or a whole number from 1 to 65536."""
+    from numbers import Integral
+    if tiles is None:
+        return default
+    if isinstance(tiles, bool) or not isinstance(tiles, Integral) or not 1 <= tiles <= 1 << 16:
+        from raytrace.errors import OptionError
+        raise OptionError(f"tiles must be an integer from 1 to 65536, got {tiles!r}")
+    return int(tiles)
 
 
 def cast_rays(target, origins, directions, accel="bvh", t_max=None):

@@ -59,7 +59,15 @@ class Option:
         return f"`{self.default}`" if self.kind == "choice" else f"{self.default:g}"
 
     def check(self, value):
-        """Raise RaytraceError unless value is valid (None: the default)."""
+        """Raise RaytraceError unless value is valid (None: the default).
+        The OptionError's ``flag`` names the option for the command line."""
+        try:
+            self._check(value)
+        except OptionError as exc:
+            exc.flag = self.flag
+            raise
+
+    def _check(self, value):
         if value is None and self.default is None:
             return
         if self.kind == "choice":

@@ -2,10 +2,9 @@
 can report Ctrl-C as an interruption: a SIGINT while click and the rest load
 is exit 130 and one line, like one during the render."""
 import os
-import signal
 import sys
 
-from raytrace.renderer.interrupt import interrupted, on_sigint, unraisable
+from raytrace.renderer import interrupt
 
 
 def _exit_interrupted(message=None):
@@ -14,26 +13,24 @@ def _exit_interrupted(message=None):
     raised inside exec()'d code (namedtuple and dataclass creation while a
     module loads): the caller would see -2 instead of 130."""
     if message:
-        sys.stderr.write(f"interrupted: {message}\n")
+        sys.stderr.write(f"{interrupt.label()}: {message}\n")
     sys.stdout.flush()
     sys.stderr.flush()
-    os._exit(130)
+    os._exit(interrupt.exit_code())
 
 
 def main():
-    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
-        signal.signal(signal.SIGINT, on_sigint)     # not when started with SIGINT ignored
-        sys.unraisablehook = unraisable
+    interrupt.install()
     try:
         from raytrace.cli.main import entry
         entry()
     except SystemExit as exc:
-        if exc.code == 130:
+        if exc.code in interrupt.exit_codes():
             _exit_interrupted()                     # the message is written
         raise
     except KeyboardInterrupt:
         _exit_interrupted("no image written")
     except Exception:
-        if interrupted():
+        if interrupt.interrupted():
             _exit_interrupted("no image written")
         raise

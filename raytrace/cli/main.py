@@ -9,8 +9,9 @@ import time
 
 import click
 
-from raytrace.errors import OptionError, RaytraceError, RaytraceWarning
+from raytrace.errors import OptionError, RaytraceError
 from raytrace.options import BY_NAME, CREASE, DETAIL, FOV_RANGE, OPTIONS
+from raytrace.renderer import interrupt
 from raytrace.renderer.interrupt import raise_if_interrupted
 
 
@@ -155,29 +156,19 @@ def _one_line_errors():
     (click prints it); Ctrl-C passes through to the caller."""
     try:
         yield
-    except OptionError as exc:
-        raise click.UsageError(str(exc)) from None
+    except OptionError as exc:       # a render option's check names its flag (options.py)
+        flag = getattr(exc, "flag", None)
+        raise click.UsageError(f"{flag}: {exc}" if flag else str(exc)) from None
     except RaytraceError as exc:
         raise click.ClickException(str(exc)) from None
     except MemoryError:
         raise click.ClickException("out of memory: try a smaller image or fewer samples") from None
 
 
-@contextlib.contextmanager
 def _warnings_once():
-    """Show each RaytraceWarning raised inside as one line on stderr, once."""
-    import warnings
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", RaytraceWarning)
-        try:
-            yield
-        finally:
-            ours = [w for w in caught if issubclass(w.category, RaytraceWarning)]
-            for message in dict.fromkeys(str(w.message) for w in ours):
-                click.echo(f"warning: {message}", err=True)
-            for w in caught:
-                if w not in ours:
-                    warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+    """Each warning, ours or a library's, as one line on stderr, once."""
+    from raytrace.cli.messages import warnings_once
+    return warnings_once()
 
 
 def _write_outputs(result, output, aov, aov_out, heatmap, outputs):
@@ -315,8 +306,8 @@ def _is_frame_path(path):
 
 def _is_numbered(path):
     """A name with a frame-number field, %d or %04d (frames/writers.py)."""
-    from raytrace.frames.writers import FIELD
-    return path is not None and FIELD.search(path.rsplit("/", 1)[-1]) is not None
+    from raytrace.frames.writers import number_fields
+    return path is not None and bool(number_fields(path.rsplit("/", 1)[-1]))
 
 
 def _check_work(animated, still_extras, turntable, fps, resume, tiles, workers, scheduler):
@@ -324,6 +315,18 @@ def _check_work(animated, still_extras, turntable, fps, resume, tiles, workers, 
     if workers is not None and scheduler is not None:
         raise click.UsageError("--workers starts a local cluster; --scheduler (or "
                                "DASK_SCHEDULER_ADDRESS) names a running one: give one")
+    if workers is not None:
+        from raytrace.frames.distributed import check_worker_count
+        try:
+            check_worker_count(workers)
+        except RaytraceError as exc:
+            raise click.UsageError(f"--workers: {exc}") from None
+    if scheduler is not None:
+        from raytrace.frames.dask_address import check_scheduler_address
+        try:
+            check_scheduler_address(scheduler)
+        except RaytraceError as exc:
+            raise click.UsageError(f"--scheduler: {exc}") from None
     if not animated:
         for flag, value in (("--fps", fps), ("--resume", resume or None)):
             if value is not None:
@@ -481,8 +484,8 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
                 notes = _write_outputs(result, output, aov, aov_out, heatmap, outputs)
     except KeyboardInterrupt:
         done = "outputs written" if outputs is not None and outputs.committed else "no image written"
-        click.echo(f"interrupted: {done}", err=True)
-        sys.exit(130)
+        click.echo(f"{interrupt.label()}: {done}", err=True)
+        sys.exit(interrupt.exit_code())
     from raytrace.renderer.stats import (  # here: it loads Numba, which a bad file never needs
         format_table,
         to_json,
@@ -535,9 +538,9 @@ def _render_animation(scene, kind, output, turntable, fps, resume, tiles, worker
                 progress.close()
             stats["output"] = str(output)
     except KeyboardInterrupt:
-        click.echo("interrupted: no animation written" if not _is_numbered(output)
-                   else "interrupted: the frames written are complete", err=True)
-        sys.exit(130)
+        click.echo(f"{interrupt.label()}: no animation written" if not _is_numbered(output)
+                   else f"{interrupt.label()}: the frames written are complete", err=True)
+        sys.exit(interrupt.exit_code())
     from raytrace.renderer.stats import format_table, to_json
     if as_json:
         click.echo(to_json(stats))
@@ -615,8 +618,8 @@ def compare_cmd(ctx, scene, accel_list, detail, view, up, crease, flat, fov, rep
             with Outputs() as outputs:
                 outputs.add(output, image_writer(figure(result, setting)[0], output))
     except KeyboardInterrupt:
-        click.echo("interrupted: no comparison written", err=True)
-        sys.exit(130)
+        click.echo(f"{interrupt.label()}: no comparison written", err=True)
+        sys.exit(interrupt.exit_code())
     if as_json:
         click.echo(to_json({**to_dict(result), "output": str(output)}))
     elif not quiet:
@@ -630,21 +633,23 @@ def compare_cmd(ctx, scene, accel_list, detail, view, up, crease, flat, fov, rep
 
 def entry():
     """The `raytrace` command: click's group, with Ctrl-C reported as an
-    interruption (exit 130) wherever it lands, and a bad argument as one
+    interruption (exit 130; SIGTERM 143, SIGHUP 129) wherever it lands, and a bad argument as one
     line (exit 2), without click's usage lines."""
+    from raytrace.cli.messages import escape
     try:
-        rv = main(standalone_mode=False)
+        with _warnings_once():
+            rv = main(standalone_mode=False)
     except (KeyboardInterrupt, click.exceptions.Abort):
-        click.echo("interrupted: no image written", err=True)
-        sys.exit(130)
+        click.echo(f"{interrupt.label()}: no image written", err=True)
+        sys.exit(interrupt.exit_code())
     except click.exceptions.NoArgsIsHelpError as exc:   # a bare `raytrace`: the help
         click.echo(exc.ctx.get_help())
         sys.exit(0)
     except click.exceptions.UsageError as exc:
-        click.echo(f"Error: {exc.format_message()}", err=True)
+        click.echo(f"Error: {escape(exc.format_message())}", err=True)
         sys.exit(2)
     except click.ClickException as exc:
-        exc.show()
+        click.echo(f"Error: {escape(exc.format_message())}", err=True)
         sys.exit(exc.exit_code)
     sys.exit(rv if isinstance(rv, int) else 0)
 

@@ -175,7 +175,11 @@ def animate(scene, cameras, opts, output=None, fps=24, resume=False, runner=None
             advance()
         return frames, render_frames(scene, cameras, opts, runner, tiles, on_frame=keep)
     from raytrace.frames.writers import frame_output
-    with frame_output(output, n, fps=fps, resume=resume) as out:
+    camera = getattr(scene, "camera", None)
+    size = (opts.width if opts.width is not None else getattr(camera, "width", None),
+            opts.height if opts.height is not None else getattr(camera, "height", None))
+    with frame_output(output, n, fps=fps, resume=resume,
+                      size=size if None not in size else None) as out:
         skip = {i for i in range(n) if out.complete(i)}
         done[0] = len(skip)
 

@@ -25,6 +25,24 @@ TASKS_PER_WORKER = 4         # in flight at once: enough to hide the round trips
 RESCATTERS = 2               # times a task may find its scattered scene lost and rerun
 
 
+# Memory a local worker process takes: Python, Dask, Numba and the render
+# modules imported measured 125 MB (/usr/bin/time, issue 45); the kernels
+# loaded and the scene's buffers come on top.
+WORKER_BYTES = 256 << 20
+
+
+def check_worker_count(workers):
+    """Refuse more local workers than free memory holds (64 on 2 cores
+    passed 4 GB in 30 s while starting): an OptionError with the numbers."""
+    from raytrace.scene.formats.mesh import available_memory
+    free = available_memory()
+    most = max(1, free // WORKER_BYTES)
+    if workers > most:
+        from raytrace.errors import OptionError
+        raise OptionError(f"{workers} workers need about {workers * WORKER_BYTES / 2**30:.1f} GiB; "
+                          f"this machine has {free / 2**30:.1f} GiB free, enough for {most}")
+
+
 def _dask(why):
     try:
         import distributed
@@ -67,6 +85,8 @@ def connect(workers=None, scheduler=None):
         with cluster, distributed.Client(cluster) as client:
             yield DaskRunner(client, threads)
     else:
+        from raytrace.frames.dask_address import check_scheduler_address
+        scheduler = check_scheduler_address(scheduler)
         distributed = _dask("--scheduler")
         try:
             client = distributed.Client(scheduler, timeout=CONNECT_S)

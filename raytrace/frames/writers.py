@@ -18,13 +18,23 @@ from pathlib import Path
 
 import numpy as np
 
-from raytrace.errors import RaytraceError
+from raytrace.errors import RaytraceError, warn
 from raytrace.renderer.output import IMAGE_FORMATS, NAME_MAX, Outputs, check_writable, temp_beside, write_png
 from raytrace.scene.animation import check_frame_count
 
 FPS_RANGE = (1.0, 240.0)
 # printf's frame number: %d, or %0Nd zero-padded to N digits.
-FIELD = re.compile(r"%(\d*)d")
+# A frame-number field, %d or %04d; "%%" is a literal "%", as in printf.
+_FIELD_OR_PERCENT = re.compile(r"%%|%(\d*)d")
+
+
+def number_fields(text):
+    """The frame-number fields of ``text``, as match objects (group 1 the width)."""
+    return [m for m in _FIELD_OR_PERCENT.finditer(text) if m.group(0) != "%%"]
+
+
+def _literal(text):
+    return text.replace("%%", "%")
 EXAMPLE = "frames/spin_%04d.png"
 VIDEO_EXTRA = "writing .mp4 needs the video extra: pip install 'raytrace[video]'"
 # H.264 quality: x264's constant rate factor, 18 about where compression
@@ -39,9 +49,9 @@ def check_frame_output(path, resume=False):
     if not isinstance(path, (str, Path)):
         raise RaytraceError(f"frames output: expected a path, got {type(path).__name__}")
     path = Path(path)
-    fields = FIELD.findall(path.name)
+    fields = [m.group(1) for m in number_fields(path.name)]
     ext = path.suffix.lower()
-    if FIELD.search(str(path.parent)):
+    if number_fields(str(path.parent)):
         raise RaytraceError(f"{path}: the frame number field belongs in the file name, "
                             f"not the directory (like {EXAMPLE})")
     if len(fields) > 1:
@@ -78,9 +88,11 @@ def check_frame_output(path, resume=False):
 def frame_path(pattern, i):
     """Frame i's file of a PNG sequence pattern: %04d and 7 give 0007."""
     pattern = Path(pattern)
-    m = FIELD.search(pattern.name)
+    name = pattern.name
+    m = number_fields(name)[0]
     number = str(i).zfill(int(m.group(1) or 0))
-    return pattern.with_name(pattern.name[:m.start()] + number + pattern.name[m.end():])
+    return Path(_literal(str(pattern.parent))) / (_literal(name[:m.start()]) + number
+                                                  + _literal(name[m.end():]))
 
 
 def _check_sequence_dir(pattern):
@@ -115,14 +127,21 @@ def check_fps(fps):
     return float(fps)
 
 
-def frame_output(path, n_frames, fps=24, resume=False):
+def frame_output(path, n_frames, fps=24, resume=False, size=None):
     """A FrameSequence writing ``n_frames`` frames to ``path`` (see
-    check_frame_output), to use in a ``with`` block."""
+    check_frame_output), to use in a ``with`` block.  ``size``, (width,
+    height) if known, is what a resumed PNG sequence's frames must have."""
     kind = check_frame_output(path, resume)
     n_frames = check_frame_count(n_frames, "n_frames")
     fps = check_fps(fps)
-    return {"gif": GifFrames, "mp4": Mp4Frames, "png-sequence": PngSequence}[kind](
+    out = {"gif": GifFrames, "mp4": Mp4Frames, "png-sequence": PngSequence}[kind](
         Path(path), n_frames, fps, resume)
+    out.expected_size = size
+    if kind == "png-sequence":
+        out.check_existing()
+    if kind == "gif" and size is not None:
+        out.check_memory()
+    return out
 
 
 class FrameSequence:
@@ -210,6 +229,20 @@ class GifFrames(FrameSequence):
         if i in self.frames:
             raise RaytraceError(f"{self.path}: frame {i} written twice")
         self.frames[i] = Image.fromarray(image).quantize(256, dither=Image.Dither.NONE)
+
+    def check_memory(self):
+        """A GIF's frames are all kept until the end (one byte a pixel and
+        a palette each): refuse, before rendering, more than free memory
+        holds, with the estimate, rather than fill it."""
+        from raytrace.scene.formats.mesh import available_memory
+        need = self.n_frames * (self.expected_size[0] * self.expected_size[1] + 1024)
+        free = available_memory()
+        if need > free:
+            raise RaytraceError(f"{self.path}: {self.n_frames:,} GIF frames of "
+                                f"{self.expected_size[0]}x{self.expected_size[1]} are kept until "
+                                f"the end, about {need / 2**30:.1f} GiB, more than the "
+                                f"{free / 2**30:.1f} GiB free; write .mp4 or a PNG sequence, "
+                                "which stream frame by frame")
 
     def _commit(self):
         self._missing(len(self.frames))
@@ -318,9 +351,32 @@ class PngSequence(FrameSequence):
     def frame_path(self, i):
         return frame_path(self.path, i)
 
+    def check_existing(self):
+        """Before any frame is rendered: with resume, which frames are there
+        and whole (a PNG of the expected size that reads to its end: an empty,
+        damaged or other-sized file is rendered again, with one warning);
+        every other frame already there must be replaceable (not read-only,
+        a regular file), so the run does not stop after frame 0."""
+        self.kept = set()
+        redo = []
+        for i in range(self.n_frames):
+            path = self.frame_path(i)
+            if not (path.exists() or path.is_symlink()):
+                continue
+            if self.resume and _whole_png(path, self.expected_size):
+                self.kept.add(i)
+                continue
+            if self.resume:
+                redo.append(path)
+            check_writable(path)
+        if redo:
+            size = "" if self.expected_size is None else "{}x{} ".format(*self.expected_size)
+            warn(f"--resume: {len(redo)} frame file(s) are not whole {size}PNGs (first: {redo[0]}); "
+                 "rendering them again")
+
     def complete(self, i):
         i = self._index(i)
-        return self.resume and self.frame_path(i).is_file()
+        return self.resume and i in self.kept
 
     def _write(self, i, image):
         path = self.frame_path(i)
@@ -331,3 +387,17 @@ class PngSequence(FrameSequence):
                                 f"({exc.strerror or exc})") from None
         write_png(path, image)
 
+
+
+def _whole_png(path, size):
+    """Whether ``path`` is a PNG that reads to its end (each chunk's CRC),
+    of ``size`` (width, height) if given."""
+    from PIL import Image
+    try:
+        with Image.open(path) as im:
+            if im.format != "PNG" or size is not None and tuple(im.size) != tuple(size):
+                return False
+            im.verify()
+        return True
+    except Exception:      # Pillow raises many kinds for a damaged file
+        return False

@@ -23,9 +23,9 @@
 """
 from numba import njit
 
-from raytrace.kernels import jitconfig  # noqa: F401  (before any @njit: the cache directory)
+from raytrace.kernels.jitconfig import CACHING
 
-JIT = dict(cache=True, error_model="numpy", _nrt=False, forceinline=True,
+JIT = dict(cache=CACHING, error_model="numpy", _nrt=False, forceinline=True,
            no_cpython_wrapper=True, no_cfunc_wrapper=True)
 # A thread's share of a batch kernel (a loop over chunks of rays or points
 # taken by ticket): called once a thread a call, so it stays a call, and a
@@ -44,7 +44,7 @@ OVERLOAD = dict(error_model="numpy", _nrt=False, forceinline=True,
 # Structure builders, called from Python on whole arrays: they allocate, so
 # they keep the runtime; numpy's error model for the smaller code (every
 # division in them is guarded).  A builder's helper needs no wrapper.
-BUILD = dict(cache=True, error_model="numpy", no_cfunc_wrapper=True)
+BUILD = dict(cache=CACHING, error_model="numpy", no_cfunc_wrapper=True)
 BUILD_STEP = dict(BUILD, no_cpython_wrapper=True)
 
 

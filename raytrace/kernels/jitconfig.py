@@ -10,9 +10,15 @@ where that directory goes (in place of ~/.cache/raytrace): used as the
 cache itself, it kept entries across upgrades, so a kernel compiled
 against an older helper loaded, and an index naming a record type since
 removed failed to unpickle (AttributeError) before Numba checked anything.
+
+A damaged cache file is found and compiled again (kernel_cache.py); a cache
+directory that cannot be written (read-only, or no home directory, as for
+`nobody`) means kernels compile uncached, with one warning line, where
+Numba would fail with "no locator available".
 """
 import hashlib
 import os
+import tempfile
 import threading
 from pathlib import Path
 
@@ -32,11 +38,39 @@ def _cache_dir():
     digest.update(numba.__version__.encode())
     root = os.environ.get("NUMBA_CACHE_DIR")
     if not root:
-        root = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "raytrace"
+        root = os.environ.get("XDG_CACHE_HOME")
+        if not root:
+            try:
+                root = Path.home() / ".cache"
+            except (RuntimeError, KeyError):    # no home directory to be found
+                root = Path("/nonexistent")
+        root = Path(root) / "raytrace"
     return Path(root) / f"numba-{digest.hexdigest()[:16]}"
 
 
+def _unwritable(path):
+    """Why kernels cannot be cached in ``path``, or None if they can."""
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(prefix=".probe.", dir=path)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    return None
+
+
 numba.config.CACHE_DIR = str(_cache_dir())
+_why = _unwritable(Path(numba.config.CACHE_DIR))
+# Whether kernels are cached (kernels/jit.py's cache=).
+CACHING = _why is None
+if CACHING:
+    from raytrace.kernels.kernel_cache import install
+    install(numba.config.CACHE_DIR)
+else:
+    from raytrace.kernels.kernel_cache import warn
+    warn(f"kernel cache {numba.config.CACHE_DIR}: cannot write ({_why}); compiling "
+         "without a cache (set NUMBA_CACHE_DIR to a writable directory)")
 
 # Numba picks OpenMP when it can, and GNU OpenMP's parallel-region start
 # costs far more per kernel call than Numba's own workqueue (threads asleep

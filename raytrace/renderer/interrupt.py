@@ -1,17 +1,51 @@
 """Ctrl-C, remembered: the command's SIGINT handler notes that it came, so
-one that Python dropped still stops the command (cli/command.py, cli/main.py)."""
+one that Python dropped still stops the command (cli/command.py, cli/main.py).
+SIGTERM (kill, systemd, Slurm, CI) and SIGHUP (a closed terminal) end the
+command the same way: one line, temporary files removed, exit 128 + the
+signal's number (143, 129)."""
+import signal
 import sys
 
 _interrupted = False
+_signum = signal.SIGINT
+# The signals that stop the command like Ctrl-C, and the word for each.
+STOPPING = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated (SIGTERM)",
+            signal.SIGHUP: "hung up (SIGHUP)"}
 
 
 def on_sigint(signum, frame):
     """Python's own handler, which also remembers that Ctrl-C came: a C
     extension importing when it lands may turn the KeyboardInterrupt into an
     ImportError ("numba._devicearray failed to import")."""
-    global _interrupted
+    global _interrupted, _signum
+    if not _interrupted:
+        _signum = signum if signum in STOPPING else signal.SIGINT
     _interrupted = True
     raise KeyboardInterrupt
+
+
+def install():
+    """Stop on SIGINT, SIGTERM and SIGHUP through on_sigint, each unless the
+    command was started with it ignored (nohup, a background job)."""
+    for signum in STOPPING:
+        default = signal.default_int_handler if signum == signal.SIGINT else signal.SIG_DFL
+        if signal.getsignal(signum) is default:
+            signal.signal(signum, on_sigint)
+    sys.unraisablehook = unraisable
+
+
+def label():
+    """"interrupted", or what stopped the command if another signal did."""
+    return STOPPING[_signum]
+
+
+def exit_code():
+    """128 + the stopping signal's number: 130 for Ctrl-C, 143 SIGTERM, 129 SIGHUP."""
+    return 128 + int(_signum)
+
+
+def exit_codes():
+    return {128 + int(s) for s in STOPPING}
 
 
 def interrupted():

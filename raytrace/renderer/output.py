@@ -89,7 +89,7 @@ class Outputs:
             out.add("teapot.aov.npz", writer)
         # all renamed into place here; on an exception (or Ctrl-C) none is
 
-    The renames run with SIGINT and SIGTERM held back, so a signal lands
+    The renames run with SIGINT, SIGTERM and SIGHUP held back, so a signal lands
     before all of them or after all of them (``committed`` says which).
     """
 
@@ -122,7 +122,8 @@ class Outputs:
 
     def __exit__(self, kind, exc, tb):
         if kind is None:
-            held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+            held = signal.pthread_sigmask(signal.SIG_BLOCK,
+                                          {signal.SIGINT, signal.SIGTERM, signal.SIGHUP})
             try:
                 for tmp, real in self.pending:
                     os.replace(tmp, real)

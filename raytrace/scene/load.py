@@ -1,6 +1,7 @@
 """One entry point for every kind of scene: a built-in name, a mesh file or
 a TOML scene file."""
 import math
+from numbers import Integral, Real
 from pathlib import Path
 
 import numpy as np
@@ -28,7 +29,8 @@ def scene_kind(name):
 
 def unknown_scene_message(name):
     from raytrace.scene.builtin import BUILTIN
-    what = (f"{name}: is a directory, not a scene or mesh file" if Path(str(name)).is_dir()
+    what = ("empty scene name" if str(name) == "" else
+            f"{name}: is a directory, not a scene or mesh file" if Path(str(name)).is_dir()
             else f"unknown scene {str(name)!r}")
     return (f"{what} (built-in scenes: {', '.join(sorted(BUILTIN))}; "
             f"or a .toml scene file, or a mesh file: {', '.join(MESH_EXTENSIONS)})")
@@ -57,6 +59,9 @@ def load_scene(name_or_path, *, detail=None, view=None, azimuth=None, elevation=
     if kind is None:
         raise RaytraceError(unknown_scene_message(name_or_path))
     _check_view_numbers(width=width, height=height, fov=fov, azimuth=azimuth, elevation=elevation)
+    # NumPy scalars are numbers too; Python's from here on.
+    width, height = (None if v is None else int(v) for v in (width, height))
+    fov, azimuth, elevation = (None if v is None else float(v) for v in (fov, azimuth, elevation))
     mesh_opts = dict(view=view, azimuth=azimuth, elevation=elevation, up=up, crease=crease,
                      flat=flat)
     given = [k for k, v in mesh_opts.items() if v is not None]
@@ -68,6 +73,7 @@ def load_scene(name_or_path, *, detail=None, view=None, azimuth=None, elevation=
         if not _detail_ok(detail):
             raise RaytraceError(f"detail must be an integer from {DETAIL.lo} to {DETAIL.hi}, "
                                 f"got {detail!r}")
+        detail = int(detail)
 
     crease = check_shading(crease, flat)
 
@@ -105,7 +111,8 @@ def load_scene(name_or_path, *, detail=None, view=None, azimuth=None, elevation=
 
 
 def _detail_ok(detail):
-    return not isinstance(detail, bool) and isinstance(detail, int) and DETAIL.lo <= detail <= DETAIL.hi
+    return (not isinstance(detail, bool) and isinstance(detail, Integral)
+            and DETAIL.lo <= detail <= DETAIL.hi)
 
 
 def load_kernels(name_or_path, detail=None):
@@ -149,7 +156,7 @@ def _check_view_numbers(**values):
         v = values[name]
         if v is None:
             continue
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        if isinstance(v, bool) or not isinstance(v, Real) or not math.isfinite(v):
             raise RaytraceError(f"{name} must be a finite number, got {v!r}")
         if name == "fov" and not lo < v < hi:
             raise RaytraceError(f"fov must be between {lo:g} and {hi:g} degrees (exclusive), got {v!r}")

@@ -13,12 +13,27 @@ def _shown(value):
     return text if len(text) <= 40 else text[:37] + "..."
 
 
+def shown_number(value):
+    """A number as a message shows it: whole numbers in full (1048576, not
+    1.04858e+06), a float's shortest repr, an integer too long to read by
+    its number of digits."""
+    if isinstance(value, int):
+        if value.bit_length() > 80:      # str() of a few thousand digits is refused
+            return f"an integer of about {int(value.bit_length() * math.log10(2)) + 1} digits"
+        return str(value)
+    value = float(value)
+    if value.is_integer() and abs(value) < 1e16:
+        return str(int(value))
+    return repr(value)
+
+
 def _range(lo, hi, value):
+    lo_s, hi_s, v = (None if x is None else shown_number(x) for x in (lo, hi, value))
     if hi is None:
-        return f"must be at least {lo:g}, got {value:g}"
+        return f"must be at least {lo_s}, got {v}"
     if lo is None:
-        return f"must be at most {hi:g}, got {value:g}"
-    return f"must be between {lo:g} and {hi:g}, got {value:g}"
+        return f"must be at most {hi_s}, got {v}"
+    return f"must be between {lo_s} and {hi_s}, got {v}"
 
 
 class Fields:
@@ -63,13 +78,17 @@ class Fields:
     def check_number(self, key, value, lo=None, hi=None, positive=False):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             self.fail(key, f"expected a number, got {_shown(value)}")
-        value = float(value)
+        try:
+            value = float(value)
+        except OverflowError:           # an integer past any float
+            self.fail(key, f"beyond {MAX_COORD:g}, got {shown_number(value)}")
         if not math.isfinite(value):
             self.fail(key, f"expected a finite number, got {value}")
         if abs(value) > MAX_COORD:
-            self.fail(key, f"beyond {MAX_COORD:g} (products of such values overflow), got {value:g}")
+            self.fail(key, f"beyond {MAX_COORD:g} (products of such values overflow), "
+                           f"got {shown_number(value)}")
         if positive and not value > 0:
-            self.fail(key, f"must be positive, got {value:g}")
+            self.fail(key, f"must be positive, got {shown_number(value)}")
         if lo is not None and value < lo or hi is not None and value > hi:
             self.fail(key, _range(lo, hi, value))
         return value

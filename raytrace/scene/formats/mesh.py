@@ -16,7 +16,7 @@ import numpy as np
 
 from raytrace.errors import RaytraceError
 from raytrace.kernels.limits import MAX_COORD
-from raytrace.scene.formats.ply import read_simple_ply
+from raytrace.scene.formats.ply import check_ascii_counts, read_simple_ply
 from raytrace.scene.model import Material
 
 MESH_EXTENSIONS = (".obj", ".ply", ".stl", ".off", ".glb")
@@ -225,12 +225,16 @@ def read_mesh_parts(path, warn=None, base=None):
     if simple is not None:
         parts = [MeshPart(**simple)]
     else:
-        library = None
+        library = data = None
         if ext == ".obj":
             data = path.read_bytes()
             check_obj_indices(path, data)
             library = _obj_materials(path, data, warn)
-        parts = _read_with_trimesh(path, ext, library, warn, base)
+            # A byte-order mark (some Windows editors) would hide the first line.
+            data = data[3:] if data.startswith(b"\xef\xbb\xbf") else None
+        elif ext == ".ply":
+            check_ascii_counts(path)
+        parts = _read_with_trimesh(path, ext, library, warn, base, data)
         if ext == ".stl":      # an ASCII STL's triangle soup
             from raytrace.scene.formats.stl import weld
             for p in parts:
@@ -256,14 +260,19 @@ def _binary_stl(path):
     return None if read is None else dict(vertices=read[0], faces=read[1])
 
 
-def _read_with_trimesh(path, ext, library, warn, base):
+def _read_with_trimesh(path, ext, library, warn, base, data=None):
     """The MeshParts of any mesh file trimesh reads (None for a part that
-    is not a triangle mesh)."""
+    is not a triangle mesh); ``data``, if given, is read in place of the file."""
     try:
         import trimesh
         # process=False: keep the file's vertices and faces as they are
         # (no merging, no dropping), so errors in them are reported.
-        scene = trimesh.load_scene(str(path), file_type=ext[1:], process=False)
+        if data is None:
+            scene = trimesh.load_scene(str(path), file_type=ext[1:], process=False)
+        else:
+            import io
+            scene = trimesh.load_scene(io.BytesIO(data), file_type=ext[1:], process=False,
+                                       resolver=trimesh.resolvers.FilePathResolver(str(path)))
         for geometry in scene.geometry.values():
             shape = np.shape(getattr(geometry, "vertices", np.zeros((0, 3))))
             if len(shape) != 2 or shape[1] != 3:   # an OBJ line cut short: "v 0 1"
@@ -418,12 +427,34 @@ def _obj_materials(path, data, warn):
     except UnicodeDecodeError:
         text = raw.decode("latin-1")
     library = parse_mtl(text, mtl.name, warn)
+    _check_texture_files(mtl, library)
     used = dict.fromkeys(u.decode("utf-8", "replace")
                          for u in (_USEMTL.findall(data) if b"usemtl" in data else ()))
     for u in used:
         if u not in library:
             warn(f"{path.name}: material {u!r} is not in {mtl.name}; {fallback}")
     return library
+
+
+def _check_texture_files(mtl, library):
+    """Refuse a texture that is there but not a regular file before trimesh
+    opens it: reading a FIFO would wait forever, a device never end.  (A
+    missing one trimesh reports, and the render goes on without it.)"""
+    from raytrace.scene.formats.mtl import MAP_KEYS
+    for entry in library.values():
+        for key in MAP_KEYS:
+            value = entry.values.get(key)
+            if not isinstance(value, str) or not value.strip():
+                continue
+            for name in dict.fromkeys((value.strip(), value.split()[-1])):  # options come first
+                candidate = mtl.parent / name
+                try:
+                    st = candidate.stat()
+                except (OSError, ValueError):
+                    continue
+                if not stat.S_ISREG(st.st_mode) and not stat.S_ISDIR(st.st_mode):
+                    raise RaytraceError(f"{mtl}: material {entry.name!r}: {key} {name}: not a regular "
+                                        "file (a FIFO, socket or device cannot be read)")
 
 
 def _brief(exc, limit=100):

@@ -207,3 +207,30 @@ def _columns(records, names, dtype=np.float64):
     for k, name in enumerate(names):
         out[:, k] = records[name]
     return out
+
+
+def check_ascii_counts(path):
+    """Raise for an ASCII PLY whose data ends before the elements its header
+    declares (trimesh reads what is there and keeps quiet).  One element a
+    line, as the format writes them; the lines are counted, not parsed."""
+    from raytrace.errors import RaytraceError
+    with open(path, "rb") as f:
+        head = f.read(_HEADER_LIMIT)
+        end = head.find(b"end_header")
+        if not head.startswith(b"ply") or end < 0:
+            return
+        try:
+            words = [line.split() for line in head[:end].decode("ascii").splitlines()]
+        except UnicodeDecodeError:
+            return
+        if ["format", "ascii", "1.0"] not in words:
+            return
+        elements = [(w[1], int(w[2])) for w in words if len(w) == 3 and w[0] == "element"
+                    and w[2].isdigit()]
+        f.seek(head.find(b"\n", end) + 1)
+        lines = sum(1 for line in f if line.strip())
+    for name, count in elements:
+        if lines < count:
+            raise RaytraceError(f"{path}: the header declares {count:,} {name} elements, the file "
+                                f"ends after {max(lines, 0):,} of them")
+        lines -= count

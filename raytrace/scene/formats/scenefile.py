@@ -55,10 +55,14 @@ def parse_toml(path):
         text = Path(path).read_bytes().decode("utf-8")
     except UnicodeDecodeError as exc:
         raise RaytraceError(f"{path}: not UTF-8 text (byte {exc.start})") from None
+    text = text.removeprefix("\ufeff")      # a byte-order mark, as some editors write
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise RaytraceError(f"{path}: invalid TOML: {exc}") from None
+    except ValueError as exc:   # an integer past Python's 4300-digit limit for reading one
+        raise RaytraceError(f"{path}: a number too long to read "
+                            f"({str(exc).split(';')[0]})") from None
     except RecursionError:
         raise RaytraceError(f"{path}: nested too deeply to be a scene file") from None
 
@@ -105,7 +109,7 @@ def _read_scene_file(path):
     # A mesh file of several materials gives one object per material.
     objects = [obj for i, t in enumerate(top.tables("objects")) for obj in _objects(path, i, t, material)]
     scene = Scene(
-        name=top.string("name", default=path.stem),
+        name=_scene_name(top, path),
         camera=_camera(path, top.table["camera"]),
         objects=objects,
         lights=[_light(path, i, t) for i, t in enumerate(top.tables("lights"))],
@@ -116,6 +120,28 @@ def _read_scene_file(path):
     if top.has("animation"):
         scene.animation = _animation(path, top.table["animation"], scene.camera)
     return scene
+
+
+# A scene's name names its outputs (NAME.png, NAME.gif, NAME.compare.png)
+# in the working directory: room left for the longest suffix in 255 bytes.
+NAME_BYTES = 200
+
+
+def _scene_name(top, path):
+    """The file's ``name``, which must be a plain file name: a downloaded
+    scene must not choose where its image goes (``../x``, ``/tmp/x``)."""
+    name = top.string("name", default=None)
+    if name is None:
+        return path.stem
+    if name in ("", ".", ".."):
+        top.fail("name", f"must be a plain file name, got {name!r}")
+    if "/" in name or "\\" in name:
+        top.fail("name", f"must be a plain file name, without a directory, got {name!r}")
+    if not name.isprintable():
+        top.fail("name", f"must be printable, without control characters, got {name!r}")
+    if len(name.encode()) > NAME_BYTES:
+        top.fail("name", f"longer than {NAME_BYTES} bytes")
+    return name
 
 
 def _camera(path, table):

@@ -1,0 +1,144 @@
+"""The compiled-kernel cache, checked.  Numba trusts its cache files: a
+truncated or garbage index fails to unpickle (a traceback), a directory in
+a file's place raises IsADirectoryError, and data files swapped between
+entries load one function's machine code as another's (a segfault).
+
+Here each data file starts with a SHA-256 of its own name and contents, so
+a damaged, truncated or swapped file is found before anything is loaded
+from it; a damaged entry (index or data) is removed and compiled again,
+with one warning line per process.  Only raytrace's own cache directory
+(jitconfig) is treated so; other Numba users' caches are left as Numba
+has them.
+"""
+import hashlib
+import os
+import shutil
+import warnings
+
+from numba.core import caching
+
+
+class KernelCacheWarning(UserWarning):
+    """The cache was damaged or cannot be written; the run goes on (this
+    floor sits below raytrace.errors, so its own warning class)."""
+
+
+def warn(message):
+    warnings.warn(message, KernelCacheWarning, stacklevel=3)
+
+MAGIC = b"raytrace-kernel-cache-1\n"
+_DIGEST = hashlib.sha256().digest_size
+_warned = set()
+
+
+def _warn_once(kind, message):
+    if kind not in _warned:
+        _warned.add(kind)
+        warn(message)
+
+
+def _remove(path):
+    """Remove a damaged cache entry, whatever it is (a file, a directory)."""
+    try:
+        if os.path.isdir(path) and not os.path.islink(path):
+            shutil.rmtree(path)
+        else:
+            os.unlink(path)
+    except FileNotFoundError:
+        pass
+
+
+class _Damaged(Exception):
+    pass
+
+
+def _reason(exc):
+    return exc.strerror if isinstance(exc, OSError) and exc.strerror else (
+        str(exc) or type(exc).__name__)
+
+
+class CheckedCacheFile(caching.IndexDataCacheFile):
+    """Numba's index and data files, with each data file's hash checked."""
+
+    def _damaged(self, path, exc):
+        _warn_once("damaged", f"kernel cache file {path} was damaged ({_reason(exc)}); "
+                              "compiling it again")
+        try:
+            _remove(path)
+        except OSError:
+            pass
+
+    def _load_index(self):
+        try:
+            overloads = super()._load_index()
+            if not isinstance(overloads, dict) or not all(
+                    isinstance(v, str) and os.path.basename(v) == v for v in overloads.values()):
+                raise _Damaged("not an index")
+            return overloads
+        except (Exception, RecursionError) as exc:  # any unpickling failure: a damaged index
+            self._damaged(self._index_path, exc)
+            return {}
+
+    def load(self, key):
+        name = self._load_index().get(key)
+        if name is None:
+            return None
+        try:
+            return self._load_data(name)
+        except FileNotFoundError:
+            return None
+        except Exception as exc:
+            self._damaged(self._data_path(name), exc)
+            return None
+
+    def _load_data(self, name):
+        with open(self._data_path(name), "rb") as f:
+            data = f.read()
+        head, digest, payload = data[:len(MAGIC)], data[len(MAGIC):len(MAGIC) + _DIGEST], \
+            data[len(MAGIC) + _DIGEST:]
+        if head != MAGIC or digest != _digest(name, payload):
+            raise _Damaged("contents do not match their checksum")
+        return caching.pickle.loads(payload)
+
+    def _save_data(self, name, data):
+        payload = self._dump(data)
+        with self._open_for_write(self._data_path(name)) as f:
+            f.write(MAGIC + _digest(name, payload) + payload)
+
+    def save(self, key, data):
+        try:
+            super().save(key, data)
+        except IsADirectoryError as exc:     # a directory where a file goes: make room, once more
+            self._damaged(exc.filename2 or exc.filename, exc)
+            self._try_save(key, data)
+        except OSError as exc:
+            _warn_once("write", f"kernel cache {self._cache_path}: cannot write "
+                                f"({_reason(exc)}); this run's kernels are not cached")
+
+    def _try_save(self, key, data):
+        try:
+            super().save(key, data)
+        except OSError as exc:
+            _warn_once("write", f"kernel cache {self._cache_path}: cannot write "
+                                f"({_reason(exc)}); this run's kernels are not cached")
+
+
+def _digest(name, payload):
+    return hashlib.sha256(name.encode() + b"\0" + payload).digest()
+
+
+def install(cache_dir):
+    """Check the cache files of every function cached under ``cache_dir``."""
+    root = os.path.abspath(cache_dir)
+    original = caching.Cache.__init__
+    if getattr(original, "_raytrace_root", None) is not None:
+        return
+
+    def __init__(self, py_func):
+        original(self, py_func)
+        path = os.path.abspath(self._cache_path)
+        if path == root or path.startswith(root + os.sep):
+            self._cache_file.__class__ = CheckedCacheFile
+
+    __init__._raytrace_root = root
+    caching.Cache.__init__ = __init__
