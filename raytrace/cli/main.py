@@ -402,6 +402,8 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
     """
     from pathlib import Path
 
+    from .firstrun import set_quiet
+    set_quiet(quiet)
     if bvol is not None:
         implied = "bvol" if bvol else "none"
         if options["accel"] is not None and options["accel"] != implied:
@@ -444,7 +446,10 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
                 from raytrace.accel.registry import DEFAULT, get
                 get(options.get("accel", DEFAULT)).check_outline()
             _load_threads(options)
-            t_kernels = load_kernels(scene, detail)     # compile time, not loading's
+            from .firstrun import RENDER_S, expecting
+            accel, shadows = options.get("accel", "bvh"), options.get("shadows", "hard")
+            with expecting(f"{scene}: {accel}, {shadows} shadows", RENDER_S.get(accel, 12) + 2):
+                t_kernels = load_kernels(scene, detail)     # compile time, not loading's
             t_load = time.perf_counter()
             with _warnings_once():
                 sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
@@ -579,6 +584,8 @@ def compare_cmd(ctx, scene, accel_list, detail, view, up, crease, flat, fov, rep
     """
     from pathlib import Path
 
+    from .firstrun import set_quiet
+    set_quiet(quiet)
     kind = _scene_kind(scene, detail, view, up, crease, flat)
     _check_image_path("-o/--output", output)
     width, height = options.pop("width"), options.pop("height")

@@ -358,9 +358,15 @@ def render(scene, opts=None, *, drop_meshes=False, **kw):
     ``render(scene, accel="bvol", shadows="soft", width=320, height=240)``.
     drop_meshes: as for prepare (the command's scene only).
     """
+    from raytrace.firstrun import expecting_render
+    opts = options_with(opts, kw)
+    with expecting_render(scene, opts):
+        return _render(scene, opts, drop_meshes)
+
+
+def _render(scene, opts, drop_meshes):
     from raytrace.kernels.counters import N_COUNTERS
     from raytrace.renderer.stats import counters_from_rows, derive
-    opts = options_with(opts, kw)
     setup = prepare(scene, opts, drop_meshes)
     cam = camera_buffer(scene.camera, setup.width, setup.height)
     width, height = setup.width, setup.height
