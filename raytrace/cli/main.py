@@ -184,11 +184,20 @@ def _write_outputs(result, output, aov, aov_out, heatmap, outputs):
     """Write the image, any AOVs and the heatmap as one commit (the Outputs
     ``outputs``: all or none); record them in the stats and return the lines
     that report them."""
-    from raytrace.renderer.output import image_writer, npz_writer
+    from . import linear
+    from .output import image_writer, npz_writer
     notes = []
-    outputs.add(output, image_writer(result.image, output))
+    if linear.is_linear(output):
+        outputs.add(output, linear.writer(result.linear, output))
+    else:
+        outputs.add(output, image_writer(result.image, output))
     result.stats["output"] = str(output)
-    if aov_out is not None:
+    if isinstance(aov_out, dict):       # a linear image: one file per buffer, its format
+        for name, path in aov_out.items():
+            outputs.add(path, linear.writer(result.aovs[name], path))
+        result.stats["aov"] = {"paths": {k: str(p) for k, p in aov_out.items()}, "buffers": list(aov)}
+        notes.append(f"wrote {', '.join(str(p) for p in aov_out.values())}")
+    elif aov_out is not None:
         outputs.add(aov_out, npz_writer({k: result.aovs[k] for k in aov}))
         result.stats["aov"] = {"path": str(aov_out), "buffers": list(aov)}
         notes.append(f"wrote {aov_out} ({', '.join(aov)})")
@@ -200,6 +209,36 @@ def _write_outputs(result, output, aov, aov_out, heatmap, outputs):
         notes.append(f"wrote {heatmap} (box + primitive tests per pixel, log scale: "
                      f"{lo:,} = dark purple to {hi:,} = yellow)")
     return notes
+
+
+def _aov_out(output, aov):
+    """Where --aov goes: OUTPUT.aov.npz beside an 8-bit image; beside a
+    linear one, a file per buffer in its format ({name: path})."""
+    if not aov:
+        return None
+    from .linear import aov_paths, is_linear
+    if is_linear(output):
+        return aov_paths(output, aov)
+    from .aov import aov_path
+    return aov_path(output)
+
+
+def _aov_files(aov_out):
+    return list(aov_out.values()) if isinstance(aov_out, dict) else [aov_out]
+
+
+def _check_linear(output, show_depth, tiles, workers, scheduler):
+    """UsageError for what a linear (.npy, .pfm, .exr) output cannot go with."""
+    from .linear import check_available
+    if show_depth is not None:
+        raise click.UsageError("--show-structure draws on the 8-bit image: write a .png")
+    if tiles is not None or workers is not None or scheduler is not None:
+        raise click.UsageError(f"{output}: a linear image needs the whole render in this process: "
+                               "drop --tiles, --workers and --scheduler")
+    try:
+        check_available(output)
+    except RaytraceError as exc:
+        raise click.ClickException(str(exc)) from None
 
 
 def _show_structure(result, scene, accel, depth):
@@ -362,15 +401,19 @@ def _scene_kind(scene, detail, view, up, crease, flat):
     return kind
 
 
-def _check_image_path(flag, path):
+def _check_image_path(flag, path, linear=False):
+    """UsageError for a path with no image format; ``linear``: also the
+    float formats (.npy, .pfm, .exr) of raytrace/linear.py."""
     from pathlib import Path
 
-    from raytrace.renderer.output import IMAGE_FORMATS
+    from .linear import LINEAR_FORMATS
+    from .output import IMAGE_FORMATS
+    formats = [*IMAGE_FORMATS, *(LINEAR_FORMATS if linear else ())]
     if path == "":
         raise click.UsageError(f"{flag}: empty file name")
-    if path is not None and Path(path).suffix.lower() not in IMAGE_FORMATS:
+    if path is not None and Path(path).suffix.lower() not in formats:
         raise click.UsageError(f"{flag}: {path}: unknown image format (use one of "
-                               f"{', '.join(IMAGE_FORMATS)})")
+                               f"{', '.join(formats)})")
 
 
 @main.command("render")
@@ -424,15 +467,15 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
                                  scheduler, as_json, quiet, options, width, height,
                                  dict(detail=detail, fov=fov, crease=crease, flat=flat,
                                       **_view_options(view, up)))
-    for flag, path in (("-o/--output", output), ("--heatmap", heatmap)):
-        _check_image_path(flag, path)
+    _check_image_path("-o/--output", output, linear=True)
+    _check_image_path("--heatmap", heatmap)
+    from .linear import is_linear
+    if is_linear(output):
+        _check_linear(output, show_depth, tiles, workers, scheduler)
     named = output is not None
     output = output or f"{scene if kind == 'builtin' else Path(scene).stem}.png"
-    aov_out = None
-    if aov:
-        from raytrace.renderer.aov import aov_path
-        aov_out = aov_path(output)
-    outputs = [Path(p).resolve() for p in (output, aov_out, heatmap) if p is not None]
+    aov_out = _aov_out(output, aov)
+    outputs = [Path(p).resolve() for p in (output, *_aov_files(aov_out), heatmap) if p is not None]
     if len(set(outputs)) != len(outputs):
         raise click.UsageError("--heatmap must differ from the output image and its .aov.npz")
     outputs = None
@@ -458,10 +501,8 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
             raise_if_interrupted()
             if not named and kind == "toml":      # a scene file's name names its image
                 output = f"{sc.name}.png"
-                if aov:
-                    from raytrace.renderer.aov import aov_path
-                    aov_out = aov_path(output)
-            for path in (output, aov_out, heatmap):
+                aov_out = _aov_out(output, aov)
+            for path in (output, *_aov_files(aov_out), heatmap):
                 if path is not None:
                     check_writable(path)
             progress = _Progress(enabled=not quiet)
