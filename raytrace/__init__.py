@@ -35,7 +35,8 @@ def render(scene, client=None, tiles=None, **options):
     """Render a Scene (or a name or path, loaded with load_scene) and return
     a RenderResult: ``image`` (h, w, 3) uint8 sRGB, ``linear`` float32,
     ``stats`` (times and counters, as the CLI's --json), ``aovs`` with
-    aov=True (depth, normal, primid, cost).
+    aov=True (depth, normal, primid, cost); ``result.save("x.png")`` (or
+    .npy, .pfm, .exr for the linear image), and Jupyter shows it.
 
     Options are the fields of raytrace.renderer.driver.RenderOptions: accel
     ("none", "bvol", "bvh", "grid"), shadows ("none", "hard", "soft"),
@@ -64,7 +65,8 @@ def render_frames(scene, cameras=None, turntable=None, output=None, fps=24, resu
     """Render a camera path: a list of Cameras, ``turntable=N`` frames
     orbiting the scene's camera, or the scene file's [animation].
 
-    Returns (frames, stats): frames a list of (h, w, 3) uint8 images, or
+    Returns (frames, stats): frames a list of (h, w, 3) uint8 images (a
+    Frames: shown in a notebook, ``frames.save("spin.gif")``), or
     None when ``output`` (.gif, .mp4, or a PNG pattern like
     "frames/spin_%04d.png") received them; stats sum the counters over
     frames and give time per worker.  ``client``: a dask.distributed
@@ -81,9 +83,12 @@ def render_frames(scene, cameras=None, turntable=None, output=None, fps=24, resu
     if output is not None:
         from raytrace.frames.writers import check_frame_output
         check_frame_output(str(output), resume=resume)
+    from .display import Frames
     opts = options_with(None, options)
-    return animate(scene, list(cameras), opts, output=None if output is None else str(output),
-                   fps=fps, resume=resume, runner=_runner(client), tiles=tiles, progress=progress)
+    frames, stats = animate(scene, list(cameras), opts, output=None if output is None else str(output),
+                            fps=fps, resume=resume, runner=_runner(client), tiles=tiles,
+                            progress=progress)
+    return (None if frames is None else Frames(frames)), stats
 
 
 def _scene(scene):

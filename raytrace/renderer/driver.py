@@ -40,6 +40,20 @@ class RenderResult:
     aovs: dict = field(default_factory=dict)
     structure: object = None     # the acceleration structure's layout, as built
 
+    def save(self, path):
+        """Write the image to ``path``, its format by the extension: .png,
+        .jpg, ... (8-bit sRGB) or .npy, .pfm, .exr (linear float32)."""
+        from .display import save_result
+        return save_result(self, path)
+
+    def _repr_png_(self):            # Jupyter shows the image
+        from .display import png_bytes
+        return png_bytes(self.image)
+
+    def __repr__(self):
+        from .display import result_repr
+        return result_repr(self)
+
 
 def _check_int(name, value, lo, hi):
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):

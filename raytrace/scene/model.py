@@ -38,6 +38,9 @@ class Mesh:
     colors: np.ndarray = None        # (n, 3) linear RGB per vertex, multiplying the material's
     uv: np.ndarray = None            # (n, 2) texture coordinates, (0, 0) the image's lower left
 
+    def __repr__(self):              # not the arrays: a notebook would print them all
+        return f"Mesh({self.name!r}: {len(self.vertices):,} vertices, {len(self.faces):,} triangles)"
+
 
 @dataclass
 class Sphere:
@@ -90,3 +93,7 @@ class Scene:
     # A scene file's [animation] table (raytrace.scene.animation.Animation), or
     # None; typed loosely so this module imports nothing more.
     animation: object = None
+
+    def __repr__(self):
+        from .display import scene_repr
+        return scene_repr(self)

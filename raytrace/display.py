@@ -1,0 +1,99 @@
+"""What a render looks like in a notebook and how it is saved: PNG bytes
+for Jupyter's ``_repr_png_``, short reprs, and ``save(path)`` by extension
+(8-bit formats from the sRGB image, .npy/.pfm/.exr from the linear one)."""
+import io
+from pathlib import Path
+
+from .errors import RaytraceError
+
+# A frame sequence shows this many frames side by side in a notebook.
+STRIP_FRAMES = 6
+
+
+def png_bytes(image):
+    from PIL import Image
+    buf = io.BytesIO()
+    Image.fromarray(image).save(buf, format="PNG")
+    return buf.getvalue()
+
+
+def save_result(result, path):
+    """Write a RenderResult's image to ``path`` (atomically), in the format
+    its extension names; returns the path."""
+    from . import linear
+    from .output import Outputs, image_writer
+    path = Path(path)
+    if linear.is_linear(path):
+        if result.linear is None:
+            raise RaytraceError(f"{path}: this result has no linear image (rendered in tiles); "
+                                "save it as .png")
+        linear.check_available(path)
+        write = linear.writer(result.linear, path)
+    else:
+        write = image_writer(result.image, path)
+    with Outputs() as out:
+        out.add(path, write)
+    return path
+
+
+def result_repr(result):
+    s = result.stats or {}
+    h, w = result.image.shape[:2]
+    t = s.get("time", {})
+    parts = [f"{w}x{h}", f"scene={s.get('scene')!r}", f"accel={s.get('accel')!r}",
+             f"shadows={s.get('shadows')!r}"]
+    if "render_s" in t:
+        parts.append(f"render_s={t['render_s']:.3g}")
+    rays = s.get("derived", {}).get("rays")
+    if rays is not None:
+        parts.append(f"rays={rays:,}")
+    if result.aovs:
+        parts.append(f"aovs={sorted(result.aovs)}")
+    return f"RenderResult({', '.join(parts)})"
+
+
+class Frames(list):
+    """render_frames' frames: a list of (h, w, 3) uint8 images that shows
+    itself in a notebook (a strip of up to STRIP_FRAMES of them) and saves
+    itself as .gif, .mp4 or a PNG pattern."""
+
+    def save(self, path, fps=24):
+        from .frames import frame_output
+        with frame_output(path, len(self), fps=fps) as out:
+            for i, image in enumerate(self):
+                out.write(i, image)
+        return Path(path)
+
+    def _repr_png_(self):
+        import numpy as np
+        if not self:
+            return None
+        step = max(1, -(-len(self) // STRIP_FRAMES))
+        return png_bytes(np.concatenate(self[::step], axis=1))
+
+    def __repr__(self):
+        if not self:
+            return "Frames([])"
+        h, w = self[0].shape[:2]
+        return f"Frames({len(self)} frames of {w}x{h})"
+
+
+def scene_repr(scene):
+    from .scene import Mesh, Plane, Sphere
+    kinds = {}
+    triangles = 0
+    for o in scene.objects:
+        name = {Mesh: "mesh", Sphere: "sphere", Plane: "plane"}.get(type(o), type(o).__name__)
+        kinds[name] = kinds.get(name, 0) + 1
+        if isinstance(o, Mesh):
+            triangles += len(o.faces)
+    objects = ", ".join(f"{n} {k if n == 1 else k + ('es' if k == 'mesh' else 's')}"
+                        for k, n in kinds.items()) or "no objects"
+    if triangles:
+        objects += f" ({triangles:,} triangles)"
+    cam = scene.camera
+    size = f"{cam.width}x{cam.height}" if hasattr(cam, "width") else "no camera"
+    lights = len(scene.lights)
+    return (f"Scene({scene.name!r}: {objects}; {lights} light{'s' if lights != 1 else ''}; "
+            f"camera {size})")
+
