@@ -47,8 +47,19 @@ def one_error_line(r, tmp_path, code=1):
 def test_scenes_lists_builtins_and_example_files(run):
     r = run("scenes")
     assert r.exit_code == 0
-    for word in ("teapot", "spheres", "teapot.toml", "spheres.toml", "village.toml"):
+    for word in ("teapot", "spheres", "  village ", "  whitted ", str(assets_dir())):
         assert word in r.output
+    assert "village.toml" not in r.output     # listed by the short name that renders it
+
+
+def test_example_scene_by_short_name(run, tmp_path):
+    """`raytrace village` is `raytrace assets/village.toml`; a file of that
+    name in the working directory would win, an unknown name lists them."""
+    r = run("village", *SMALL, "--shadows", "soft", "--pattern", "random", "-q")
+    assert r.exit_code == 0, r.output
+    assert Image.open(tmp_path / "village.png").size == (48, 36)
+    r = run("villag", *SMALL)
+    assert r.exit_code == 2 and "village, whitted" in r.output
 
 
 def test_mesh_file_renders_with_views(run, tmp_path, house):

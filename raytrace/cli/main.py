@@ -41,16 +41,16 @@ def main():
 @main.command("scenes")
 def scenes_cmd():
     """List the built-in scenes and the example scene files."""
-    from raytrace.scene.builtin import BUILTIN
-    from raytrace.scene.examples import example_files
+    from .scenes.assets import assets_dir
+    from .scenes.builtin import BUILTIN
+    from .scenes.examples import describe, example_names
     click.echo("Built-in scenes (raytrace NAME):")
     for name, (_, desc) in sorted(BUILTIN.items()):
-        click.echo(f"  {name:<10} {desc}")
-    click.echo("Example scene files (raytrace PATH):")
-    for path, desc in example_files():
-        click.echo(f"  {path}")
-        if desc:
-            click.echo(f"      {desc}")
+        click.echo(f"  {name:<13} {desc}")
+    click.echo("Example scene files (raytrace NAME):")
+    for name, path in example_names().items():
+        click.echo(f"  {name:<13} {describe(path)}")
+    click.echo(f"(the files are in {assets_dir()}; copy one to start a scene of your own)")
 
 
 class ViewType(click.ParamType):
@@ -446,7 +446,9 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
     from pathlib import Path
 
     from .firstrun import set_quiet
+    from .scenes.examples import resolve
     set_quiet(quiet)
+    scene = resolve(scene)
     if bvol is not None:
         implied = "bvol" if bvol else "none"
         if options["accel"] is not None and options["accel"] != implied:
@@ -626,7 +628,9 @@ def compare_cmd(ctx, scene, accel_list, detail, view, up, crease, flat, fov, rep
     from pathlib import Path
 
     from .firstrun import set_quiet
+    from .scenes.examples import resolve
     set_quiet(quiet)
+    scene = resolve(scene)
     kind = _scene_kind(scene, detail, view, up, crease, flat)
     _check_image_path("-o/--output", output)
     width, height = options.pop("width"), options.pop("height")
