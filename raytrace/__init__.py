@@ -21,7 +21,7 @@ _LAZY = {"RayScene": "cast.rayscene", "create_rays_pinhole": "cast.rayscene",
 
 def load_scene(name_or_path, **opts):
     """A Scene from a built-in name ("teapot", "spheres"), a mesh file
-    (.obj, .ply, .stl, .off, .glb: framed by an automatic camera, on a
+    (.obj, .ply, .stl, .off, .glb, .gltf: framed by an automatic camera, on a
     ground plane) or a TOML scene file.
 
     Options: detail (teapot), view / azimuth / elevation / up / crease /

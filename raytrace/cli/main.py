@@ -440,7 +440,7 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
     """Render SCENE to PNG (or frames: --turntable, -o .gif) and print the statistics table.
 
     SCENE is a built-in scene name (see `raytrace scenes`), a TOML scene
-    file, or a mesh file (.obj, .ply, .stl, .off, .glb), which is shown
+    file, or a mesh file (.obj, .ply, .stl, .off, .glb, .gltf), which is shown
     from an automatic camera on a ground plane.
     """
     from pathlib import Path
