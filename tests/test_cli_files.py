@@ -165,6 +165,21 @@ def test_colormap_and_legend():
     assert (lo, hi) == (7, 7) and (flat[:4] == colormap(0.0)).all()
 
 
+def test_heatmap_legend_writes_its_numbers():
+    """Under the ramp, the costs at its ends and at each power of ten are
+    written where they fall (white text on black), so -q keeps the scale."""
+    from raytrace.heatmap import label_height, log_scale
+    cost = np.tile(np.geomspace(1, 1000, 240).round().astype(int), (120, 1))
+    img, lo, hi = cost_heatmap(cost)
+    labels = img[-label_height(120):]
+    assert set(np.unique(labels)) > {0} and (labels[0] == 0).all()
+    ink = (labels == 255).all(axis=-1).any(axis=0)          # columns with white text
+    for c in (lo, 10, 100, hi):
+        x = int(round(float(log_scale(c, lo, hi)) * 239))
+        assert ink[max(0, x - 12):x + 12].any(), c
+    assert not ink[60:70].any()                                  # between 10 and 100: none
+
+
 def test_no_progress_bar_without_a_terminal_or_with_quiet(run, monkeypatch):
     monkeypatch.setattr(cli._Progress, "DELAY_S", 0.0)
     r = run("spheres", *SMALL, "--shadows", "none")
