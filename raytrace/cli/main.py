@@ -680,6 +680,62 @@ def compare_cmd(ctx, scene, accel_list, detail, view, up, crease, flat, fov, rep
         ctx.exit(1)
 
 
+@main.command("warmup")
+@click.option("--all", "everything", is_flag=True,
+              help="Every structure and builder, both shadow kernels, textures, mirrors, ray "
+                   "queries and loading: minutes, once.")
+@click.option("--accel", "accel_list", default="bvh", metavar="LIST", show_default=True,
+              help="Structures, comma-separated (bvh:median and bvh:lbvh: the BVH's other builders).")
+@click.option("--shadows", "shadow_list", default="hard", metavar="LIST", show_default=True,
+              help="Shadow modes: none and hard share a kernel, soft has its own.")
+@click.option("--with", "feature_list", default="", metavar="LIST",
+              help="Also: textures, mirrors (and glass), queries (RayScene), loading (big teapots "
+                   "and meshes).")
+@click.option("-q", "--quiet", is_flag=True, help="No progress lines.")
+def warmup_cmd(everything, accel_list, shadow_list, feature_list, quiet):
+    """Compile kernels into the cache now, so later commands and API calls
+    start warm: for container images, CI, and each machine (or Dask worker)
+    that shares NUMBA_CACHE_DIR, all of one CPU type.
+    """
+    from .compare import parse_entries
+    from .warmup import FEATURES, plan, run
+    if everything:
+        from .options import BY_NAME
+        accels = [*BY_NAME["accel"].choice_list(), "bvh:median", "bvh:lbvh"]
+        shadows, features = ["hard", "soft"], list(FEATURES)
+    else:
+        with _one_line_errors():
+            accels = [e.label for e in parse_entries(accel_list)]
+        shadows = [s.strip() for s in shadow_list.split(",") if s.strip()]
+        for s in shadows:
+            if s not in ("none", "hard", "soft"):
+                raise click.UsageError(f"--shadows: unknown mode {s!r} (none, hard, soft)")
+        features = [f.strip() for f in feature_list.split(",") if f.strip()]
+        for f in features:
+            if f not in FEATURES:
+                raise click.UsageError(f"--with: unknown feature {f!r} ({', '.join(FEATURES)})")
+    steps = plan(accels, shadows or ["hard"], features)
+
+    def started(k, n, label):
+        if not quiet:
+            click.echo(f"[{k}/{n}] {label} ...", err=True, nl=False)
+
+    def done(k, n, label, seconds):
+        if not quiet:
+            click.echo(f" {seconds:.1f} s", err=True)
+    t0 = time.perf_counter()
+    try:
+        with _one_line_errors():
+            run(steps, started, done)
+    except KeyboardInterrupt:
+        click.echo("\ninterrupted: the kernels compiled so far stay in the cache", err=True)
+        sys.exit(130)
+    if not quiet:
+        from .jitconfig import numba
+        click.echo(f"warm: {len(steps)} steps in {time.perf_counter() - t0:.1f} s; cache "
+                   f"{numba.config.CACHE_DIR}", err=True)
+
+
 def entry():
     """The `raytrace` command: click's group, with Ctrl-C reported as an
     interruption (exit 130) wherever it lands, and a bad argument as one
