@@ -140,3 +140,10 @@ def test_payload_is_what_a_worker_unpickles():
     assert len(data) > n * 72 + setup.acc.node_box.nbytes      # corners and node boxes
     geo = pickle.loads(data)[0]
     assert np.array_equal(geo.tri_v0, setup.geo.tri_v0)
+
+
+def test_quick_leaves_the_cold_start_section_to_be_asked_for():
+    import bench
+    assert bench.chosen_sections(None, quick=False) == list(bench.SECTIONS)
+    assert bench.chosen_sections(None, quick=True) == [s for s in bench.SECTIONS if s != "coldstart"]
+    assert bench.chosen_sections("coldstart, workshop", quick=True) == ["coldstart", "workshop"]
