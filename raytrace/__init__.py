@@ -48,6 +48,10 @@ def render(scene, client=None, tiles=None, **options):
     AOVs then stay unassembled (None / not available).
     """
     scene = _scene(scene)
+    from .firstrun import RENDER_S, announce_if_cold
+    accel = str(options.get("accel", "bvh"))
+    announce_if_cold(f"{scene.name}: {accel}, {options.get('shadows', 'hard')} shadows",
+                     RENDER_S.get(accel, 12))
     if client is None and tiles is None:
         from raytrace.renderer.driver import render as _render
         return _render(scene, **options)

@@ -103,6 +103,21 @@ def expect(what, seconds=None):
     _state["fallback"] = _label(what, seconds)
 
 
+def announce_if_cold(what, seconds):
+    """Say it now, before Numba is even imported, if no render kernel is in
+    the cache at all (a first run: a compile is certain)."""
+    if _state["shown"] or _quiet():
+        return
+    from .cachedir import render_kernel_cached
+    if not render_kernel_cached():
+        _state["shown"] = True
+        try:
+            sys.stderr.write(_label(what, seconds) + "\n")
+            sys.stderr.flush()
+        except (OSError, ValueError):
+            pass
+
+
 def has_cache_entries(dispatcher):
     """Whether Numba's cache holds any compiled version of ``dispatcher`` for
     the current sources: then a compile is a new variant of it, not the

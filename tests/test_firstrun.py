@@ -87,3 +87,31 @@ def test_estimate_counts_mirrors_and_textures():
     a, b = scene_estimate(plain, "kdtree"), scene_estimate(mirror, "kdtree")
     # A cache with render kernels in it makes both a variant's estimate.
     assert (a, b) in ((RENDER_S["kdtree"], RENDER_S["kdtree"] + BOUNCES_S), (6, 6))
+
+
+def test_cache_dir_is_found_without_numba_and_tells_a_first_run(tmp_path, monkeypatch):
+    """cachedir.py names the directory jitconfig gives Numba; no render
+    kernel index in it means a first run, told before Numba loads."""
+    import numba
+
+    import raytrace.jitconfig  # noqa: F401 -- sets numba.config.CACHE_DIR
+    from raytrace import cachedir, firstrun
+    assert str(cachedir.cache_dir(numba.__version__)) == numba.config.CACHE_DIR
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("RAYTRACE_QUIET", raising=False)
+    assert not cachedir.render_kernel_cached()
+    monkeypatch.setitem(firstrun._state, "shown", False)
+    monkeypatch.setitem(firstrun._state, "quiet", False)
+    import io
+    err = io.StringIO()
+    monkeypatch.setattr("sys.stderr", err)
+    firstrun.announce_if_cold("teapot: bvh, hard shadows", 14)
+    firstrun.announce_if_cold("again", 1)                       # once per process
+    assert err.getvalue() == "compiling kernels for teapot: bvh, hard shadows (first run only, about 14 s)\n"
+    index = cachedir.cache_dir(numba.__version__) / "kernels_x" / "render.render_rows-481.py311.nbi"
+    index.parent.mkdir(parents=True)
+    index.touch()
+    assert cachedir.render_kernel_cached()
+    monkeypatch.setitem(firstrun._state, "shown", False)
+    firstrun.announce_if_cold("warm", 1)
+    assert "warm" not in err.getvalue()

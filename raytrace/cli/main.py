@@ -460,6 +460,10 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
     width, height = options.pop("width"), options.pop("height")
     options = {k: v for k, v in options.items() if v is not None}
     kind = _scene_kind(scene, detail, view, up, crease, flat)
+    from .firstrun import RENDER_S, announce_if_cold
+    accel = options.get("accel") or "bvh"
+    announce_if_cold(f"{Path(scene).name}: {accel}, {options.get('shadows') or 'hard'} shadows",
+                     RENDER_S.get(accel, 12) + 2)
     animated = turntable is not None or _is_frame_path(output)
     still_extras = [flag for flag, value in (("--aov", aov), ("--heatmap", heatmap),
                                              ("--show-structure", show_depth)) if value is not None]

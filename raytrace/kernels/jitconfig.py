@@ -11,32 +11,14 @@ cache itself, it kept entries across upgrades, so a kernel compiled
 against an older helper loaded, and an index naming a record type since
 removed failed to unpickle (AttributeError) before Numba checked anything.
 """
-import hashlib
 import os
 import threading
-from pathlib import Path
 
 import numba
 
+from .cachedir import cache_dir
 
-def _cache_dir():
-    package = Path(__file__).parent.parent
-    # The kernel floor and the structures, and any other module that compiles
-    # (the teapot's and big meshes' kernels in raytrace/scene).
-    sources = sorted({*package.glob("kernels/**/*.py"), *package.glob("accel/**/*.py"),
-                      *(p for p in package.glob("**/*.py") if "from numba" in p.read_text())})
-    digest = hashlib.sha1()
-    for path in sources:
-        digest.update(str(path.relative_to(package)).encode())
-        digest.update(path.read_bytes())
-    digest.update(numba.__version__.encode())
-    root = os.environ.get("NUMBA_CACHE_DIR")
-    if not root:
-        root = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "raytrace"
-    return Path(root) / f"numba-{digest.hexdigest()[:16]}"
-
-
-numba.config.CACHE_DIR = str(_cache_dir())
+numba.config.CACHE_DIR = str(cache_dir(numba.__version__))
 
 # Numba picks OpenMP when it can, and GNU OpenMP's parallel-region start
 # measured 8 ms per kernel call here (threads asleep between calls) against
