@@ -48,7 +48,7 @@ def render(scene, client=None, tiles=None, **options):
     AOVs then stay unassembled (None / not available).
     """
     scene = _scene(scene)
-    from .firstrun import RENDER_S, announce_if_cold
+    from raytrace.renderer.firstrun import RENDER_S, announce_if_cold
     accel = str(options.get("accel", "bvh"))
     announce_if_cold(f"{scene.name}: {accel}, {options.get('shadows', 'hard')} shadows",
                      RENDER_S.get(accel, 12))
@@ -87,7 +87,7 @@ def render_frames(scene, cameras=None, turntable=None, output=None, fps=24, resu
     if output is not None:
         from raytrace.frames.writers import check_frame_output
         check_frame_output(str(output), resume=resume)
-    from .display import Frames
+    from raytrace.renderer.display import Frames
     opts = options_with(None, options)
     frames, stats = animate(scene, list(cameras), opts, output=None if output is None else str(output),
                             fps=fps, resume=resume, runner=_runner(client), tiles=tiles,

@@ -168,7 +168,7 @@ def test_colormap_and_legend():
 def test_heatmap_legend_writes_its_numbers():
     """Under the ramp, the costs at its ends and at each power of ten are
     written where they fall (white text on black), so -q keeps the scale."""
-    from raytrace.heatmap import label_height, log_scale
+    from raytrace.renderer.heatmap import label_height, log_scale
     cost = np.tile(np.geomspace(1, 1000, 240).round().astype(int), (120, 1))
     img, lo, hi = cost_heatmap(cost)
     labels = img[-label_height(120):]

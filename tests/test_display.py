@@ -8,7 +8,7 @@ from PIL import Image
 
 import raytrace
 from raytrace.errors import RaytraceError
-from raytrace.linear import read_pfm
+from raytrace.renderer.linear import read_pfm
 
 
 def test_result_shows_as_png_and_a_short_repr(spheres_scene, render_small):
@@ -56,3 +56,10 @@ def test_scene_and_mesh_reprs_are_one_short_line():
     assert text == ("Scene('teapot': 1 mesh, 1 plane (16,384 triangles); 1 light; camera 640x480)"), text
     assert repr(scene.objects[0]).startswith("Mesh('teapot': ")
     assert "array" not in repr(scene.objects[0])
+
+
+def test_exr_holds_the_linear_image(spheres_scene, render_small, tmp_path):
+    OpenEXR = pytest.importorskip("OpenEXR")       # the exr extra (in the test extra)
+    r = render_small(spheres_scene)
+    with OpenEXR.File(str(r.save(tmp_path / "img.exr"))) as exr:
+        assert np.array_equal(exr.channels()["RGB"].pixels, r.linear)

@@ -12,7 +12,7 @@ NOTICE = "compiling kernels for"
 TOY = textwrap.dedent("""
     import sys
     sys.path.insert(0, sys.argv[1])
-    from raytrace.firstrun import expecting
+    from raytrace.renderer.firstrun import expecting
 
     import toy
     with expecting("a toy", 3):
@@ -80,8 +80,8 @@ def test_the_command_is_silent_when_its_kernels_are_cached(tmp_path):
 
 
 def test_estimate_counts_mirrors_and_textures():
-    from raytrace.firstrun import BOUNCES_S, RENDER_S, scene_estimate
-    from raytrace.scene import Camera, Material, Scene, Sphere
+    from raytrace.renderer.firstrun import BOUNCES_S, RENDER_S, scene_estimate
+    from raytrace.scene.model import Camera, Material, Scene, Sphere
     plain = Scene("s", Camera((0, 0, 5), (0, 0, 0)), [Sphere((0, 0, 0), 1.0)])
     mirror = Scene("m", Camera((0, 0, 5), (0, 0, 0)), [Sphere((0, 0, 0), 1.0, Material(reflect=0.5))])
     a, b = scene_estimate(plain, "kdtree"), scene_estimate(mirror, "kdtree")
@@ -94,8 +94,9 @@ def test_cache_dir_is_found_without_numba_and_tells_a_first_run(tmp_path, monkey
     kernel index in it means a first run, told before Numba loads."""
     import numba
 
-    import raytrace.jitconfig  # noqa: F401 -- sets numba.config.CACHE_DIR
-    from raytrace import cachedir, firstrun
+    import raytrace.kernels.jitconfig  # noqa: F401 -- sets numba.config.CACHE_DIR
+    from raytrace.kernels import cachedir
+    from raytrace.renderer import firstrun
     assert str(cachedir.cache_dir(numba.__version__)) == numba.config.CACHE_DIR
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
     monkeypatch.delenv("RAYTRACE_QUIET", raising=False)

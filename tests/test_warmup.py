@@ -6,9 +6,9 @@ import pytest
 from click.testing import CliRunner
 
 import raytrace
-from raytrace.cli import main
-from raytrace.driver import RenderOptions, prepare
-from raytrace.warmup import _scene, plan
+from raytrace.cli.main import main
+from raytrace.cli.warmup import _scene, plan
+from raytrace.renderer.driver import RenderOptions, prepare
 
 
 def _types(scene, **opts):

@@ -41,9 +41,9 @@ def main():
 @main.command("scenes")
 def scenes_cmd():
     """List the built-in scenes and the example scene files."""
-    from .scenes.assets import assets_dir
-    from .scenes.builtin import BUILTIN
-    from .scenes.examples import describe, example_names
+    from raytrace.scene.assets import assets_dir
+    from raytrace.scene.builtin import BUILTIN
+    from raytrace.scene.examples import describe, example_names
     click.echo("Built-in scenes (raytrace NAME):")
     for name, (_, desc) in sorted(BUILTIN.items()):
         click.echo(f"  {name:<13} {desc}")
@@ -184,8 +184,8 @@ def _write_outputs(result, output, aov, aov_out, heatmap, outputs):
     """Write the image, any AOVs and the heatmap as one commit (the Outputs
     ``outputs``: all or none); record them in the stats and return the lines
     that report them."""
-    from . import linear
-    from .output import image_writer, npz_writer
+    from raytrace.renderer import linear
+    from raytrace.renderer.output import image_writer, npz_writer
     notes = []
     if linear.is_linear(output):
         outputs.add(output, linear.writer(result.linear, output))
@@ -216,10 +216,10 @@ def _aov_out(output, aov):
     linear one, a file per buffer in its format ({name: path})."""
     if not aov:
         return None
-    from .linear import aov_paths, is_linear
+    from raytrace.renderer.linear import aov_paths, is_linear
     if is_linear(output):
         return aov_paths(output, aov)
-    from .aov import aov_path
+    from raytrace.renderer.aov import aov_path
     return aov_path(output)
 
 
@@ -229,7 +229,7 @@ def _aov_files(aov_out):
 
 def _check_linear(output, show_depth, tiles, workers, scheduler):
     """UsageError for what a linear (.npy, .pfm, .exr) output cannot go with."""
-    from .linear import check_available
+    from raytrace.renderer.linear import check_available
     if show_depth is not None:
         raise click.UsageError("--show-structure draws on the 8-bit image: write a .png")
     if tiles is not None or workers is not None or scheduler is not None:
@@ -406,8 +406,8 @@ def _check_image_path(flag, path, linear=False):
     float formats (.npy, .pfm, .exr) of raytrace/linear.py."""
     from pathlib import Path
 
-    from .linear import LINEAR_FORMATS
-    from .output import IMAGE_FORMATS
+    from raytrace.renderer.linear import LINEAR_FORMATS
+    from raytrace.renderer.output import IMAGE_FORMATS
     formats = [*IMAGE_FORMATS, *(LINEAR_FORMATS if linear else ())]
     if path == "":
         raise click.UsageError(f"{flag}: empty file name")
@@ -445,8 +445,8 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
     """
     from pathlib import Path
 
-    from .firstrun import set_quiet
-    from .scenes.examples import resolve
+    from raytrace.renderer.firstrun import set_quiet
+    from raytrace.scene.examples import resolve
     set_quiet(quiet)
     scene = resolve(scene)
     if bvol is not None:
@@ -460,7 +460,7 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
     width, height = options.pop("width"), options.pop("height")
     options = {k: v for k, v in options.items() if v is not None}
     kind = _scene_kind(scene, detail, view, up, crease, flat)
-    from .firstrun import RENDER_S, announce_if_cold
+    from raytrace.renderer.firstrun import RENDER_S, announce_if_cold
     accel = options.get("accel") or "bvh"
     announce_if_cold(f"{Path(scene).name}: {accel}, {options.get('shadows') or 'hard'} shadows",
                      RENDER_S.get(accel, 12) + 2)
@@ -475,7 +475,7 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
                                       **_view_options(view, up)))
     _check_image_path("-o/--output", output, linear=True)
     _check_image_path("--heatmap", heatmap)
-    from .linear import is_linear
+    from raytrace.renderer.linear import is_linear
     if is_linear(output):
         _check_linear(output, show_depth, tiles, workers, scheduler)
     named = output is not None
@@ -495,7 +495,7 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
                 from raytrace.accel.registry import DEFAULT, get
                 get(options.get("accel", DEFAULT)).check_outline()
             _load_threads(options)
-            from .firstrun import RENDER_S, expecting
+            from raytrace.renderer.firstrun import RENDER_S, expecting
             accel, shadows = options.get("accel", "bvh"), options.get("shadows", "hard")
             with expecting(f"{scene}: {accel}, {shadows} shadows", RENDER_S.get(accel, 12) + 2):
                 t_kernels = load_kernels(scene, detail)     # compile time, not loading's
@@ -631,8 +631,8 @@ def compare_cmd(ctx, scene, accel_list, detail, view, up, crease, flat, fov, rep
     """
     from pathlib import Path
 
-    from .firstrun import set_quiet
-    from .scenes.examples import resolve
+    from raytrace.renderer.firstrun import set_quiet
+    from raytrace.scene.examples import resolve
     set_quiet(quiet)
     scene = resolve(scene)
     kind = _scene_kind(scene, detail, view, up, crease, flat)
@@ -701,10 +701,10 @@ def warmup_cmd(everything, accel_list, shadow_list, feature_list, quiet):
     start warm: for container images, CI, and each machine (or Dask worker)
     that shares NUMBA_CACHE_DIR, all of one CPU type.
     """
-    from .compare import parse_entries
-    from .warmup import FEATURES, plan, run
+    from raytrace.cli.compare import parse_entries
+    from raytrace.cli.warmup import FEATURES, plan, run
     if everything:
-        from .options import BY_NAME
+        from raytrace.options import BY_NAME
         accels = [*BY_NAME["accel"].choice_list(), "bvh:median", "bvh:lbvh"]
         shadows, features = ["hard", "soft"], list(FEATURES)
     else:
@@ -735,7 +735,7 @@ def warmup_cmd(everything, accel_list, shadow_list, feature_list, quiet):
         click.echo("\ninterrupted: the kernels compiled so far stay in the cache", err=True)
         sys.exit(130)
     if not quiet:
-        from .jitconfig import numba
+        from raytrace.kernels.jitconfig import numba
         click.echo(f"warm: {len(steps)} steps in {time.perf_counter() - t0:.1f} s; cache "
                    f"{numba.config.CACHE_DIR}", err=True)
 

@@ -16,7 +16,7 @@ import threading
 
 import numba
 
-from .cachedir import cache_dir
+from raytrace.kernels.cachedir import cache_dir
 
 numba.config.CACHE_DIR = str(cache_dir(numba.__version__))
 

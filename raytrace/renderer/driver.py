@@ -43,15 +43,15 @@ class RenderResult:
     def save(self, path):
         """Write the image to ``path``, its format by the extension: .png,
         .jpg, ... (8-bit sRGB) or .npy, .pfm, .exr (linear float32)."""
-        from .display import save_result
+        from raytrace.renderer.display import save_result
         return save_result(self, path)
 
     def _repr_png_(self):            # Jupyter shows the image
-        from .display import png_bytes
+        from raytrace.renderer.display import png_bytes
         return png_bytes(self.image)
 
     def __repr__(self):
-        from .display import result_repr
+        from raytrace.renderer.display import result_repr
         return result_repr(self)
 
 

@@ -22,7 +22,7 @@ def example_files():
 def example_names():
     """{short name: path} of the example scene files a name can stand for
     (``raytrace whitted``); a built-in scene keeps its name."""
-    from .builtin import BUILTIN
+    from raytrace.scene.builtin import BUILTIN
     return {p.stem: p for p in sorted(assets_dir().glob("*.toml")) if p.stem not in BUILTIN}
 
 

@@ -27,8 +27,8 @@ def scene_kind(name):
 
 
 def unknown_scene_message(name):
-    from .scenes.builtin import BUILTIN
-    from .scenes.examples import example_names
+    from raytrace.scene.builtin import BUILTIN
+    from raytrace.scene.examples import example_names
     what = (f"{name}: is a directory, not a scene or mesh file" if Path(str(name)).is_dir()
             else f"unknown scene {str(name)!r}")
     return (f"{what} (scenes: {', '.join(sorted([*BUILTIN, *example_names()]))}; "
@@ -54,7 +54,7 @@ def load_scene(name_or_path, *, detail=None, view=None, azimuth=None, elevation=
     """
     if not isinstance(name_or_path, (str, Path)):
         raise RaytraceError(f"scene: expected a name or a path, got {type(name_or_path).__name__}")
-    from .scenes.examples import resolve
+    from raytrace.scene.examples import resolve
     name_or_path = resolve(name_or_path)
     kind = scene_kind(name_or_path)
     if kind is None:
@@ -117,7 +117,7 @@ def load_kernels(name_or_path, detail=None):
     (the command's statistics); 0.0 if it runs none.  Only a big teapot
     has any, built in or in a scene file: its tessellation's
     (scenes/teapot.py)."""
-    from .scenes.examples import resolve
+    from raytrace.scene.examples import resolve
     name_or_path = resolve(name_or_path)
     if scene_kind(name_or_path) == "toml":
         from raytrace.scene.formats.scenefile import teapot_details

@@ -94,6 +94,25 @@ class Scene:
     # None; typed loosely so this module imports nothing more.
     animation: object = None
 
-    def __repr__(self):
-        from .display import scene_repr
+    def __repr__(self):              # one line: a notebook shows it
         return scene_repr(self)
+
+
+def scene_repr(scene):
+    kinds = {}
+    triangles = 0
+    for o in scene.objects:
+        name = {Mesh: "mesh", Sphere: "sphere", Plane: "plane"}.get(type(o), type(o).__name__)
+        kinds[name] = kinds.get(name, 0) + 1
+        if isinstance(o, Mesh):
+            triangles += len(o.faces)
+    objects = ", ".join(f"{n} {k if n == 1 else k + ('es' if k == 'mesh' else 's')}"
+                        for k, n in kinds.items()) or "no objects"
+    if triangles:
+        objects += f" ({triangles:,} triangles)"
+    cam = scene.camera
+    size = f"{cam.width}x{cam.height}" if hasattr(cam, "width") else "no camera"
+    lights = len(scene.lights)
+    return (f"Scene({scene.name!r}: {objects}; {lights} light{'s' if lights != 1 else ''}; "
+            f"camera {size})")
+

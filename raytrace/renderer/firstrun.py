@@ -41,7 +41,7 @@ def _quiet():
 def _listen():
     if _state["listening"]:
         return
-    from numba.core import event
+    import numba.core.event as event
 
     class Notice(event.Listener):
         def on_start(self, ev):
@@ -108,7 +108,7 @@ def announce_if_cold(what, seconds):
     the cache at all (a first run: a compile is certain)."""
     if _state["shown"] or _quiet():
         return
-    from .cachedir import render_kernel_cached
+    from raytrace.kernels.cachedir import render_kernel_cached
     if not render_kernel_cached():
         _state["shown"] = True
         try:
@@ -130,7 +130,7 @@ def has_cache_entries(dispatcher):
 
 def render_estimate(accel, bounces, textures):
     """Seconds a cold render compile takes, about."""
-    from .kernels.render import render_rows
+    from raytrace.kernels.render import render_rows
     if has_cache_entries(render_rows):
         return VARIANT_S
     base = RENDER_S.get(str(accel).split(":")[0], 12)
@@ -143,7 +143,7 @@ def render_what(scene_name, opts):
 
 def scene_estimate(scene, accel):
     """render_estimate for a Scene, read from its description (before flattening)."""
-    from .scene import Mesh
+    from raytrace.scene.model import Mesh
     objects = getattr(scene, "objects", None) or []
     bounces = any(o.material.bounces() for o in objects if hasattr(o, "material"))
     textures = any(isinstance(o, Mesh) and (o.colors is not None or o.uv is not None)

@@ -4,7 +4,7 @@ for Jupyter's ``_repr_png_``, short reprs, and ``save(path)`` by extension
 import io
 from pathlib import Path
 
-from .errors import RaytraceError
+from raytrace.errors import RaytraceError
 
 # A frame sequence shows this many frames side by side in a notebook.
 STRIP_FRAMES = 6
@@ -20,8 +20,8 @@ def png_bytes(image):
 def save_result(result, path):
     """Write a RenderResult's image to ``path`` (atomically), in the format
     its extension names; returns the path."""
-    from . import linear
-    from .output import Outputs, image_writer
+    from raytrace.renderer import linear
+    from raytrace.renderer.output import Outputs, image_writer
     path = Path(path)
     if linear.is_linear(path):
         if result.linear is None:
@@ -58,7 +58,7 @@ class Frames(list):
     itself as .gif, .mp4 or a PNG pattern."""
 
     def save(self, path, fps=24):
-        from .frames import frame_output
+        from raytrace.frames.writers import frame_output
         with frame_output(path, len(self), fps=fps) as out:
             for i, image in enumerate(self):
                 out.write(i, image)
@@ -76,24 +76,3 @@ class Frames(list):
             return "Frames([])"
         h, w = self[0].shape[:2]
         return f"Frames({len(self)} frames of {w}x{h})"
-
-
-def scene_repr(scene):
-    from .scene import Mesh, Plane, Sphere
-    kinds = {}
-    triangles = 0
-    for o in scene.objects:
-        name = {Mesh: "mesh", Sphere: "sphere", Plane: "plane"}.get(type(o), type(o).__name__)
-        kinds[name] = kinds.get(name, 0) + 1
-        if isinstance(o, Mesh):
-            triangles += len(o.faces)
-    objects = ", ".join(f"{n} {k if n == 1 else k + ('es' if k == 'mesh' else 's')}"
-                        for k, n in kinds.items()) or "no objects"
-    if triangles:
-        objects += f" ({triangles:,} triangles)"
-    cam = scene.camera
-    size = f"{cam.width}x{cam.height}" if hasattr(cam, "width") else "no camera"
-    lights = len(scene.lights)
-    return (f"Scene({scene.name!r}: {objects}; {lights} light{'s' if lights != 1 else ''}; "
-            f"camera {size})")
-

@@ -24,7 +24,7 @@ class Step:
 
 
 def _scene(textures, mirrors):
-    from .scene import Camera, Light, Material, Mesh, Plane, Scene, Sphere
+    from raytrace.scene.model import Camera, Light, Material, Mesh, Plane, Scene, Sphere
     quad = Mesh(np.array([[-1, 0, -1], [1, 0, -1], [1, 0, 1], [-1, 0, 1]], float) + [0, 0.5, 0],
                 np.array([[0, 2, 1], [0, 3, 2]]), Material(),
                 normals=np.tile([0.0, 1.0, 0.0], (4, 1)))
@@ -39,7 +39,7 @@ def _scene(textures, mirrors):
 
 
 def _render(accel, shadows, textures, mirrors):
-    from .driver import render
+    from raytrace.renderer.driver import render
     return lambda: render(_scene(textures, mirrors), accel=accel.split(":")[0],
                           bvh_build=accel.split(":")[1] if ":" in accel else "sah",
                           shadows=shadows, light_samples=4, pattern="stratified")
@@ -47,7 +47,7 @@ def _render(accel, shadows, textures, mirrors):
 
 def _queries(accel):
     def run():
-        from .rayscene import RayScene
+        from raytrace.cast.rayscene import RayScene
         v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
         f = np.array([[0, 1, 2], [0, 2, 3]])
         rays = RayScene(accel=accel)
@@ -63,14 +63,14 @@ def _queries(accel):
 
 
 def _loading():
-    from .flatten import _kept_corners_parallel
-    from .scenes.teapot import load_kernels
+    from raytrace.scene.flatten import _kept_corners_parallel
+    from raytrace.scene.teapot import load_kernels
     load_kernels(256)                      # a big teapot's tessellation
     _kept_corners_parallel(np.zeros((1, 3)), np.zeros((3, 1), np.int64), 1)
 
 
 def _big_builders(accels):
-    from .structures import get
+    from raytrace.accel.registry import get
 
     def run():
         for accel in accels:
@@ -102,7 +102,7 @@ def plan(accels, shadows=("hard",), features=()):
 def run(steps, started=None, done=None):
     """Run the steps: ``started(k, n, label)`` before each and ``done(k, n,
     label, seconds)`` after.  Returns the seconds of each."""
-    from .firstrun import set_quiet
+    from raytrace.renderer.firstrun import set_quiet
     set_quiet(True)                  # the steps say what compiles
     times = []
     for k, step in enumerate(steps, 1):

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import RaytraceError
+from raytrace.errors import RaytraceError
 
 LINEAR_FORMATS = (".npy", ".pfm", ".exr")
 EXR_HINT = "pip install 'raytrace[exr]' (OpenEXR's wheels)"
