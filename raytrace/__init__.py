@@ -87,7 +87,7 @@ def render_frames(scene, cameras=None, turntable=None, output=None, fps=24, resu
     if output is not None:
         from raytrace.frames.writers import check_frame_output
         check_frame_output(str(output), resume=resume)
-    from raytrace.renderer.display import Frames
+    from raytrace.frames.shown import Frames
     opts = options_with(None, options)
     frames, stats = animate(scene, list(cameras), opts, output=None if output is None else str(output),
                             fps=fps, resume=resume, runner=_runner(client), tiles=tiles,

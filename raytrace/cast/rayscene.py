@@ -245,7 +245,7 @@ class RayScene:
 
     def __init__(self, target=None, accel="bvh"):
         from raytrace.accel.registry import get
-        from raytrace.firstrun import QUERY_S, expect
+        from raytrace.renderer.firstrun import QUERY_S, expect
         get(accel)
         expect(f"ray queries with {accel}", QUERY_S.get(accel))
         self.accel = accel

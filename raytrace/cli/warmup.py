@@ -71,11 +71,12 @@ def _loading():
 
 def _big_builders(accels):
     from raytrace.accel.registry import get
+    from raytrace.scene.flatten import tiny_geometry
 
     def run():
         for accel in accels:
             name, _, build = accel.partition(":")
-            get(name).load(10**8, bvh_build=build or "sah")      # their big-scene paths too
+            get(name).load(tiny_geometry(), 10**8, bvh_build=build or "sah")   # big-scene paths too
     return run
 
 

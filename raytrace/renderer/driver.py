@@ -372,7 +372,7 @@ def render(scene, opts=None, *, drop_meshes=False, **kw):
     ``render(scene, accel="bvol", shadows="soft", width=320, height=240)``.
     drop_meshes: as for prepare (the command's scene only).
     """
-    from raytrace.firstrun import expecting_render
+    from raytrace.renderer.firstrun import expecting_render
     opts = options_with(opts, kw)
     with expecting_render(scene, opts):
         return _render(scene, opts, drop_meshes)
