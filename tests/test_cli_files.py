@@ -173,11 +173,11 @@ def test_heatmap_legend_writes_its_numbers():
     img, lo, hi = cost_heatmap(cost)
     labels = img[-label_height(120):]
     assert set(np.unique(labels)) > {0} and (labels[0] == 0).all()
-    ink = (labels == 255).all(axis=-1).any(axis=0)          # columns with white text
+    ink = (labels > 128).all(axis=-1).any(axis=0)           # columns with (anti-aliased) white text
     for c in (lo, 10, 100, hi):
         x = int(round(float(log_scale(c, lo, hi)) * 239))
         assert ink[max(0, x - 12):x + 12].any(), c
-    assert not ink[60:70].any()                                  # between 10 and 100: none
+    assert not ink[90:125].any()                                 # between 10 (x 65) and 100 (x 151)
 
 
 def test_no_progress_bar_without_a_terminal_or_with_quiet(run, monkeypatch):
@@ -205,4 +205,4 @@ def test_listing_help_and_bad_files_import_neither_numba_nor_trimesh(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
     assert "nosuch.obj: no such file" in out.stderr and "bad.toml" in out.stderr
-    assert "village.toml" in out.stdout and "--heatmap" in out.stdout
+    assert "village" in out.stdout and "--heatmap" in out.stdout

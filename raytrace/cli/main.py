@@ -460,10 +460,11 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
     width, height = options.pop("width"), options.pop("height")
     options = {k: v for k, v in options.items() if v is not None}
     kind = _scene_kind(scene, detail, view, up, crease, flat)
-    from raytrace.renderer.firstrun import RENDER_S, announce_if_cold
-    accel = options.get("accel") or "bvh"
-    announce_if_cold(f"{Path(scene).name}: {accel}, {options.get('shadows') or 'hard'} shadows",
-                     RENDER_S.get(accel, 12) + 2)
+    if kind == "builtin" or Path(scene).is_file():      # no notice before "no such file"
+        from raytrace.renderer.firstrun import RENDER_S, announce_if_cold
+        accel = options.get("accel") or "bvh"
+        announce_if_cold(f"{Path(scene).name}: {accel}, {options.get('shadows') or 'hard'} shadows",
+                         RENDER_S.get(accel, 12) + 2)
     animated = turntable is not None or _is_frame_path(output)
     still_extras = [flag for flag, value in (("--aov", aov), ("--heatmap", heatmap),
                                              ("--show-structure", show_depth)) if value is not None]
@@ -497,7 +498,8 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
             _load_threads(options)
             from raytrace.renderer.firstrun import RENDER_S, expecting
             accel, shadows = options.get("accel", "bvh"), options.get("shadows", "hard")
-            with expecting(f"{scene}: {accel}, {shadows} shadows", RENDER_S.get(accel, 12) + 2):
+            with expecting(f"{scene}: {accel}, {shadows} shadows", RENDER_S.get(accel, 12) + 2,
+                           load=False):
                 t_kernels = load_kernels(scene, detail)     # compile time, not loading's
             t_load = time.perf_counter()
             with _warnings_once():

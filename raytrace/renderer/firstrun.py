@@ -38,8 +38,10 @@ def _quiet():
     return _state["quiet"] or os.environ.get("RAYTRACE_QUIET", "") not in ("", "0")
 
 
-def _listen():
-    if _state["listening"]:
+def _listen(load=True):
+    """Register for Numba's compile events; ``load=False``: only if Numba is
+    imported already (a bad file name is reported without importing it)."""
+    if _state["listening"] or not (load or "numba" in sys.modules):
         return
     import numba.core.event as event
 
@@ -82,10 +84,11 @@ def _compile_started(dispatcher):
 
 
 @contextlib.contextmanager
-def expecting(what, seconds=None):
+def expecting(what, seconds=None, load=True):
     """Inside, a compile that starts is announced as ``what`` (``seconds``: its
-    estimate).  An enclosing ``expecting`` (the command's) keeps its own words."""
-    _listen()
+    estimate).  An enclosing ``expecting`` (the command's) keeps its own words.
+    ``load``: as for _listen."""
+    _listen(load)
     if getattr(_active, "line", None) is not None:
         yield
         return
