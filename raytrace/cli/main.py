@@ -211,6 +211,15 @@ def _write_outputs(result, output, aov, aov_out, heatmap, outputs):
     return notes
 
 
+def _is_file(path):
+    """Whether ``path`` is a file; False for a name the system refuses (too long)."""
+    from pathlib import Path
+    try:
+        return Path(path).is_file()
+    except OSError:
+        return False
+
+
 def _aov_out(output, aov):
     """Where --aov goes: OUTPUT.aov.npz beside an 8-bit image; beside a
     linear one, a file per buffer in its format ({name: path})."""
@@ -460,7 +469,7 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
     width, height = options.pop("width"), options.pop("height")
     options = {k: v for k, v in options.items() if v is not None}
     kind = _scene_kind(scene, detail, view, up, crease, flat)
-    if kind == "builtin" or Path(scene).is_file():      # no notice before "no such file"
+    if kind == "builtin" or _is_file(scene):      # no notice before "no such file"
         from raytrace.renderer.firstrun import RENDER_S, announce_if_cold
         accel = options.get("accel") or "bvh"
         announce_if_cold(f"{Path(scene).name}: {accel}, {options.get('shadows') or 'hard'} shadows",
