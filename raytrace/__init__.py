@@ -21,7 +21,7 @@ _LAZY = {"RayScene": "cast.rayscene", "create_rays_pinhole": "cast.cameras",
 
 def load_scene(name_or_path, **opts):
     """A Scene from a built-in name ("teapot", "spheres"), a mesh file
-    (.obj, .ply, .stl, .off, .glb: framed by an automatic camera, on a
+    (.obj, .ply, .stl, .off, .glb, .gltf: framed by an automatic camera, on a
     ground plane) or a TOML scene file.
 
     Options: detail (teapot), view / azimuth / elevation / up / crease /
@@ -35,7 +35,8 @@ def render(scene, client=None, tiles=None, **options):
     """Render a Scene (or a name or path, loaded with load_scene) and return
     a RenderResult: ``image`` (h, w, 3) uint8 sRGB, ``linear`` float32,
     ``stats`` (times and counters, as the CLI's --json), ``aovs`` with
-    aov=True (depth, normal, primid, cost).
+    aov=True (depth, normal, primid, cost); ``result.save("x.png")`` (or
+    .npy, .pfm, .exr for the linear image), and Jupyter shows it.
 
     Options are the fields of raytrace.renderer.driver.RenderOptions: accel
     (a name in raytrace.accel.registry.STRUCTURES), shadows ("none", "hard", "soft"),
@@ -48,6 +49,10 @@ def render(scene, client=None, tiles=None, **options):
     """
     scene = _scene(scene)
     tiles = _tiles(tiles)
+    from raytrace.renderer.firstrun import RENDER_S, announce_if_cold
+    accel = str(options.get("accel", "bvh"))
+    announce_if_cold(f"{scene.name}: {accel}, {options.get('shadows', 'hard')} shadows",
+                     RENDER_S.get(accel, 12))
     if client is None and tiles is None:
         from raytrace.renderer.driver import render as _render
         return _render(scene, **options)
@@ -65,7 +70,8 @@ def render_frames(scene, cameras=None, turntable=None, output=None, fps=24, resu
     """Render a camera path: a list of Cameras, ``turntable=N`` frames
     orbiting the scene's camera, or the scene file's [animation].
 
-    Returns (frames, stats): frames a list of (h, w, 3) uint8 images, or
+    Returns (frames, stats): frames a list of (h, w, 3) uint8 images (a
+    Frames: shown in a notebook, ``frames.save("spin.gif")``), or
     None when ``output`` (.gif, .mp4, or a PNG pattern like
     "frames/spin_%04d.png") received them; stats sum the counters over
     frames and give time per worker.  ``client``: a dask.distributed
@@ -94,9 +100,12 @@ def render_frames(scene, cameras=None, turntable=None, output=None, fps=24, resu
     if output is not None:
         from raytrace.frames.writers import check_frame_output
         check_frame_output(str(output), resume=resume)
+    from raytrace.frames.shown import Frames
     opts = options_with(None, options)
-    return animate(scene, list(cameras), opts, output=None if output is None else str(output),
-                   fps=fps, resume=resume, runner=_runner(client), tiles=tiles, progress=progress)
+    frames, stats = animate(scene, list(cameras), opts, output=None if output is None else str(output),
+                            fps=fps, resume=resume, runner=_runner(client), tiles=tiles,
+                            progress=progress)
+    return (None if frames is None else Frames(frames)), stats
 
 
 def _scene(scene):

@@ -1,7 +1,14 @@
+import os
+
 import pytest
 
 from raytrace.renderer.driver import render
 from raytrace.scene.builtin import spheres, teapot
+
+# No compile notice (raytrace/firstrun.py) in the suite: CliRunner mixes
+# stderr into the output that --json tests parse, and which test compiles
+# first depends on the order.  tests/test_firstrun.py tests the notice.
+os.environ["RAYTRACE_QUIET"] = "1"
 
 # Small images keep the suite fast once the kernels are compiled; the
 # teapot still covers a few thousand pixels.

@@ -166,3 +166,10 @@ def test_mesh_layouts_read_back_as_the_teapot(tmp_path):
         (part,) = read_mesh_parts(tmp_path / f"teapot-3-{name}")
         want = triangles(obj_v if name == "obj.obj" else v, f)
         assert triangles(part.vertices, part.faces) == want, name
+
+
+def test_quick_leaves_the_cold_start_section_to_be_asked_for():
+    import bench
+    assert bench.chosen_sections(None, quick=False) == list(bench.SECTIONS)
+    assert bench.chosen_sections(None, quick=True) == [s for s in bench.SECTIONS if s != "coldstart"]
+    assert bench.chosen_sections("coldstart, workshop", quick=True) == ["coldstart", "workshop"]

@@ -47,8 +47,19 @@ def one_error_line(r, tmp_path, code=1):
 def test_scenes_lists_builtins_and_example_files(run):
     r = run("scenes")
     assert r.exit_code == 0
-    for word in ("teapot", "spheres", "teapot.toml", "spheres.toml", "village.toml"):
+    for word in ("teapot", "spheres", "  village ", "  whitted ", str(assets_dir())):
         assert word in r.output
+    assert "village.toml" not in r.output     # listed by the short name that renders it
+
+
+def test_example_scene_by_short_name(run, tmp_path):
+    """`raytrace village` is `raytrace assets/village.toml`; a file of that
+    name in the working directory would win, an unknown name lists them."""
+    r = run("village", *SMALL, "--shadows", "soft", "--pattern", "random", "-q")
+    assert r.exit_code == 0, r.output
+    assert Image.open(tmp_path / "village.png").size == (48, 36)
+    r = run("villag", *SMALL)
+    assert r.exit_code == 2 and "village, whitted" in r.output
 
 
 def test_mesh_file_renders_with_views(run, tmp_path, house):
@@ -154,6 +165,21 @@ def test_colormap_and_legend():
     assert (lo, hi) == (7, 7) and (flat[:4] == colormap(0.0)).all()
 
 
+def test_heatmap_legend_writes_its_numbers():
+    """Under the ramp, the costs at its ends and at each power of ten are
+    written where they fall (white text on black), so -q keeps the scale."""
+    from raytrace.renderer.heatmap import label_height, log_scale
+    cost = np.tile(np.geomspace(1, 1000, 240).round().astype(int), (120, 1))
+    img, lo, hi = cost_heatmap(cost)
+    labels = img[-label_height(120):]
+    assert set(np.unique(labels)) > {0} and (labels[0] == 0).all()
+    ink = (labels > 128).all(axis=-1).any(axis=0)           # columns with (anti-aliased) white text
+    for c in (lo, 10, 100, hi):
+        x = int(round(float(log_scale(c, lo, hi)) * 239))
+        assert ink[max(0, x - 12):x + 12].any(), c
+    assert not ink[90:125].any()                                 # between 10 (x 65) and 100 (x 151)
+
+
 def test_no_progress_bar_without_a_terminal_or_with_quiet(run, monkeypatch):
     monkeypatch.setattr(cli._Progress, "DELAY_S", 0.0)
     r = run("spheres", *SMALL, "--shadows", "none")
@@ -179,4 +205,4 @@ def test_listing_help_and_bad_files_import_neither_numba_nor_trimesh(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
     assert "nosuch.obj: no such file" in out.stderr and "bad.toml" in out.stderr
-    assert "village.toml" in out.stdout and "--heatmap" in out.stdout
+    assert "village" in out.stdout and "--heatmap" in out.stdout

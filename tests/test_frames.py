@@ -49,14 +49,44 @@ def test_gif_reads_back_frame_for_frame(tmp_path):
         assert np.array_equal(np.asarray(frame.convert("RGB")), image)
 
 
-def test_gif_palette_is_per_frame(tmp_path):
-    """Each frame has 256 colours of its own: 2 frames of 200 colours, 400
-    in all, come back exact."""
-    a = np.arange(200 * 3, dtype=np.uint8).reshape(1, 200, 3)
-    images = [np.repeat(a, 2, axis=0), np.repeat(255 - a, 2, axis=0)]
-    write_all(tmp_path / "p.gif", images)
-    for image, frame in zip(images, ImageSequence.Iterator(Image.open(tmp_path / "p.gif"))):
-        assert np.array_equal(np.asarray(frame.convert("RGB")), image)
+def _gradient(h=48, w=256, shift=0):
+    """Smooth shading: far more colours than a GIF's 256."""
+    y, x = np.mgrid[0:h, 0:w]
+    rgb = np.stack([(x + shift) % w, x * 0.6 + y, 255 - x * 0.8], axis=-1)
+    return np.clip(rgb, 0, 255).astype(np.uint8)
+
+
+def _block_error(a, b, k=4):
+    """Mean difference of k x k block averages: what the eye sees of banding."""
+    h, w = (n - n % k for n in a.shape[:2])
+    def blocks(m):
+        return m[:h, :w].astype(float).reshape(h // k, k, w // k, k, 3).mean(axis=(1, 3))
+    return np.abs(blocks(a) - blocks(b)).mean()
+
+
+def test_gif_shares_one_palette_and_dithers_smooth_shading(tmp_path):
+    """Frames of smooth shading come back in one set of at most 256
+    colours, dithered: averaged over 4x4 blocks they are much closer to
+    the render than the nearest colours of that palette (flat bands)."""
+    images = [_gradient(shift=0), _gradient(shift=40)]
+    write_all(tmp_path / "g.gif", images)
+    back = [np.asarray(f.convert("RGB")) for f in ImageSequence.Iterator(Image.open(tmp_path / "g.gif"))]
+    used = np.unique(np.concatenate([b.reshape(-1, 3) for b in back]), axis=0)
+    assert len(used) <= 256
+    palette = Image.new("P", (1, 1))
+    palette.putpalette(used.ravel().tolist())
+    for image, got in zip(images, back):
+        banded = np.asarray(Image.fromarray(image).quantize(palette=palette, dither=Image.Dither.NONE)
+                            .convert("RGB"))
+        assert _block_error(got, image) < 0.5 * _block_error(banded, image)
+
+
+def test_gif_plays_at_its_frame_rate(tmp_path):
+    """GIF times frames in hundredths: at 24 fps they alternate 40 and 50 ms
+    so that 24 frames last one second (one rounded duration gave 25 fps)."""
+    write_all(tmp_path / "f.gif", frames(24), fps=24)
+    durations = [f.info["duration"] for f in ImageSequence.Iterator(Image.open(tmp_path / "f.gif"))]
+    assert len(durations) == 24 and sum(durations) == 1000 and set(durations) == {40, 50}
 
 
 def test_gif_held_frames_keep_their_time(tmp_path):

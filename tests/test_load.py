@@ -17,6 +17,13 @@ def test_scene_kind(name, kind):
     assert scene_kind(name) == kind
 
 
+def test_example_scene_by_short_name():
+    by_name = raytrace.load_scene("village", width=32, height=24)
+    by_path = raytrace.load_scene(str(assets_dir() / "village.toml"), width=32, height=24)
+    assert by_name.name == by_path.name == "village"
+    assert repr(by_name) == repr(by_path) and by_name.camera == by_path.camera
+
+
 def test_loads_each_kind():
     assert len(raytrace.load_scene("teapot", detail=2).objects[0].faces) == 32 * 2 * 2 * 2
     s = raytrace.load_scene(str(assets_dir() / "house.obj"), view="front", up="y", width=80, height=60)
@@ -26,7 +33,7 @@ def test_loads_each_kind():
 
 
 @pytest.mark.parametrize("name, opts, message", [
-    ("cube", {}, "unknown scene 'cube' .*built-in scenes: spheres, teapot"),
+    ("cube", {}, "unknown scene 'cube' .*scenes: .*spheres, stadium, teapot"),
     ("spheres", dict(detail=3), "teapot scene only"),
     ("teapot", dict(detail=0), "detail must be an integer from 1 to 256"),
     ("teapot", dict(view="top"), "view applies to mesh files only"),

@@ -110,3 +110,22 @@ def test_missing_and_directory(tmp_path):
     (tmp_path / "dir.obj").mkdir()
     with pytest.raises(RaytraceError, match="is a directory"):
         read_mesh(tmp_path / "dir.obj")
+
+
+def test_gltf_with_its_buffers_beside_it_reads_as_the_glb(tmp_path):
+    """A JSON .gltf is a mesh file, not a scene name: it and its .bin
+    buffers give the same triangles as the same scene as one .glb."""
+    import trimesh
+
+    import raytrace
+    mesh = trimesh.creation.icosphere(1)
+    for name, data in trimesh.exchange.gltf.export_gltf(trimesh.Scene(mesh)).items():
+        (tmp_path / name).write_bytes(data)
+    (tmp_path / "model.glb").write_bytes(trimesh.exchange.gltf.export_glb(trimesh.Scene(mesh)))
+    a = raytrace.load_scene(str(tmp_path / "model.gltf")).objects[0]
+    b = raytrace.load_scene(str(tmp_path / "model.glb")).objects[0]
+    assert len(a.faces) == len(mesh.faces) == 80
+    assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.faces, b.faces)
+    (tmp_path / "gltf_buffer_0.bin").unlink()
+    with pytest.raises(raytrace.RaytraceError, match="model.gltf"):
+        raytrace.load_scene(str(tmp_path / "model.gltf"))

@@ -48,7 +48,9 @@ class RayScene:
 
     def __init__(self, target=None, accel="bvh"):
         from raytrace.accel.registry import get
+        from raytrace.renderer.firstrun import QUERY_S, expect
         get(accel)
+        expect(f"ray queries with {accel}", QUERY_S.get(accel))
         self.accel = accel
         self._objects = []
         self._prepared = None

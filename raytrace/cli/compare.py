@@ -70,6 +70,14 @@ def compare(scene, entries, opts, repeat=1, progress=None):
     """Render ``scene`` with each entry's structure (RenderOptions ``opts``
     for the rest); returns a Comparison.  progress(label) is called before
     each structure's first render."""
+    from raytrace.renderer.firstrun import expecting, scene_estimate
+    names = [e.accel for e in entries]
+    with expecting(f"{scene.name}: {', '.join(dict.fromkeys(names))}",
+                   sum(scene_estimate(scene, a) for a in dict.fromkeys(names))):
+        return _compare(scene, entries, opts, repeat, progress)
+
+
+def _compare(scene, entries, opts, repeat, progress):
     from raytrace.renderer.driver import render
     first = None
     differences = []

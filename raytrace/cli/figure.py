@@ -87,7 +87,7 @@ def figure(comparison, setting):
             note = "the same from every structure" if comparison.identical else "from the first"
         else:
             note = (f"{r['render_s']:.3f} s   {speedup_text(r['speedup'])}   "
-                    f"{r['prim_tests_per_ray'] + r['box_tests_per_ray']:,.1f} tests/ray")
+                    f"{r['prim_tests_per_ray']:,.1f} prim + {r['box_tests_per_ray']:,.1f} box tests/ray")
         draw.text((x, y + line), note, font=body_f, fill=MUTED)
         tile = Image.fromarray(np.ascontiguousarray(pixels))
         if zoom > 1:

@@ -42,16 +42,16 @@ def main():
 @main.command("scenes")
 def scenes_cmd():
     """List the built-in scenes and the example scene files."""
+    from raytrace.scene.assets import assets_dir
     from raytrace.scene.builtin import BUILTIN
-    from raytrace.scene.examples import example_files
+    from raytrace.scene.examples import describe, example_names
     click.echo("Built-in scenes (raytrace NAME):")
     for name, (_, desc) in sorted(BUILTIN.items()):
-        click.echo(f"  {name:<10} {desc}")
-    click.echo("Example scene files (raytrace PATH):")
-    for path, desc in example_files():
-        click.echo(f"  {path}")
-        if desc:
-            click.echo(f"      {desc}")
+        click.echo(f"  {name:<13} {desc}")
+    click.echo("Example scene files (raytrace NAME):")
+    for name, path in example_names().items():
+        click.echo(f"  {name:<13} {describe(path)}")
+    click.echo(f"(the files are in {assets_dir()}; copy one to start a scene of your own)")
 
 
 class ViewType(click.ParamType):
@@ -175,11 +175,20 @@ def _write_outputs(result, output, aov, aov_out, heatmap, outputs):
     """Write the image, any AOVs and the heatmap as one commit (the Outputs
     ``outputs``: all or none); record them in the stats and return the lines
     that report them."""
+    from raytrace.renderer import linear
     from raytrace.renderer.output import image_writer, npz_writer
     notes = []
-    outputs.add(output, image_writer(result.image, output))
+    if linear.is_linear(output):
+        outputs.add(output, linear.writer(result.linear, output))
+    else:
+        outputs.add(output, image_writer(result.image, output))
     result.stats["output"] = str(output)
-    if aov_out is not None:
+    if isinstance(aov_out, dict):       # a linear image: one file per buffer, its format
+        for name, path in aov_out.items():
+            outputs.add(path, linear.writer(result.aovs[name], path))
+        result.stats["aov"] = {"paths": {k: str(p) for k, p in aov_out.items()}, "buffers": list(aov)}
+        notes.append(f"wrote {', '.join(str(p) for p in aov_out.values())}")
+    elif aov_out is not None:
         outputs.add(aov_out, npz_writer({k: result.aovs[k] for k in aov}))
         result.stats["aov"] = {"path": str(aov_out), "buffers": list(aov)}
         notes.append(f"wrote {aov_out} ({', '.join(aov)})")
@@ -191,6 +200,45 @@ def _write_outputs(result, output, aov, aov_out, heatmap, outputs):
         notes.append(f"wrote {heatmap} (box + primitive tests per pixel, log scale: "
                      f"{lo:,} = dark purple to {hi:,} = yellow)")
     return notes
+
+
+def _is_file(path):
+    """Whether ``path`` is a file; False for a name the system refuses (too long)."""
+    from pathlib import Path
+    try:
+        return Path(path).is_file()
+    except OSError:
+        return False
+
+
+def _aov_out(output, aov):
+    """Where --aov goes: OUTPUT.aov.npz beside an 8-bit image; beside a
+    linear one, a file per buffer in its format ({name: path})."""
+    if not aov:
+        return None
+    from raytrace.renderer.linear import aov_paths, is_linear
+    if is_linear(output):
+        return aov_paths(output, aov)
+    from raytrace.renderer.aov import aov_path
+    return aov_path(output)
+
+
+def _aov_files(aov_out):
+    return list(aov_out.values()) if isinstance(aov_out, dict) else [aov_out]
+
+
+def _check_linear(output, show_depth, tiles, workers, scheduler):
+    """UsageError for what a linear (.npy, .pfm, .exr) output cannot go with."""
+    from raytrace.renderer.linear import check_available
+    if show_depth is not None:
+        raise click.UsageError("--show-structure draws on the 8-bit image: write a .png")
+    if tiles is not None or workers is not None or scheduler is not None:
+        raise click.UsageError(f"{output}: a linear image needs the whole render in this process: "
+                               "drop --tiles, --workers and --scheduler")
+    try:
+        check_available(output)
+    except RaytraceError as exc:
+        raise click.ClickException(str(exc)) from None
 
 
 def _show_structure(result, scene, accel, depth):
@@ -365,15 +413,19 @@ def _scene_kind(scene, detail, view, up, crease, flat):
     return kind
 
 
-def _check_image_path(flag, path):
+def _check_image_path(flag, path, linear=False):
+    """UsageError for a path with no image format; ``linear``: also the
+    float formats (.npy, .pfm, .exr) of raytrace/linear.py."""
     from pathlib import Path
 
+    from raytrace.renderer.linear import LINEAR_FORMATS
     from raytrace.renderer.output import IMAGE_FORMATS
+    formats = [*IMAGE_FORMATS, *(LINEAR_FORMATS if linear else ())]
     if path == "":
         raise click.UsageError(f"{flag}: empty file name")
-    if path is not None and Path(path).suffix.lower() not in IMAGE_FORMATS:
+    if path is not None and Path(path).suffix.lower() not in formats:
         raise click.UsageError(f"{flag}: {path}: unknown image format (use one of "
-                               f"{', '.join(IMAGE_FORMATS)})")
+                               f"{', '.join(formats)})")
 
 
 @main.command("render")
@@ -400,11 +452,15 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
     """Render SCENE to PNG (or frames: --turntable, -o .gif) and print the statistics table.
 
     SCENE is a built-in scene name (see `raytrace scenes`), a TOML scene
-    file, or a mesh file (.obj, .ply, .stl, .off, .glb), which is shown
+    file, or a mesh file (.obj, .ply, .stl, .off, .glb, .gltf), which is shown
     from an automatic camera on a ground plane.
     """
     from pathlib import Path
 
+    from raytrace.renderer.firstrun import set_quiet
+    from raytrace.scene.examples import resolve
+    set_quiet(quiet)
+    scene = resolve(scene)
     if bvol is not None:
         implied = "bvol" if bvol else "none"
         if options["accel"] is not None and options["accel"] != implied:
@@ -416,6 +472,11 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
     width, height = options.pop("width"), options.pop("height")
     options = {k: v for k, v in options.items() if v is not None}
     kind = _scene_kind(scene, detail, view, up, crease, flat)
+    if kind == "builtin" or _is_file(scene):      # no notice before "no such file"
+        from raytrace.renderer.firstrun import RENDER_S, announce_if_cold
+        accel = options.get("accel") or "bvh"
+        announce_if_cold(f"{Path(scene).name}: {accel}, {options.get('shadows') or 'hard'} shadows",
+                         RENDER_S.get(accel, 12) + 2)
     animated = turntable is not None or _is_frame_path(output)
     still_extras = [flag for flag, value in (("--aov", aov), ("--heatmap", heatmap),
                                              ("--show-structure", show_depth)) if value is not None]
@@ -425,15 +486,15 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
                                  scheduler, as_json, quiet, options, width, height,
                                  dict(detail=detail, fov=fov, crease=crease, flat=flat,
                                       **_view_options(view, up)))
-    for flag, path in (("-o/--output", output), ("--heatmap", heatmap)):
-        _check_image_path(flag, path)
+    _check_image_path("-o/--output", output, linear=True)
+    _check_image_path("--heatmap", heatmap)
+    from raytrace.renderer.linear import is_linear
+    if is_linear(output):
+        _check_linear(output, show_depth, tiles, workers, scheduler)
     named = output is not None
     output = output or f"{scene if kind == 'builtin' else Path(scene).stem}.png"
-    aov_out = None
-    if aov:
-        from raytrace.renderer.aov import aov_path
-        aov_out = aov_path(output)
-    outputs = [Path(p).resolve() for p in (output, aov_out, heatmap) if p is not None]
+    aov_out = _aov_out(output, aov)
+    outputs = [Path(p).resolve() for p in (output, *_aov_files(aov_out), heatmap) if p is not None]
     if len(set(outputs)) != len(outputs):
         raise click.UsageError("--heatmap must differ from the output image and its .aov.npz")
     outputs = None
@@ -447,7 +508,11 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
                 from raytrace.accel.registry import DEFAULT, get
                 get(options.get("accel", DEFAULT)).check_outline()
             _load_threads(options)
-            t_kernels = load_kernels(scene, detail)     # compile time, not loading's
+            from raytrace.renderer.firstrun import RENDER_S, expecting
+            accel, shadows = options.get("accel", "bvh"), options.get("shadows", "hard")
+            with expecting(f"{scene}: {accel}, {shadows} shadows", RENDER_S.get(accel, 12) + 2,
+                           load=False):
+                t_kernels = load_kernels(scene, detail)     # compile time, not loading's
             t_load = time.perf_counter()
             with _warnings_once():
                 sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
@@ -456,10 +521,8 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
             raise_if_interrupted()
             if not named and kind == "toml":      # a scene file's name names its image
                 output = f"{sc.name}.png"
-                if aov:
-                    from raytrace.renderer.aov import aov_path
-                    aov_out = aov_path(output)
-            for path in (output, aov_out, heatmap):
+                aov_out = _aov_out(output, aov)
+            for path in (output, *_aov_files(aov_out), heatmap):
                 if path is not None:
                     check_writable(path)
             progress = _Progress(enabled=not quiet)
@@ -582,6 +645,10 @@ def compare_cmd(ctx, scene, accel_list, detail, view, up, crease, flat, fov, rep
     """
     from pathlib import Path
 
+    from raytrace.renderer.firstrun import set_quiet
+    from raytrace.scene.examples import resolve
+    set_quiet(quiet)
+    scene = resolve(scene)
     kind = _scene_kind(scene, detail, view, up, crease, flat)
     _check_image_path("-o/--output", output)
     width, height = options.pop("width"), options.pop("height")
@@ -629,6 +696,62 @@ def compare_cmd(ctx, scene, accel_list, detail, view, up, crease, flat, fov, rep
     if not result.identical:
         click.echo(f"Error: {result.differences[0][0]} made a different image", err=True)
         ctx.exit(1)
+
+
+@main.command("warmup")
+@click.option("--all", "everything", is_flag=True,
+              help="Every structure and builder, both shadow kernels, textures, mirrors, ray "
+                   "queries and loading: minutes, once.")
+@click.option("--accel", "accel_list", default="bvh", metavar="LIST", show_default=True,
+              help="Structures, comma-separated (bvh:median and bvh:lbvh: the BVH's other builders).")
+@click.option("--shadows", "shadow_list", default="hard", metavar="LIST", show_default=True,
+              help="Shadow modes: none and hard share a kernel, soft has its own.")
+@click.option("--with", "feature_list", default="", metavar="LIST",
+              help="Also: textures, mirrors (and glass), queries (RayScene), loading (big teapots "
+                   "and meshes).")
+@click.option("-q", "--quiet", is_flag=True, help="No progress lines.")
+def warmup_cmd(everything, accel_list, shadow_list, feature_list, quiet):
+    """Compile kernels into the cache now, so later commands and API calls
+    start warm: for container images, CI, and each machine (or Dask worker)
+    that shares NUMBA_CACHE_DIR, all of one CPU type.
+    """
+    from raytrace.cli.compare import parse_entries
+    from raytrace.cli.warmup import FEATURES, plan, run
+    if everything:
+        from raytrace.options import BY_NAME
+        accels = [*BY_NAME["accel"].choice_list(), "bvh:median", "bvh:lbvh"]
+        shadows, features = ["hard", "soft"], list(FEATURES)
+    else:
+        with _one_line_errors():
+            accels = [e.label for e in parse_entries(accel_list)]
+        shadows = [s.strip() for s in shadow_list.split(",") if s.strip()]
+        for s in shadows:
+            if s not in ("none", "hard", "soft"):
+                raise click.UsageError(f"--shadows: unknown mode {s!r} (none, hard, soft)")
+        features = [f.strip() for f in feature_list.split(",") if f.strip()]
+        for f in features:
+            if f not in FEATURES:
+                raise click.UsageError(f"--with: unknown feature {f!r} ({', '.join(FEATURES)})")
+    steps = plan(accels, shadows or ["hard"], features)
+
+    def started(k, n, label):
+        if not quiet:
+            click.echo(f"[{k}/{n}] {label} ...", err=True, nl=False)
+
+    def done(k, n, label, seconds):
+        if not quiet:
+            click.echo(f" {seconds:.1f} s", err=True)
+    t0 = time.perf_counter()
+    try:
+        with _one_line_errors():
+            run(steps, started, done)
+    except KeyboardInterrupt:
+        click.echo("\ninterrupted: the kernels compiled so far stay in the cache", err=True)
+        sys.exit(130)
+    if not quiet:
+        from raytrace.kernels.jitconfig import numba
+        click.echo(f"warm: {len(steps)} steps in {time.perf_counter() - t0:.1f} s; cache "
+                   f"{numba.config.CACHE_DIR}", err=True)
 
 
 def entry():

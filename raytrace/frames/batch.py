@@ -120,6 +120,12 @@ def render_frames(scene, cameras, opts, runner=None, tiles=1, skip=(), on_frame=
     frame's uint8 image, in order.  Frames in ``skip`` are not rendered.
     ``runner``: InProcess (default) or distributed.DaskRunner.  Returns the
     statistics: counters summed over frames and tiles, time per worker."""
+    from raytrace.renderer.firstrun import expecting_render
+    with expecting_render(scene, opts):
+        return _render_frames(scene, cameras, opts, runner, tiles, skip, on_frame)
+
+
+def _render_frames(scene, cameras, opts, runner, tiles, skip, on_frame):
     setup = prepare(scene, opts)
     runner = runner or InProcess(setup.threads)
     w, h = setup.width, setup.height

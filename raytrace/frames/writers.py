@@ -209,26 +209,48 @@ class FrameSequence:
 class GifFrames(FrameSequence):
     """An animated GIF, looping forever, written whole at the end.
 
-    Each frame gets its own adaptive palette (median cut, 256 colours):
-    a render's colours drift as the camera moves, and a palette fitted to
-    each frame bands less than one shared by all; consecutive frames are
-    close, so their palettes are too and do not flicker.  No dithering:
-    its noise would change from frame to frame and shimmer.  Frames are
-    kept quantised, one byte a pixel.  GIF counts time in hundredths of a
-    second, and Pillow merges identical consecutive frames (a held
-    camera) into one longer frame.
+    One palette for every frame (median cut over pixels sampled from all
+    of them), and Floyd-Steinberg dithering: per-frame palettes without
+    dithering banded smooth shading into posterised steps, and a highlight
+    could jump colour between frames.  The frames wait, zlib-compressed,
+    until the palette can be chosen.  GIF counts time in hundredths of a
+    second: each frame lasts a whole number of them, chosen so the frames
+    so far have lasted ``i / fps`` rounded, which keeps 24 fps at 24
+    (4, 4, 5 hundredths...), where one rounded duration gave 25.
     """
     kind = "gif"
+    # Pixels the palette is chosen from: enough for 256 colours, few
+    # enough to choose in a fraction of a second.
+    PALETTE_SAMPLE = 1 << 18
 
     def __init__(self, *args):
         super().__init__(*args)
         self.frames = {}
 
     def _write(self, i, image):
-        from PIL import Image
+        import zlib
         if i in self.frames:
             raise RaytraceError(f"{self.path}: frame {i} written twice")
-        self.frames[i] = Image.fromarray(image).quantize(256, dither=Image.Dither.NONE)
+        self.frames[i] = zlib.compress(np.ascontiguousarray(image).tobytes(), 1)
+
+    def _frame(self, i):
+        import zlib
+        h, w = self.size
+        return np.frombuffer(zlib.decompress(self.frames[i]), np.uint8).reshape(h, w, 3)
+
+    def palette(self):
+        """A 256-colour palette image fitted to pixels from every frame."""
+        from PIL import Image
+        h, w = self.size
+        step = max(1, int(np.sqrt(h * w * self.n_frames / self.PALETTE_SAMPLE)))
+        sample = np.concatenate([self._frame(i)[::step, ::step].reshape(-1, 3)
+                                 for i in range(self.n_frames)])
+        return Image.fromarray(sample[:, None, :]).quantize(256, method=Image.Quantize.MEDIANCUT)
+
+    def durations(self):
+        """Milliseconds of each frame, whole hundredths of a second."""
+        ends = [round(100 * (i + 1) / self.fps) for i in range(self.n_frames)]
+        return [10 * (b - a) for a, b in zip([0, *ends], ends)]
 
     def check_memory(self):
         """A GIF's frames are all kept until the end (one byte a pixel and
@@ -245,12 +267,17 @@ class GifFrames(FrameSequence):
                                 "which stream frame by frame")
 
     def _commit(self):
+        from PIL import Image
         self._missing(len(self.frames))
-        images = [self.frames[i] for i in range(self.n_frames)]
+        palette = self.palette()
+        images = [Image.fromarray(self._frame(i)).quantize(palette=palette,
+                                                           dither=Image.Dither.FLOYDSTEINBERG)
+                  for i in range(self.n_frames)]
+        durations = self.durations()
         with Outputs() as out:
             out.add(self.path, lambda fh: images[0].save(
                 fh, format="GIF", save_all=True, append_images=images[1:], loop=0,
-                duration=round(1000 / self.fps)))
+                duration=durations))
         self.frames = {}
 
     def _abort(self):

@@ -16,7 +16,6 @@ directory that cannot be written (read-only, or no home directory, as for
 `nobody`) means kernels compile uncached, with one warning line, where
 Numba would fail with "no locator available".
 """
-import hashlib
 import os
 import tempfile
 import threading
@@ -24,28 +23,7 @@ from pathlib import Path
 
 import numba
 
-
-def _cache_dir():
-    package = Path(__file__).parent.parent
-    # The kernel floor and the structures, and any other module that compiles
-    # (the teapot's and big meshes' kernels in raytrace/scene).
-    sources = sorted({*package.glob("kernels/**/*.py"), *package.glob("accel/**/*.py"),
-                      *(p for p in package.glob("**/*.py") if "from numba" in p.read_text())})
-    digest = hashlib.sha1()
-    for path in sources:
-        digest.update(str(path.relative_to(package)).encode())
-        digest.update(path.read_bytes())
-    digest.update(numba.__version__.encode())
-    root = os.environ.get("NUMBA_CACHE_DIR")
-    if not root:
-        root = os.environ.get("XDG_CACHE_HOME")
-        if not root:
-            try:
-                root = Path.home() / ".cache"
-            except (RuntimeError, KeyError):    # no home directory to be found
-                root = Path("/nonexistent")
-        root = Path(root) / "raytrace"
-    return Path(root) / f"numba-{digest.hexdigest()[:16]}"
+from raytrace.kernels.cachedir import cache_dir
 
 
 def _unwritable(path):
@@ -60,7 +38,7 @@ def _unwritable(path):
     return None
 
 
-numba.config.CACHE_DIR = str(_cache_dir())
+numba.config.CACHE_DIR = str(cache_dir(numba.__version__))
 _why = _unwritable(Path(numba.config.CACHE_DIR))
 # Whether kernels are cached (kernels/jit.py's cache=).
 CACHING = _why is None

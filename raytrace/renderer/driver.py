@@ -41,6 +41,20 @@ class RenderResult:
     aovs: dict = field(default_factory=dict)
     structure: object = None     # the acceleration structure's layout, as built
 
+    def save(self, path):
+        """Write the image to ``path``, its format by the extension: .png,
+        .jpg, ... (8-bit sRGB) or .npy, .pfm, .exr (linear float32)."""
+        from raytrace.renderer.display import save_result
+        return save_result(self, path)
+
+    def _repr_png_(self):            # Jupyter shows the image
+        from raytrace.renderer.display import png_bytes
+        return png_bytes(self.image)
+
+    def __repr__(self):
+        from raytrace.renderer.display import result_repr
+        return result_repr(self)
+
 
 def _check_int(name, value, lo, hi):
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
@@ -372,9 +386,15 @@ def render(scene, opts=None, *, drop_meshes=False, **kw):
     ``render(scene, accel="bvol", shadows="soft", width=320, height=240)``.
     drop_meshes: as for prepare (the command's scene only).
     """
+    from raytrace.renderer.firstrun import expecting_render
+    opts = options_with(opts, kw)
+    with expecting_render(scene, opts):
+        return _render(scene, opts, drop_meshes)
+
+
+def _render(scene, opts, drop_meshes):
     from raytrace.kernels.counters import N_COUNTERS
     from raytrace.renderer.stats import counters_from_rows, derive
-    opts = options_with(opts, kw)
     setup = prepare(scene, opts, drop_meshes)
     cam = camera_buffer(scene.camera, setup.width, setup.height)
     width, height = setup.width, setup.height

@@ -8,7 +8,9 @@ maximum, because costs span orders of magnitude (a background pixel may
 cost one plane test, a silhouette pixel thousands of triangle tests).
 
 Below the image a legend strip shows the ramp from minimum (left) to
-maximum (right), with a tick at each power of ten inside the range.
+maximum (right), with a tick at each power of ten inside the range, and
+under it the costs themselves (minimum, powers of ten, maximum), so the
+picture keeps its scale without the terminal's line.
 """
 import numpy as np
 
@@ -39,8 +41,44 @@ def log_scale(cost, lo, hi):
 
 
 def legend_height(height):
-    """Rows of the legend strip: a twelfth of the image, at least 4."""
-    return max(4, height // 12)
+    """Rows of the legend strip (a twelfth of the image, at least 4) and of
+    its numbers under it."""
+    return max(4, height // 12) + label_height(height)
+
+
+def label_height(height):
+    return label_size(height) + 4
+
+
+def label_size(height):
+    """Pixel size of the legend's numbers: readable, and small beside a small image."""
+    return max(10, min(24, height // 24))
+
+
+def _labels(width, height, lo, hi, ticks):
+    """(rows, width, 3) uint8: the costs at ``ticks`` written under their
+    places on the ramp, white on black; labels that would overlap are left
+    out, the maximum kept."""
+    from PIL import Image, ImageDraw, ImageFont
+    size = label_size(height)
+    try:
+        font = ImageFont.load_default(size=size)
+    except (TypeError, OSError, ImportError):      # no FreeType: the bitmap font
+        font = ImageFont.load_default()
+    img = Image.new("RGB", (width, label_height(height)), (0, 0, 0))
+    draw = ImageDraw.Draw(img)
+    placed = []
+    for c in sorted(ticks, key=lambda c: (c != lo and c != hi, c)):      # ends first
+        label = f"{c:,}"
+        left_, _, right_, _ = draw.textbbox((0, 0), label, font=font)
+        tw = right_ - left_
+        pos = int(round(float(log_scale(c, lo, hi)) * (width - 1)))
+        left = min(max(0, pos - tw // 2), max(0, width - tw))
+        if any(left < b + 4 and a < left + tw + 4 for a, b in placed):
+            continue
+        placed.append((left, left + tw))
+        draw.text((left - left_, 1), label, font=font, fill=(255, 255, 255))
+    return np.asarray(img)
 
 
 def cost_heatmap(cost):
@@ -51,14 +89,17 @@ def cost_heatmap(cost):
     lo, hi = int(cost.min()), int(cost.max())
     body = colormap(log_scale(cost, lo, hi))
 
-    rows = legend_height(h)
+    rows = legend_height(h) - label_height(h)
     ramp = np.linspace(0.0, 1.0, w) if w > 1 else np.zeros(1)
     strip = np.repeat(colormap(ramp)[None], rows, axis=0)
     strip[0] = 0  # a black rule between image and legend
+    ticks = [lo, hi]
     decade = 1                               # a tick at each power of ten
     while decade <= hi and hi > lo:
         if decade >= lo:
             x = int(round(log_scale(decade, lo, hi) * (w - 1)))
             strip[rows // 2:, x] = 255
+            ticks.append(decade)
         decade *= 10
-    return np.concatenate([body, strip], axis=0), lo, hi
+    labels = _labels(w, h, lo, hi, sorted(set(ticks)))
+    return np.concatenate([body, strip, labels], axis=0), lo, hi

@@ -29,10 +29,11 @@ def scene_kind(name):
 
 def unknown_scene_message(name):
     from raytrace.scene.builtin import BUILTIN
+    from raytrace.scene.examples import example_names
     what = ("empty scene name" if str(name) == "" else
             f"{name}: is a directory, not a scene or mesh file" if Path(str(name)).is_dir()
             else f"unknown scene {str(name)!r}")
-    return (f"{what} (built-in scenes: {', '.join(sorted(BUILTIN))}; "
+    return (f"{what} (scenes: {', '.join(sorted([*BUILTIN, *example_names()]))}; "
             f"or a .toml scene file, or a mesh file: {', '.join(MESH_EXTENSIONS)})")
 
 
@@ -55,6 +56,8 @@ def load_scene(name_or_path, *, detail=None, view=None, azimuth=None, elevation=
     """
     if not isinstance(name_or_path, (str, Path)):
         raise RaytraceError(f"scene: expected a name or a path, got {type(name_or_path).__name__}")
+    from raytrace.scene.examples import resolve
+    name_or_path = resolve(name_or_path)
     kind = scene_kind(name_or_path)
     if kind is None:
         raise RaytraceError(unknown_scene_message(name_or_path))
@@ -120,7 +123,9 @@ def load_kernels(name_or_path, detail=None):
     will run for this scene, so that loading's time is not compile time
     (the command's statistics); 0.0 if it runs none.  Only a big teapot
     has any, built in or in a scene file: its tessellation's
-    (scene/teapot.py)."""
+    (scenes/teapot.py)."""
+    from raytrace.scene.examples import resolve
+    name_or_path = resolve(name_or_path)
     if scene_kind(name_or_path) == "toml":
         from raytrace.scene.formats.scenefile import teapot_details
         detail = max((d for d in teapot_details(name_or_path) if _detail_ok(d)), default=None)

@@ -38,6 +38,9 @@ class Mesh:
     colors: np.ndarray = None        # (n, 3) linear RGB per vertex, multiplying the material's
     uv: np.ndarray = None            # (n, 2) texture coordinates, (0, 0) the image's lower left
 
+    def __repr__(self):              # not the arrays: a notebook would print them all
+        return f"Mesh({self.name!r}: {len(self.vertices):,} vertices, {len(self.faces):,} triangles)"
+
 
 @dataclass
 class Sphere:
@@ -90,3 +93,26 @@ class Scene:
     # A scene file's [animation] table (raytrace.scene.animation.Animation), or
     # None; typed loosely so this module imports nothing more.
     animation: object = None
+
+    def __repr__(self):              # one line: a notebook shows it
+        return scene_repr(self)
+
+
+def scene_repr(scene):
+    kinds = {}
+    triangles = 0
+    for o in scene.objects:
+        name = {Mesh: "mesh", Sphere: "sphere", Plane: "plane"}.get(type(o), type(o).__name__)
+        kinds[name] = kinds.get(name, 0) + 1
+        if isinstance(o, Mesh):
+            triangles += len(o.faces)
+    objects = ", ".join(f"{n} {k if n == 1 else k + ('es' if k == 'mesh' else 's')}"
+                        for k, n in kinds.items()) or "no objects"
+    if triangles:
+        objects += f" ({triangles:,} triangles)"
+    cam = scene.camera
+    size = f"{cam.width}x{cam.height}" if hasattr(cam, "width") else "no camera"
+    lights = len(scene.lights)
+    return (f"Scene({scene.name!r}: {objects}; {lights} light{'s' if lights != 1 else ''}; "
+            f"camera {size})")
+

@@ -1,4 +1,4 @@
-"""Mesh files (.obj, .ply, .stl, .off, .glb) to (vertices, faces) arrays.
+"""Mesh files (.obj, .ply, .stl, .off, .glb, .gltf) to (vertices, faces) arrays.
 
 trimesh is imported here only, on first use, so built-in scenes, scene
 files without meshes and ``--help`` never pay for it.  trimesh raises many
@@ -19,7 +19,7 @@ from raytrace.kernels.limits import MAX_COORD
 from raytrace.scene.formats.ply import check_ascii_counts, read_simple_ply
 from raytrace.scene.model import Material
 
-MESH_EXTENSIONS = (".obj", ".ply", ".stl", ".off", ".glb")
+MESH_EXTENSIONS = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")
 
 
 
@@ -359,7 +359,7 @@ def _part(trimesh, scene, node, library, source, warn, base):
         normals = np.array(placed.vertex_normals) if had_normals else None
     part = MeshPart(vertices, faces, normals,
                     _visual_material(mesh.visual, library, source, warn, base))
-    _visual_colours(part, mesh.visual, source.lower().endswith(".glb"))
+    _visual_colours(part, mesh.visual, source.lower().endswith((".glb", ".gltf")))
     return part
 
 

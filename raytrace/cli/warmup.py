@@ -1,0 +1,117 @@
+"""Compile kernels into the cache ahead of time (``raytrace warmup``): for
+container images, CI, and machines that share one cache.
+
+A render kernel is compiled per combination of record types: the
+structure's layout, the shadow mode (none and hard share one; soft is its
+own), textures (vertex colours or an image) and mirrors or glass.  Each
+step renders a tiny scene with exactly that combination, so the kernels a
+real scene of that kind uses are the ones compiled (the types, not the
+sizes, pick them).
+"""
+import itertools
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+FEATURES = ("textures", "mirrors", "queries", "loading")
+
+
+@dataclass
+class Step:
+    label: str
+    run: object            # a function of no arguments
+
+
+def _scene(textures, mirrors):
+    from raytrace.scene.model import Camera, Light, Material, Mesh, Plane, Scene, Sphere
+    quad = Mesh(np.array([[-1, 0, -1], [1, 0, -1], [1, 0, 1], [-1, 0, 1]], float) + [0, 0.5, 0],
+                np.array([[0, 2, 1], [0, 3, 2]]), Material(),
+                normals=np.tile([0.0, 1.0, 0.0], (4, 1)))
+    if textures:
+        quad.colors = np.full((4, 3), 0.5)
+        quad.uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
+        quad.material.texture = np.full((2, 2, 3), 0.5)
+    ball = Sphere((0.0, 1.5, 0.0), 0.5, Material(reflect=0.5, transmit=0.2) if mirrors else Material())
+    return Scene("warmup", Camera((0.0, 2.0, 5.0), (0.0, 0.5, 0.0), width=4, height=3),
+                 [quad, ball, Plane((0, 0, 0), (0, 1, 0), Material(checker=1.0))],
+                 [Light((2.0, 5.0, 2.0), size=1.0)])
+
+
+def _render(accel, shadows, textures, mirrors):
+    from raytrace.renderer.driver import render
+    return lambda: render(_scene(textures, mirrors), accel=accel.split(":")[0],
+                          bvh_build=accel.split(":")[1] if ":" in accel else "sah",
+                          shadows=shadows, light_samples=4, pattern="stratified")
+
+
+def _queries(accel):
+    def run():
+        from raytrace.cast.rayscene import RayScene
+        v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+        f = np.array([[0, 1, 2], [0, 2, 3]])
+        rays = RayScene(accel=accel)
+        rays.add_mesh(v, f)
+        o, d = np.array([[0.5, 0.5, 1.0]]), np.array([[0.0, 0.0, -1.0]])
+        rays.cast_rays(o, d).normal                       # noqa: B018 -- computing it compiles
+        rays.occluded(o, d)
+        rays.count_intersections(o, d)
+        rays.list_intersections(o, d)
+        rays.contains(o)
+        rays.distance(o)
+    return run
+
+
+def _loading():
+    from raytrace.scene.flatten import _kept_corners_parallel
+    from raytrace.scene.teapot import load_kernels
+    load_kernels(256)                      # a big teapot's tessellation
+    _kept_corners_parallel(np.zeros((1, 3)), np.zeros((3, 1), np.int64), 1)
+
+
+def _big_builders(accels):
+    from raytrace.accel.registry import get
+    from raytrace.scene.flatten import tiny_geometry
+
+    def run():
+        for accel in accels:
+            name, _, build = accel.partition(":")
+            get(name).load(tiny_geometry(), 10**8, bvh_build=build or "sah")   # big-scene paths too
+    return run
+
+
+def plan(accels, shadows=("hard",), features=()):
+    """The steps that compile ``accels`` (names as --accel, or
+    "bvh:median", "bvh:lbvh") with the shadow modes and FEATURES asked for."""
+    modes = sorted({"soft" if s == "soft" else "hard" for s in shadows})
+    steps = []
+    for accel, mode, tex, mir in itertools.product(
+            accels, modes, (False, True) if "textures" in features else (False,),
+            (False, True) if "mirrors" in features else (False,)):
+        words = [accel, f"{'soft' if mode == 'soft' else 'none/hard'} shadows"]
+        words += ["textures"] * tex + ["mirrors and glass"] * mir
+        steps.append(Step(f"render: {', '.join(words)}", _render(accel, mode, tex, mir)))
+    steps.append(Step("builders for big scenes", _big_builders(accels)))
+    if "queries" in features:
+        steps += [Step(f"ray queries: {a}", _queries(a))
+                  for a in dict.fromkeys(a.split(":")[0] for a in accels)]
+    if "loading" in features:
+        steps.append(Step("loading: big teapots and meshes", _loading))
+    return steps
+
+
+def run(steps, started=None, done=None):
+    """Run the steps: ``started(k, n, label)`` before each and ``done(k, n,
+    label, seconds)`` after.  Returns the seconds of each."""
+    from raytrace.renderer.firstrun import set_quiet
+    set_quiet(True)                  # the steps say what compiles
+    times = []
+    for k, step in enumerate(steps, 1):
+        if started is not None:
+            started(k, len(steps), step.label)
+        t0 = time.perf_counter()
+        step.run()
+        times.append(time.perf_counter() - t0)
+        if done is not None:
+            done(k, len(steps), step.label, times[-1])
+    return times

@@ -1,0 +1,41 @@
+"""Where the compiled kernels are cached, worked out without importing
+Numba (0.5-1 s), so the command can tell a first run at once."""
+import hashlib
+import os
+from pathlib import Path
+
+
+def cache_dir(numba_version):
+    """The cache directory, named by a hash of every module that compiles
+    and the Numba version (jitconfig.py says why)."""
+    package = Path(__file__).parent.parent
+    # The kernel floor and the structures, and any other module that compiles
+    # (the teapot's and big meshes' kernels in raytrace/scene).
+    sources = sorted({*package.glob("kernels/**/*.py"), *package.glob("accel/**/*.py"),
+                      *(p for p in package.glob("**/*.py") if "from numba" in p.read_text())})
+    digest = hashlib.sha1()
+    for path in sources:
+        digest.update(str(path.relative_to(package)).encode())
+        digest.update(path.read_bytes())
+    digest.update(numba_version.encode())
+    root = os.environ.get("NUMBA_CACHE_DIR")
+    if not root:
+        root = os.environ.get("XDG_CACHE_HOME")
+        if not root:
+            try:
+                root = Path.home() / ".cache"
+            except (RuntimeError, KeyError):    # no home directory to be found
+                root = Path("/nonexistent")
+        root = Path(root) / "raytrace"
+    return Path(root) / f"numba-{digest.hexdigest()[:16]}"
+
+
+def render_kernel_cached():
+    """Whether any version of the render kernel is in the cache: if not,
+    this is a first run and a compile is certain."""
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        where = cache_dir(version("numba"))
+    except (PackageNotFoundError, OSError):
+        return True                  # unknown: leave it to Numba's compile event
+    return any(where.glob("*/render.render_rows-*.nbi"))

@@ -1,0 +1,160 @@
+"""The one line a cold kernel cache earns on stderr:
+
+    compiling kernels for teapot: bvh, hard shadows (first run only, about 12 s)
+
+Numba fires its "numba:compile" event only when it really compiles: a
+kernel found in the on-disk cache is loaded without one.  So the line is
+printed exactly when a wait starts, once per process, and never on a warm
+run.  ``RAYTRACE_QUIET=1`` (or the command's ``-q``) silences it.
+"""
+import contextlib
+import os
+import sys
+import threading
+
+# Seconds a cold compile took on the project's 2-core machine (docs/benchmarks.md,
+# "Cold start"; `python bench/coldstart.py`): the builder and the render
+# kernel for each structure, then what mirrors and glass or textures add.
+RENDER_S = {"none": 8, "bvol": 8, "bvh": 12, "grid": 13, "kdtree": 14}
+BOUNCES_S = 5
+TEXTURES_S = 5
+# A new variant of a kernel already in the cache (soft shadows after hard,
+# another structure's render kernel): the "then ..." rows of that table.
+VARIANT_S = 6
+# The first cast_rays (its structure's builder and the closest-hit kernel).
+QUERY_S = {"none": 4, "bvol": 4, "bvh": 6, "grid": 7, "kdtree": 8}
+
+_lock = threading.Lock()
+_state = {"shown": False, "quiet": False, "listening": False, "fallback": None}
+_active = threading.local()
+
+
+def set_quiet(quiet=True):
+    """No notice in this process (the command's -q)."""
+    _state["quiet"] = bool(quiet)
+
+
+def _quiet():
+    return _state["quiet"] or os.environ.get("RAYTRACE_QUIET", "") not in ("", "0")
+
+
+def _listen(load=True):
+    """Register for Numba's compile events; ``load=False``: only if Numba is
+    imported already (a bad file name is reported without importing it)."""
+    if _state["listening"] or not (load or "numba" in sys.modules):
+        return
+    import numba.core.event as event
+
+    class Notice(event.Listener):
+        def on_start(self, ev):
+            _compile_started(ev.data.get("dispatcher") if isinstance(ev.data, dict) else None)
+
+        def on_end(self, ev):
+            pass
+
+    with _lock:
+        if not _state["listening"]:
+            event.register("numba:compile", Notice())
+            _state["listening"] = True
+
+
+def _label(what, seconds):
+    about = f", about {seconds:.0f} s" if seconds else ""
+    return f"compiling kernels for {what} (first run only{about})"
+
+
+def _compile_started(dispatcher):
+    if _state["shown"] or _quiet():
+        return
+    line = getattr(_active, "line", None) or _state["fallback"]
+    if line is None:
+        name = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
+        if not name.startswith("raytrace."):
+            return
+        line = _label(name.rsplit(".", 1)[-1], None)
+    with _lock:
+        if _state["shown"]:
+            return
+        _state["shown"] = True
+    try:
+        sys.stderr.write(line + "\n")
+        sys.stderr.flush()
+    except (OSError, ValueError):      # a closed stderr is no reason to fail a render
+        pass
+
+
+@contextlib.contextmanager
+def expecting(what, seconds=None, load=True):
+    """Inside, a compile that starts is announced as ``what`` (``seconds``: its
+    estimate).  An enclosing ``expecting`` (the command's) keeps its own words.
+    ``load``: as for _listen."""
+    _listen(load)
+    if getattr(_active, "line", None) is not None:
+        yield
+        return
+    _active.line = _label(what, seconds)
+    try:
+        yield
+    finally:
+        _active.line = None
+
+
+def expect(what, seconds=None):
+    """Announce compiles outside any ``expecting`` block as ``what`` from now on
+    (a RayScene: its structure is built and its kernels run in later calls)."""
+    _listen()
+    _state["fallback"] = _label(what, seconds)
+
+
+def announce_if_cold(what, seconds):
+    """Say it now, before Numba is even imported, if no render kernel is in
+    the cache at all (a first run: a compile is certain)."""
+    if _state["shown"] or _quiet():
+        return
+    from raytrace.kernels.cachedir import render_kernel_cached
+    if not render_kernel_cached():
+        _state["shown"] = True
+        try:
+            sys.stderr.write(_label(what, seconds) + "\n")
+            sys.stderr.flush()
+        except (OSError, ValueError):
+            pass
+
+
+def has_cache_entries(dispatcher):
+    """Whether Numba's cache holds any compiled version of ``dispatcher`` for
+    the current sources: then a compile is a new variant of it, not the
+    whole kernel set."""
+    try:
+        return bool(dispatcher._cache._cache_file._load_index())
+    except Exception:      # Numba's private layout moved: assume a cold cache
+        return False
+
+
+def render_estimate(accel, bounces, textures):
+    """Seconds a cold render compile takes, about."""
+    from raytrace.kernels.render import render_rows
+    if has_cache_entries(render_rows):
+        return VARIANT_S
+    base = RENDER_S.get(str(accel).split(":")[0], 12)
+    return base + BOUNCES_S * bool(bounces) + TEXTURES_S * bool(textures)
+
+
+def render_what(scene_name, opts):
+    return f"{scene_name}: {opts.accel}, {opts.shadows} shadows"
+
+
+def scene_estimate(scene, accel):
+    """render_estimate for a Scene, read from its description (before flattening)."""
+    from raytrace.scene.model import Mesh
+    objects = getattr(scene, "objects", None) or []
+    bounces = any(o.material.bounces() for o in objects if hasattr(o, "material"))
+    textures = any(isinstance(o, Mesh) and (o.colors is not None or o.uv is not None)
+                   for o in objects)
+    return render_estimate(accel, bounces, textures)
+
+
+def expecting_render(scene, opts):
+    """The block that flattens, builds and renders ``scene`` with ``opts``."""
+    return expecting(render_what(getattr(scene, "name", "the scene"), opts),
+                     scene_estimate(scene, opts.accel))

@@ -1,0 +1,118 @@
+"""The compile notice: one line on stderr when Numba really compiles (a cold
+cache), none when every kernel loads from the cache, none when quiet."""
+import os
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+NOTICE = "compiling kernels for"
+
+TOY = textwrap.dedent("""
+    import sys
+    sys.path.insert(0, sys.argv[1])
+    from raytrace.renderer.firstrun import expecting
+
+    import toy
+    with expecting("a toy", 3):
+        toy.double(2.0)
+        toy.triple(2.0)        # a second compile: still one line
+    print("done")
+""")
+
+
+def _run(args, cache, **env):
+    full = {k: v for k, v in os.environ.items() if k != "RAYTRACE_QUIET"}
+    full.update(NUMBA_CACHE_DIR=str(cache), **env)
+    return subprocess.run(args, capture_output=True, text=True, env=full, timeout=600)
+
+
+@pytest.fixture
+def toy(tmp_path):
+    (tmp_path / "toy.py").write_text(textwrap.dedent("""
+        from numba import njit
+
+        @njit(cache=True)
+        def double(x):
+            return 2 * x
+
+        @njit(cache=True)
+        def triple(x):
+            return 3 * x
+    """))
+    script = tmp_path / "run.py"
+    script.write_text(TOY)
+    return [sys.executable, str(script), str(tmp_path)]
+
+
+def test_cold_cache_says_what_it_compiles_once_then_warm_is_silent(toy, tmp_path):
+    cache = tmp_path / "cache"
+    cold = _run(toy, cache)
+    assert cold.returncode == 0, cold.stderr
+    lines = [ln for ln in cold.stderr.splitlines() if NOTICE in ln]
+    assert lines == ["compiling kernels for a toy (first run only, about 3 s)"], cold.stderr
+    warm = _run(toy, cache)
+    assert warm.returncode == 0 and warm.stdout.strip() == "done", warm.stderr
+    assert NOTICE not in warm.stderr
+
+
+def test_quiet_environment_silences_the_notice(toy, tmp_path):
+    cold = _run(toy, tmp_path / "cache", RAYTRACE_QUIET="1")
+    assert cold.returncode == 0, cold.stderr
+    assert NOTICE not in cold.stderr
+
+
+def test_the_command_is_silent_when_its_kernels_are_cached(tmp_path):
+    """The suite's own cache: the first run may compile (and say so, once),
+    the second loads every kernel and says nothing; -q never says it."""
+    cache = os.environ.get("NUMBA_CACHE_DIR") or tmp_path / "cache"
+    cmd = [sys.executable, "-m", "raytrace", "spheres", "--width", "16", "--height", "12"]
+    first = _run([*cmd, "-o", str(tmp_path / "a.png")], cache)
+    assert first.returncode == 0, first.stderr
+    assert sum(NOTICE in ln for ln in first.stderr.splitlines()) <= 1
+    second = _run([*cmd, "-o", str(tmp_path / "b.png")], cache)
+    assert second.returncode == 0, second.stderr
+    assert NOTICE not in second.stderr, second.stderr
+    quiet = _run([*cmd, "-q", "--shadows", "none", "--spp", "2", "-o", str(tmp_path / "c.png")],
+                 cache)
+    assert quiet.returncode == 0 and NOTICE not in quiet.stderr, quiet.stderr
+
+
+def test_estimate_counts_mirrors_and_textures():
+    from raytrace.renderer.firstrun import BOUNCES_S, RENDER_S, scene_estimate
+    from raytrace.scene.model import Camera, Material, Scene, Sphere
+    plain = Scene("s", Camera((0, 0, 5), (0, 0, 0)), [Sphere((0, 0, 0), 1.0)])
+    mirror = Scene("m", Camera((0, 0, 5), (0, 0, 0)), [Sphere((0, 0, 0), 1.0, Material(reflect=0.5))])
+    a, b = scene_estimate(plain, "kdtree"), scene_estimate(mirror, "kdtree")
+    # A cache with render kernels in it makes both a variant's estimate.
+    assert (a, b) in ((RENDER_S["kdtree"], RENDER_S["kdtree"] + BOUNCES_S), (6, 6))
+
+
+def test_cache_dir_is_found_without_numba_and_tells_a_first_run(tmp_path, monkeypatch):
+    """cachedir.py names the directory jitconfig gives Numba; no render
+    kernel index in it means a first run, told before Numba loads."""
+    import numba
+
+    import raytrace.kernels.jitconfig  # noqa: F401 -- sets numba.config.CACHE_DIR
+    from raytrace.kernels import cachedir
+    from raytrace.renderer import firstrun
+    assert str(cachedir.cache_dir(numba.__version__)) == numba.config.CACHE_DIR
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("RAYTRACE_QUIET", raising=False)
+    assert not cachedir.render_kernel_cached()
+    monkeypatch.setitem(firstrun._state, "shown", False)
+    monkeypatch.setitem(firstrun._state, "quiet", False)
+    import io
+    err = io.StringIO()
+    monkeypatch.setattr("sys.stderr", err)
+    firstrun.announce_if_cold("teapot: bvh, hard shadows", 14)
+    firstrun.announce_if_cold("again", 1)                       # once per process
+    assert err.getvalue() == "compiling kernels for teapot: bvh, hard shadows (first run only, about 14 s)\n"
+    index = cachedir.cache_dir(numba.__version__) / "kernels_x" / "render.render_rows-481.py311.nbi"
+    index.parent.mkdir(parents=True)
+    index.touch()
+    assert cachedir.render_kernel_cached()
+    monkeypatch.setitem(firstrun._state, "shown", False)
+    firstrun.announce_if_cold("warm", 1)
+    assert "warm" not in err.getvalue()

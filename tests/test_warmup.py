@@ -1,0 +1,55 @@
+"""raytrace warmup: its tiny scenes give the render kernel the same types
+as real scenes of each kind (so the kernels it compiles are the ones a real
+render loads), and the command checks its arguments."""
+import numba
+import pytest
+from click.testing import CliRunner
+
+import raytrace
+from raytrace.cli.main import main
+from raytrace.cli.warmup import _scene, plan
+from raytrace.renderer.driver import RenderOptions, prepare
+
+
+def _types(scene, **opts):
+    setup = prepare(scene, RenderOptions(**opts))
+    return [numba.typeof(x) for x in setup.payload()]
+
+
+@pytest.mark.parametrize("name, textures, mirrors", [
+    ("teapot", False, False), ("village", False, False), ("textured", True, False),
+    ("whitted", False, True), ("glass_teapot", False, True)])
+def test_warmup_scene_has_the_kernel_types_of_real_scenes(name, textures, mirrors):
+    real = raytrace.load_scene(name, width=8, height=6)
+    assert _types(real) == _types(_scene(textures, mirrors))
+    soft = dict(shadows="soft", light_samples=4)
+    assert _types(real, **soft) == _types(_scene(textures, mirrors), **soft)
+
+
+def test_each_warmup_variant_is_a_kernel_of_its_own():
+    """The control: textures and mirrors do change the types."""
+    plain = _types(_scene(False, False))
+    assert _types(_scene(True, False)) != plain and _types(_scene(False, True)) != plain
+
+
+def test_plan_covers_each_combination_once():
+    labels = [s.label for s in plan(["bvh", "grid"], ["none", "hard", "soft"], ["mirrors", "queries"])]
+    renders = [x for x in labels if x.startswith("render")]
+    assert len(renders) == 2 * 2 * 2 == len(set(renders))      # none and hard: one kernel
+    assert "ray queries: bvh" in labels and "ray queries: grid" in labels
+    assert [s.label for s in plan(["bvh"])] == ["render: bvh, none/hard shadows",
+                                                "builders for big scenes"]
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--accel", "octree"], "octree"), (["--shadows", "fuzzy"], "unknown mode 'fuzzy'"),
+    (["--with", "sound"], "unknown feature 'sound'")])
+def test_warmup_refuses_bad_arguments(args, message):
+    r = CliRunner().invoke(main, ["warmup", *args])
+    assert r.exit_code == 2 and message in r.output, r.output
+
+
+def test_warmup_runs_and_reports_each_step():
+    r = CliRunner().invoke(main, ["warmup", "--accel", "bvh"])
+    assert r.exit_code == 0, r.output
+    assert "[1/2] render: bvh, none/hard shadows ..." in r.output and "warm: 2 steps" in r.output
