@@ -9,8 +9,21 @@ import time
 
 import click
 
+from raytrace.cli.outputs import (
+    _aov_files,
+    _aov_out,
+    _check_image_path,
+    _check_linear,
+    _check_work,
+    _is_file,
+    _is_frame_path,
+    _is_numbered,
+    _show_structure,
+    _write_outputs,
+)
+from raytrace.cli.params import AovType, _render_options, _scene_options, _view_options, _work_options
 from raytrace.errors import OptionError, RaytraceError
-from raytrace.options import BY_NAME, CREASE, DETAIL, FOV_RANGE, OPTIONS
+from raytrace.options import BY_NAME
 from raytrace.renderer import interrupt
 from raytrace.renderer.interrupt import raise_if_interrupted
 
@@ -52,45 +65,6 @@ def scenes_cmd():
     for name, path in example_names().items():
         click.echo(f"  {name:<13} {describe(path)}")
     click.echo(f"(the files are in {assets_dir()}; copy one to start a scene of your own)")
-
-
-class ViewType(click.ParamType):
-    """--view: a named view, or AZIMUTH,ELEVATION in degrees."""
-    name = "view"
-
-    def convert(self, value, param, ctx):
-        from raytrace.scene.views import VIEWS
-        if isinstance(value, tuple) or value in VIEWS:
-            return value
-        parts = str(value).split(",")
-        try:
-            if len(parts) != 2:
-                raise ValueError
-            az, el = (float(x) for x in parts)
-        except ValueError:
-            self.fail(f"{value!r} is neither a view ({', '.join(VIEWS)}) nor AZIMUTH,ELEVATION "
-                      "in degrees", param, ctx)
-        import math
-        if not math.isfinite(az):
-            self.fail(f"azimuth must be a finite number of degrees, got {parts[0].strip()!r}",
-                      param, ctx)
-        if not -90.0 <= el <= 90.0:
-            self.fail(f"elevation must be between -90 and 90 degrees, got {parts[1].strip()!r}",
-                      param, ctx)
-        return (az, el)
-
-
-class AovType(click.ParamType):
-    name = "list"
-
-    def convert(self, value, param, ctx):
-        from raytrace.renderer.aov import parse_aov_list
-        if isinstance(value, list):
-            return value
-        try:
-            return parse_aov_list(value)
-        except ValueError as exc:
-            self.fail(str(exc), param, ctx)
 
 
 def _is_tty(stream):
@@ -138,18 +112,6 @@ def _load_threads(options):
         numba.set_num_threads(threads)
 
 
-def _view_options(view, up):
-    """--view and --up as load_scene's keyword arguments."""
-    opts = {}
-    if isinstance(view, tuple):
-        opts = dict(azimuth=view[0], elevation=view[1])
-    elif view is not None:
-        opts = dict(view=view)
-    if up is not None:
-        opts["up"] = up
-    return opts
-
-
 @contextlib.contextmanager
 def _one_line_errors():
     """A bad option exits 2, any other raytrace error 1, each as one line
@@ -169,223 +131,6 @@ def _warnings_once():
     """Each warning, ours or a library's, as one line on stderr, once."""
     from raytrace.cli.messages import warnings_once
     return warnings_once()
-
-
-def _write_outputs(result, output, aov, aov_out, heatmap, outputs):
-    """Write the image, any AOVs and the heatmap as one commit (the Outputs
-    ``outputs``: all or none); record them in the stats and return the lines
-    that report them."""
-    from raytrace.renderer import linear
-    from raytrace.renderer.output import image_writer, npz_writer
-    notes = []
-    if linear.is_linear(output):
-        outputs.add(output, linear.writer(result.linear, output))
-    else:
-        outputs.add(output, image_writer(result.image, output))
-    result.stats["output"] = str(output)
-    if isinstance(aov_out, dict):       # a linear image: one file per buffer, its format
-        for name, path in aov_out.items():
-            outputs.add(path, linear.writer(result.aovs[name], path))
-        result.stats["aov"] = {"paths": {k: str(p) for k, p in aov_out.items()}, "buffers": list(aov)}
-        notes.append(f"wrote {', '.join(str(p) for p in aov_out.values())}")
-    elif aov_out is not None:
-        outputs.add(aov_out, npz_writer({k: result.aovs[k] for k in aov}))
-        result.stats["aov"] = {"path": str(aov_out), "buffers": list(aov)}
-        notes.append(f"wrote {aov_out} ({', '.join(aov)})")
-    if heatmap is not None:
-        from raytrace.renderer.heatmap import cost_heatmap
-        img, lo, hi = cost_heatmap(result.aovs["cost"])
-        outputs.add(heatmap, image_writer(img, heatmap))
-        result.stats["heatmap"] = {"path": str(heatmap), "cost_min": lo, "cost_max": hi}
-        notes.append(f"wrote {heatmap} (box + primitive tests per pixel, log scale: "
-                     f"{lo:,} = dark purple to {hi:,} = yellow)")
-    return notes
-
-
-def _is_file(path):
-    """Whether ``path`` is a file; False for a name the system refuses (too long)."""
-    from pathlib import Path
-    try:
-        return Path(path).is_file()
-    except OSError:
-        return False
-
-
-def _aov_out(output, aov):
-    """Where --aov goes: OUTPUT.aov.npz beside an 8-bit image; beside a
-    linear one, a file per buffer in its format ({name: path})."""
-    if not aov:
-        return None
-    from raytrace.renderer.linear import aov_paths, is_linear
-    if is_linear(output):
-        return aov_paths(output, aov)
-    from raytrace.renderer.aov import aov_path
-    return aov_path(output)
-
-
-def _aov_files(aov_out):
-    return list(aov_out.values()) if isinstance(aov_out, dict) else [aov_out]
-
-
-def _check_linear(output, show_depth, tiles, workers, scheduler):
-    """UsageError for what a linear (.npy, .pfm, .exr) output cannot go with."""
-    from raytrace.renderer.linear import check_available
-    if show_depth is not None:
-        raise click.UsageError("--show-structure draws on the 8-bit image: write a .png")
-    if tiles is not None or workers is not None or scheduler is not None:
-        raise click.UsageError(f"{output}: a linear image needs the whole render in this process: "
-                               "drop --tiles, --workers and --scheduler")
-    try:
-        check_available(output)
-    except RaytraceError as exc:
-        raise click.ClickException(str(exc)) from None
-
-
-def _show_structure(result, scene, accel, depth):
-    """The image with the structure's boxes down to ``depth`` drawn over it."""
-    from raytrace.accel.registry import get
-    from raytrace.renderer.driver import camera_buffer
-    from raytrace.renderer.overlay import draw_outline
-    lo, hi, level = get(accel).outline(result.structure, depth)
-    h, w = result.image.shape[:2]
-    result.stats["structure_shown"] = {"depth": depth, "boxes": int(len(lo))}
-    return draw_outline(result.image, camera_buffer(scene.camera, w, h), lo, hi, level,
-                        max(depth, int(level.max()) if len(level) else 0))
-
-
-def _up_choices():
-    from raytrace.scene.views import UP_AXES
-    return UP_AXES
-
-
-class FiniteFloatRange(click.FloatRange):
-    """click's FloatRange lets NaN through (every comparison with it is
-    false); this one does not."""
-
-    def convert(self, value, param, ctx):
-        import math
-        rv = super().convert(value, param, ctx)
-        if not math.isfinite(rv):
-            self.fail(f"{value!r} is not a finite number", param, ctx)
-        return rv
-
-
-def _click_type(opt):
-    """The click type of a render option, from its definition (options.py).
-    A range given by a function (threads: the machine's cores) is checked
-    at render time, and still exits 2."""
-    if opt.kind == "choice":
-        return click.Choice(opt.choice_list())
-    hi = None if callable(opt.hi) else opt.hi
-    if opt.kind == "int":
-        return click.IntRange(min=opt.lo, max=hi)
-    return FiniteFloatRange(min=opt.lo, max=hi)
-
-
-def _render_options(command, skip=()):
-    """Add every render option of options.py (but those in ``skip``) to a
-    click command."""
-    for opt in reversed(OPTIONS):
-        if opt.name in skip:
-            continue
-        shown = opt.default_text or opt.default
-        command = click.option(opt.flag, opt.name, type=_click_type(opt), default=None,
-                               metavar=opt.metavar,
-                               help=f"{opt.help.replace('`', '')} [default: {shown}]")(command)
-    return command
-
-
-def _scene_options(command):
-    """How the scene is made: the teapot's detail, a mesh file's framing,
-    the field of view."""
-    options = [
-        click.option("--detail", type=click.IntRange(min=DETAIL.lo, max=DETAIL.hi), default=None,
-                     metavar=DETAIL.metavar, help=f"{DETAIL.help} [default: {DETAIL.default}]."),
-        click.option("--view", type=ViewType(), default=None,
-                     help="Mesh files: front, back, left, right, top, bottom, iso, or "
-                          "AZIMUTH,ELEVATION in degrees [default: iso]."),
-        click.option("--up", type=click.Choice(_up_choices()), default=None,
-                     help="Mesh files: the model's up axis [default: y]."),
-        click.option("--crease", type=FiniteFloatRange(min=CREASE.lo, max=CREASE.hi), default=None,
-                     metavar=CREASE.metavar,
-                     help=f"{CREASE.help[0].upper()}{CREASE.help[1:]} (degrees; when the file has "
-                          f"no normals) [default: {CREASE.default:g}]."),
-        click.option("--flat", is_flag=True, default=None,
-                     help="Mesh files: flat shading, one normal per triangle."),
-        click.option("--fov", type=FiniteFloatRange(min=FOV_RANGE[0], max=FOV_RANGE[1],
-                                                    min_open=True, max_open=True), default=None,
-                     help="Vertical field of view in degrees [default: the scene's, 60 for "
-                          "meshes]."),
-    ]
-    for option in reversed(options):
-        command = option(command)
-    return command
-
-
-def _work_options(command):
-    """Frame sequences, tiles, and where the work runs (frames/batch.py, frames/distributed.py)."""
-    options = [
-        click.option("--turntable", type=click.IntRange(min=1, max=100_000), default=None,
-                     metavar="N", help="Render N frames orbiting the camera about its look-at "
-                                       "point (around the scene's up axis) [-o default: SCENE.gif]."),
-        click.option("--fps", type=FiniteFloatRange(min=1, max=240), default=None,
-                     help="Frames per second of a .gif or .mp4 [default: 24]."),
-        click.option("--resume", is_flag=True, default=False,
-                     help="PNG sequences: keep the frames already written, render the rest."),
-        click.option("--tiles", type=click.IntRange(min=1, max=1 << 16), default=None,
-                     metavar="N", help="Render each image as N bands of rows, one task each "
-                                       "[default: 1; 4 per Dask worker for a still]."),
-        click.option("--workers", type=click.IntRange(min=1, max=1024), default=None,
-                     metavar="N", help="Run the tasks on a local Dask cluster of N processes "
-                                       "(the distributed extra)."),
-        click.option("--scheduler", default=None, envvar="DASK_SCHEDULER_ADDRESS",
-                     metavar="ADDRESS", help="Run the tasks on the Dask cluster at ADDRESS "
-                                             "[default: $DASK_SCHEDULER_ADDRESS]."),
-    ]
-    for option in reversed(options):
-        command = option(command)
-    return command
-
-
-def _is_frame_path(path):
-    """An output that holds frames: an animation file or a numbered PNG pattern."""
-    return path is not None and (path.lower().endswith((".gif", ".mp4")) or _is_numbered(path))
-
-
-def _is_numbered(path):
-    """A name with a frame-number field, %d or %04d (frames/writers.py)."""
-    from raytrace.frames.writers import number_fields
-    return path is not None and bool(number_fields(path.rsplit("/", 1)[-1]))
-
-
-def _check_work(animated, still_extras, turntable, fps, resume, tiles, workers, scheduler):
-    """UsageError for the frame and work options that contradict each other."""
-    if workers is not None and scheduler is not None:
-        raise click.UsageError("--workers starts a local cluster; --scheduler (or "
-                               "DASK_SCHEDULER_ADDRESS) names a running one: give one")
-    if workers is not None:
-        from raytrace.frames.distributed import check_worker_count
-        try:
-            check_worker_count(workers)
-        except RaytraceError as exc:
-            raise click.UsageError(f"--workers: {exc}") from None
-    if scheduler is not None:
-        from raytrace.frames.dask_address import check_scheduler_address
-        try:
-            check_scheduler_address(scheduler)
-        except RaytraceError as exc:
-            raise click.UsageError(f"--scheduler: {exc}") from None
-    if not animated:
-        for flag, value in (("--fps", fps), ("--resume", resume or None)):
-            if value is not None:
-                raise click.UsageError(f"{flag} applies to frame sequences (--turntable, or -o "
-                                       f"with .gif, .mp4 or a pattern like frames/f_%04d.png)")
-    for flag in still_extras:
-        if animated:
-            raise click.UsageError(f"{flag} applies to still images")
-        if tiles is not None or workers is not None or scheduler is not None:
-            raise click.UsageError(f"{flag} needs the whole image in this process: "
-                                   f"drop --tiles, --workers and --scheduler")
 
 
 def _runner(workers, scheduler):
@@ -411,21 +156,6 @@ def _scene_kind(scene, detail, view, up, crease, flat):
     if crease is not None and flat:
         raise click.UsageError("--crease and --flat contradict each other")
     return kind
-
-
-def _check_image_path(flag, path, linear=False):
-    """UsageError for a path with no image format; ``linear``: also the
-    float formats (.npy, .pfm, .exr) of raytrace/linear.py."""
-    from pathlib import Path
-
-    from raytrace.renderer.linear import LINEAR_FORMATS
-    from raytrace.renderer.output import IMAGE_FORMATS
-    formats = [*IMAGE_FORMATS, *(LINEAR_FORMATS if linear else ())]
-    if path == "":
-        raise click.UsageError(f"{flag}: empty file name")
-    if path is not None and Path(path).suffix.lower() not in formats:
-        raise click.UsageError(f"{flag}: {path}: unknown image format (use one of "
-                               f"{', '.join(formats)})")
 
 
 @main.command("render")
