@@ -17,6 +17,10 @@ structures   every structure and BVH builder on four scenes, as `raytrace
              compare` measures them (accel/registry.py).
 peer         our batch ray casting against Embree (embreex) or Open3D, if
              importable, on the same primary and shadow rays (peer.py).
+workload     issue 40's public suite: the teapot alone at 1k, 118k and 1M
+             triangles, camera, shuffled, random, shadow, bounce and float32
+             rays, closest/any/count, against Open3D, embreex and Mitsuba's
+             llvm variant where they import (workload.py).
 convergence  soft-shadow error against run time for each sampling pattern
              (convergence.py).
 turntable    a 36-frame teapot turntable in this process against --workers 2
@@ -45,8 +49,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import common  # noqa: E402
 from common import ACCELS, STRUCTURES, fmt_g, fmt_s, interleaved, log, markdown_table, median  # noqa: E402
 
-SECTIONS = ("coldstart", "workshop", "scaling", "structures", "peer", "convergence", "turntable",
-            "meshfiles")
+SECTIONS = ("coldstart", "workshop", "scaling", "structures", "peer", "workload", "convergence",
+            "turntable", "meshfiles")
 # The scaling table's structures: those whose cost grows slower than the
 # mesh, each with a visit counter of its own (nodes, cells).
 HIERARCHICAL = tuple(n for n, s in STRUCTURES.items() if s.visit_metric)
@@ -328,6 +332,10 @@ def main(quick, json_path, plot_path, sections):
         import peer
         report["peer"] = peer.run(quick)
         print(peer.markdown(report["peer"]) + "\n", flush=True)
+    if "workload" in chosen:
+        import workload
+        report["workload"] = workload.run(quick)
+        print(workload.markdown(report["workload"]) + "\n", flush=True)
     if "convergence" in chosen:
         import convergence
         report["convergence"] = convergence.run(quick, plot_path)
