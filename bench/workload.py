@@ -176,6 +176,7 @@ def _ours(v, f):
         "closest": lambda o, d, tm: scene.cast_rays(o, d, t_max=tm).prim_id,
         "any": lambda o, d, tm: scene.occluded(o, d, t_max=tm),
         "count": lambda o, d, tm: scene.count_intersections(o, d, t_max=tm),
+        "scene": scene,
     }
 
 
@@ -280,8 +281,7 @@ def run_mesh(detail, runs):
     ours = _ours(v, f)
 
     def closest_prim_t(o, d):
-        from raytrace import RayScene
-        h = RayScene((v, f), accel="bvh").cast_rays(o, d)
+        h = ours["scene"].cast_rays(o, d)
         return h.prim_id, h.t
     sets = ray_sets(v, f, camera, light, closest_prim_t)
     ours["closest"](*sets["camera"])    # load kernels and build the trees (count has its own)
