@@ -4,7 +4,8 @@ mesh alone, through RayScene and through each peer that imports.
     bash bench.sh --sections workload [--quick]
 
 Meshes: the teapot at details 4, 43 and 128 (1,024, ~118k and ~1M
-triangles; --quick: the first two), without its ground plane.  Ray sets
+triangles; --quick: the first two, 320x240 rays, 3 rounds), without its
+ground plane.  Ray sets
 per mesh, made once in NumPy (float64), the seed fixed:
 
 camera       640x480 pixel centres of the scene's camera, image order
@@ -31,7 +32,7 @@ from common import fmt_g, log, markdown_table, median
 
 DETAILS_FULL = (4, 43, 128)
 DETAILS_QUICK = (4, 43)
-WIDTH, HEIGHT = 640, 480
+SIZE_FULL, SIZE_QUICK = (640, 480), (320, 240)   # camera rays; as many box rays
 SEED = 40
 OFFSET = 1e-4     # off the surface along the facing normal (about 200 float32 ulps at 1)
 THREADS = 2
@@ -146,7 +147,7 @@ def teapot_mesh(detail):
             scene.camera, scene.lights[0])
 
 
-def ray_sets(v, f, camera, light, closest_prim_t, width=WIDTH, height=HEIGHT, seed=SEED):
+def ray_sets(v, f, camera, light, closest_prim_t, width, height, seed=SEED):
     """{name: (origins, directions, t_max)} for every set; closest_prim_t(o,
     d) -> (prim, t) gives the camera rays' hits."""
     rng = np.random.default_rng(seed)
@@ -272,7 +273,7 @@ def _agree(query, a, b):
     return float(np.mean(a == b)) if len(a) else float("nan")
 
 
-def run_mesh(detail, runs):
+def run_mesh(detail, runs, width, height):
     import numba
     numba.set_num_threads(THREADS)
     v, f, camera, light = teapot_mesh(detail)
@@ -283,7 +284,7 @@ def run_mesh(detail, runs):
     def closest_prim_t(o, d):
         h = ours["scene"].cast_rays(o, d)
         return h.prim_id, h.t
-    sets = ray_sets(v, f, camera, light, closest_prim_t)
+    sets = ray_sets(v, f, camera, light, closest_prim_t, width, height)
     ours["closest"](*sets["camera"])    # load kernels and build the trees (count has its own)
     ours["count"](*sets["camera"])
     theirs = peers(v32, f32)
@@ -320,8 +321,9 @@ def run_mesh(detail, runs):
 
 def run(quick):
     runs = 3 if quick else 7
-    meshes = [run_mesh(d, runs) for d in (DETAILS_QUICK if quick else DETAILS_FULL)]
-    return {"runs": runs, "threads": THREADS, "width": WIDTH, "height": HEIGHT, "seed": SEED,
+    w, h = SIZE_QUICK if quick else SIZE_FULL
+    meshes = [run_mesh(d, runs, w, h) for d in (DETAILS_QUICK if quick else DETAILS_FULL)]
+    return {"runs": runs, "threads": THREADS, "width": w, "height": h, "seed": SEED,
             "meshes": meshes}
 
 
