@@ -3,10 +3,10 @@ mesh alone, through RayScene and through each peer that imports.
 
     bash bench.sh --sections workload [--quick]
 
-Meshes: the teapot at details 4, 43 and 128 (1,024, ~118k and ~1M
-triangles; --quick: the first two, 320x240 rays, 3 rounds), without its
-ground plane.  Ray sets
-per mesh, made once in NumPy (float64), the seed fixed:
+Meshes: the teapot at details 4, 43 and 128 (1,024, 118,336 and
+1,048,576 triangles; --quick: the first two, 320x240 rays, 3 rounds),
+without its ground plane.  Ray sets per mesh, made once in NumPy
+(float64), the seed fixed:
 
 camera       640x480 pixel centres of the scene's camera, image order
 shuffled     the same rays in a random order
