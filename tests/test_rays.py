@@ -163,7 +163,8 @@ GOOD_O, GOOD_D = [[0.2, 0.3, -1.0]], [[0, 0, 1.0]]
 
 @pytest.mark.parametrize("target, o, d, kw, message", [
     ((V, F), [[0, 0]], GOOD_D, {}, r"origins: expected shape \(n, 3\)"),
-    ((V, F), GOOD_O, [[[0, 0, 1]]], {}, r"directions: expected shape \(n, 3\)"),
+    # (1, 1, 3) is one ray of an image-shaped array now (README: any leading shape).
+    ((V, F), GOOD_O, [[[0, 0]]], {}, r"directions: expected shape \(n, 3\)"),
     ((V, F), [["a", "b", "c"]], GOOD_D, {}, "origins: not convertible to float64"),
     ((V, F), [[1j, 0, 0]], GOOD_D, {}, "complex"),
     ((V, F), [[0, np.nan, 0]], GOOD_D, {}, r"origins\[0\]: NaN or infinite"),
