@@ -103,10 +103,12 @@ class RaycastingScene:
         a miss has t_hit inf, ids INVALID_ID, uvs and normals 0."""
         h = self._scene.cast_rays(_array(rays), t_min=_FROM_ORIGIN)
         hit = h.hit
+        # Masked copies, not gathers by a boolean index: one pass each.
         uv = np.zeros(hit.shape + (2,), np.float32)
-        uv[hit, 0], uv[hit, 1] = h.u[hit], h.v[hit]
+        np.copyto(uv[..., 0], h.u, where=hit)
+        np.copyto(uv[..., 1], h.v, where=hit)
         normal = np.zeros(hit.shape + (3,), np.float32)
-        normal[hit] = h.normal[hit]
+        np.copyto(normal, h.normal, where=hit[..., None])
         return self._answer({"t_hit": h.t.astype(np.float32),
                         "geometry_ids": h.geometry_id.astype(np.uint32),
                         "primitive_ids": h.prim_id.astype(np.uint32),
