@@ -1,22 +1,31 @@
 """Where the compiled kernels are cached, worked out without importing
 Numba (0.5-1 s), so the command can tell a first run at once."""
+import functools
 import hashlib
 import os
 from pathlib import Path
 
 
-def cache_dir(numba_version):
-    """The cache directory, named by a hash of every module that compiles
-    and the Numba version (jitconfig.py says why)."""
+@functools.cache
+def _sources_digest():
+    """A hash of every module that compiles: the kernel floor and the
+    structures, and any other module that compiles (the teapot's and big
+    meshes' kernels in raytrace/scene).  Once a process: the command asks
+    before Numba loads (firstrun.py) and jitconfig.py asks again."""
     package = Path(__file__).parent.parent
-    # The kernel floor and the structures, and any other module that compiles
-    # (the teapot's and big meshes' kernels in raytrace/scene).
     sources = sorted({*package.glob("kernels/**/*.py"), *package.glob("accel/**/*.py"),
                       *(p for p in package.glob("**/*.py") if "from numba" in p.read_text())})
     digest = hashlib.sha1()
     for path in sources:
         digest.update(str(path.relative_to(package)).encode())
         digest.update(path.read_bytes())
+    return digest
+
+
+def cache_dir(numba_version):
+    """The cache directory, named by a hash of every module that compiles
+    and the Numba version (jitconfig.py says why)."""
+    digest = _sources_digest().copy()
     digest.update(numba_version.encode())
     root = os.environ.get("NUMBA_CACHE_DIR")
     if not root:
