@@ -72,18 +72,19 @@ def test_kernels_use_numpy_errors_and_no_fastmath():
     or NaN, and the slab test and the watertight test use both."""
     found = dict(dispatchers(package_modules("raytrace.kernels")))
     assert {"raytrace.kernels.intersect.ray_triangle", "raytrace.kernels.intersect.ray_aabb",
-            "raytrace.kernels.cast.cast_closest", "raytrace.kernels.render.render_rows"} <= set(found)
+            "raytrace.kernels.cast._closest_block", "raytrace.kernels.render.render_part"} <= set(found)
     for name, disp in found.items():
         opts = disp.targetoptions
         assert not opts.get("fastmath"), name
         assert opts.get("error_model") == "numpy", name
     for name, disp in dispatchers(package_modules("raytrace.accel")):
         assert not disp.targetoptions.get("fastmath"), name
-    # The batch kernels: parallel, without the reference-counting runtime.
-    for name in ("raytrace.kernels.cast.cast_closest", "raytrace.kernels.cast.cast_occluded",
-                 "raytrace.kernels.render.render_rows"):
+    # A thread's share of a batch kernel: without the reference-counting
+    # runtime, releasing the GIL (kernels/threads.py runs it on each thread).
+    for name in ("raytrace.kernels.cast._closest_block", "raytrace.kernels.cast._occluded_block",
+                 "raytrace.kernels.render.render_part"):
         assert found[name].targetoptions.get("_nrt") is False, name
-        assert found[name].targetoptions.get("parallel") is True, name
+        assert found[name].targetoptions.get("nogil") is True, name
 
 
 def test_zero_direction_components_give_signed_infinite_inverses():

@@ -38,10 +38,13 @@ for oo, dd, tm in ((o, d, None), (ro_o, ro_d, None), (o.astype(np.float32), d.as
 from raytrace.accel.bvh.collapse import collapse_bvh4_kernel
 
 from raytrace.accel.bvh.sah import build_bvh_kernel
-from raytrace.kernels.cast import cast_closest, cast_occluded
-from raytrace.kernels.render import render_rows
-print(json.dumps({k.__name__: [str(s) for s in k.signatures] for k in
-                  (render_rows, cast_closest, cast_occluded, build_bvh_kernel, collapse_bvh4_kernel)}))
+from raytrace.kernels import cast
+from raytrace.kernels.render import render_part
+kernels = dict(render_part=render_part, closest=cast._closest_single,
+               occluded=cast._occluded_single, build_bvh_kernel=build_bvh_kernel,
+               collapse_bvh4_kernel=collapse_bvh4_kernel,
+               packets=cast._closest_block, occluded_packets=cast._occluded_block)
+print(json.dumps({k: [str(s) for s in f.signatures] for k, f in kernels.items()}))
 """
 
 
@@ -49,7 +52,9 @@ def test_one_signature_per_structure_and_mode():
     p = subprocess.run([sys.executable, "-c", SCRIPT], capture_output=True, text=True)
     assert p.returncode == 0, p.stderr[-2000:]
     sigs = json.loads(p.stdout.strip().splitlines()[-1])
-    # render_rows: BVH + hard shadows, one kernel with and without AOVs.
-    assert len(sigs["render_rows"]) == 1, sigs["render_rows"]
-    for name in ("cast_closest", "cast_occluded", "build_bvh_kernel", "collapse_bvh4_kernel"):
+    # render_part: BVH + hard shadows, one kernel with and without AOVs.
+    assert len(sigs["render_part"]) == 1, sigs["render_part"]
+    for name in ("closest", "occluded", "build_bvh_kernel", "collapse_bvh4_kernel"):
         assert len(sigs[name]) == 1, (name, sigs[name])
+    # Calls of a few rays (kernels/cast.py's PACKET_MIN) compile no packet code.
+    assert sigs["packets"] == sigs["occluded_packets"] == []

@@ -35,3 +35,18 @@ def test_runs_cover_the_range_in_order(n, threads):
     assert len(r) == threads and r[0][0] == 0 and r[-1][1] == n
     assert all(a[1] == b[0] for a, b in zip(r, r[1:]))
     assert max(e - s for s, e in r) - min(e - s for s, e in r) <= 1
+
+
+def test_workers_are_kept_between_calls_and_a_forked_child_starts_its_own():
+    import os
+    names = []
+    for _ in range(3):
+        run_on_threads([lambda: None, lambda: names.append(threading.current_thread().name)])
+    assert len(set(names)) == 1                # one worker, kept
+    pid = os.fork()
+    if pid == 0:                               # the parent's worker is not in the child
+        got = []
+        run_on_threads([lambda: None, lambda: got.append(1)])
+        os._exit(0 if got == [1] else 3)
+    _, status = os.waitpid(pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0

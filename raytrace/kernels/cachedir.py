@@ -47,4 +47,4 @@ def render_kernel_cached():
         where = cache_dir(version("numba"))
     except (PackageNotFoundError, OSError):
         return True                  # unknown: leave it to Numba's compile event
-    return any(where.glob("*/render.render_rows-*.nbi"))
+    return any(where.glob("*/render.render_part-*.nbi"))

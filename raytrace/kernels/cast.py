@@ -32,10 +32,10 @@ a call.
 Each kernel is compiled once per structure (query.py), on first use.
 """
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from raytrace.kernels.counters import BAD_RAYS, N_COUNTERS
-from raytrace.kernels.jit import BLOCK, JIT, PARALLEL
+from raytrace.kernels.jit import BLOCK, JIT
 from raytrace.kernels.lowlevel import PACKET, frame_array, take_rows, take_ticket
 from raytrace.kernels.query import (
     closest_hit,
@@ -46,6 +46,7 @@ from raytrace.kernels.query import (
     occluded_packet,
 )
 from raytrace.kernels.ray import make_listing_ray, make_ray, no_hit, ray_ok
+from raytrace.kernels.threads import run_rows
 
 CHUNK = 1024
 COLUMNS = N_COUNTERS + 1   # BAD_RAYS last
@@ -57,75 +58,84 @@ def _ray(origins, dirs, t_min, i):
                     dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i])
 
 
-@njit(**BLOCK)
-def _closest_block(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v, cnt,
-                   clock):
-    n = origins.shape[0]
-    n_chunks = (n + CHUNK - 1) // CHUNK
-    c = take_ticket(clock)
-    while c < n_chunks:
-        end = min(n, (c + 1) * CHUNK)
-        for i0 in range(c * CHUNK, end, PACKET):
-            m = min(PACKET, end - i0)
-            if closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_t, out_prim,
-                              out_u, out_v, cnt):
-                continue
-            for i in range(i0, i0 + m):
-                if ray_ok(origins, dirs, t_min, t_max, i):
-                    hit = closest_hit(geo, acc, _ray(origins, dirs, t_min, i), t_max[i], cnt)
-                else:
-                    cnt[BAD_RAYS] += 1
-                    hit = no_hit()
-                out_t[i] = hit.t
-                out_prim[i] = hit.prim
-                out_u[i] = hit.u
-                out_v[i] = hit.v
+def _closest_kernel(packets):
+    """A thread's share of cast_closest, tracing packets where the rays
+    can go as one (``packets``) or every ray alone."""
+    @njit(**BLOCK)
+    def block(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v, cnt, clock):
+        n = origins.shape[0]
+        n_chunks = (n + CHUNK - 1) // CHUNK
         c = take_ticket(clock)
+        while c < n_chunks:
+            end = min(n, (c + 1) * CHUNK)
+            for i0 in range(c * CHUNK, end, PACKET):
+                m = min(PACKET, end - i0)
+                if packets:
+                    if closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_t,
+                                      out_prim, out_u, out_v, cnt):
+                        continue
+                for i in range(i0, i0 + m):
+                    if ray_ok(origins, dirs, t_min, t_max, i):
+                        hit = closest_hit(geo, acc, _ray(origins, dirs, t_min, i), t_max[i], cnt)
+                    else:
+                        cnt[BAD_RAYS] += 1
+                        hit = no_hit()
+                    out_t[i] = hit.t
+                    out_prim[i] = hit.prim
+                    out_u[i] = hit.u
+                    out_v[i] = hit.v
+            c = take_ticket(clock)
+    return block
 
 
-@njit(**BLOCK)
-def _occluded_block(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt, clock):
-    n = origins.shape[0]
-    n_chunks = (n + CHUNK - 1) // CHUNK
-    c = take_ticket(clock)
-    while c < n_chunks:
-        end = min(n, (c + 1) * CHUNK)
-        for i0 in range(c * CHUNK, end, PACKET):
-            m = min(PACKET, end - i0)
-            if occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit, cnt):
-                continue
-            for i in range(i0, i0 + m):
-                if ray_ok(origins, dirs, t_min, t_max, i):
-                    out_hit[i] = occluded(geo, acc, _ray(origins, dirs, t_min, i), t_max[i], cnt)
-                else:
-                    cnt[BAD_RAYS] += 1
-                    out_hit[i] = False
+def _occluded_kernel(packets):
+    """A thread's share of cast_occluded, as _closest_kernel's."""
+    @njit(**BLOCK)
+    def block(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt, clock):
+        n = origins.shape[0]
+        n_chunks = (n + CHUNK - 1) // CHUNK
         c = take_ticket(clock)
+        while c < n_chunks:
+            end = min(n, (c + 1) * CHUNK)
+            for i0 in range(c * CHUNK, end, PACKET):
+                m = min(PACKET, end - i0)
+                if packets:
+                    if occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit,
+                                       cnt):
+                        continue
+                for i in range(i0, i0 + m):
+                    if ray_ok(origins, dirs, t_min, t_max, i):
+                        out_hit[i] = occluded(geo, acc, _ray(origins, dirs, t_min, i), t_max[i],
+                                              cnt)
+                    else:
+                        cnt[BAD_RAYS] += 1
+                        out_hit[i] = False
+            c = take_ticket(clock)
+    return block
 
 
-@njit(**PARALLEL)
+_closest_block = _closest_kernel(True)
+_occluded_block = _occluded_kernel(True)
+# Calls of fewer rays than this go one ray at a time: a few packets gain
+# nothing a call, and such a call (a program's first, often) then
+# compiles no packet code, the larger share of a structure's compile.
+PACKET_MIN = 4 * PACKET
+_closest_single = _closest_kernel(False)
+_occluded_single = _occluded_kernel(False)
+
+
 def cast_closest(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v,
                  cnt_rows, clock):
     """Closest hit of ray i = (origins[i], dirs[i]) with t_min[i] < t < t_max[i]."""
-    n_blocks = cnt_rows.shape[0]
-    if n_blocks == 1:
-        _closest_block(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v,
-                       cnt_rows[0], clock)
-        return
-    for b in prange(n_blocks):
-        _closest_block(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v,
-                       cnt_rows[b], clock)
+    block = _closest_block if origins.shape[0] >= PACKET_MIN else _closest_single
+    run_rows(block, (geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v),
+             cnt_rows, clock)
 
 
-@njit(**PARALLEL)
 def cast_occluded(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows, clock):
     """Whether anything is hit with t_min[i] < t < t_max[i] (stops at the first)."""
-    n_blocks = cnt_rows.shape[0]
-    if n_blocks == 1:
-        _occluded_block(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows[0], clock)
-        return
-    for b in prange(n_blocks):
-        _occluded_block(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows[b], clock)
+    block = _occluded_block if origins.shape[0] >= PACKET_MIN else _occluded_single
+    run_rows(block, (geo, acc, origins, dirs, t_min, t_max, out_hit), cnt_rows, clock)
 
 
 # Shell sort's gaps (Ciura 2001, "Best Increments for the Average Case of
@@ -206,7 +216,6 @@ def _listing_block(geo, acc, origins, dirs, t_min, t_max, start, fixed, slab, ou
         c = take_ticket(clock)
 
 
-@njit(**PARALLEL)
 def cast_listing(geo, acc, origins, dirs, t_min, t_max, start, fixed, slab, out_t, out_prim,
                  out_u, out_v, found, cnt_rows, clock):
     """Every hit of ray i with t_min[i] < t < t_max[i], each crossing of a
@@ -219,26 +228,19 @@ def cast_listing(geo, acc, origins, dirs, t_min, t_max, start, fixed, slab, out_
     in slabs of at least ``slab`` (clock[1], 0 at the call, counts the rows
     taken) and start[i] gets ray i's first row, or -1 where the rows ran
     out before its hits were written."""
-    n_blocks = cnt_rows.shape[0]
-    if n_blocks == 1:
-        _listing_block(geo, acc, origins, dirs, t_min, t_max, start, fixed, slab, out_t, out_prim,
-                       out_u, out_v, found, cnt_rows[0], clock)
-        return
-    for b in prange(n_blocks):
-        _listing_block(geo, acc, origins, dirs, t_min, t_max, start, fixed, slab, out_t, out_prim,
-                       out_u, out_v, found, cnt_rows[b], clock)
+    run_rows(_listing_block, (geo, acc, origins, dirs, t_min, t_max, start, fixed, slab, out_t,
+                              out_prim, out_u, out_v, found), cnt_rows, clock)
 
 
-@njit(**PARALLEL)
+@njit(**BLOCK)
+def _counts_block(geo, acc, origins, dirs, t_min, t_max, out_count, cnt, clock):
+    count_rays(geo, acc, origins, dirs, t_min, t_max, out_count, cnt, clock, CHUNK)
+
+
 def cast_counts(geo, acc, origins, dirs, t_min, t_max, out_count, cnt_rows, clock):
     """How many times ray i meets the surfaces with t_min[i] < t < t_max[i],
     each crossing of a closed surface once: one traversal that never
     narrows the interval, with the crossing triangle test (CrossingRay), a
     chunk of rays at a time (query.count_rays: the BVH keeps two rays in
     flight)."""
-    n_blocks = cnt_rows.shape[0]
-    if n_blocks == 1:
-        count_rays(geo, acc, origins, dirs, t_min, t_max, out_count, cnt_rows[0], clock, CHUNK)
-        return
-    for b in prange(n_blocks):
-        count_rays(geo, acc, origins, dirs, t_min, t_max, out_count, cnt_rows[b], clock, CHUNK)
+    run_rows(_counts_block, (geo, acc, origins, dirs, t_min, t_max, out_count), cnt_rows, clock)

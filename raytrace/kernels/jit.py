@@ -17,9 +17,12 @@
 - No Python wrappers (``no_cpython_wrapper``, ``no_cfunc_wrapper``): a
   per-ray function is only ever called from compiled code, and Numba
   otherwise builds and compiles two wrappers for each, a sizeable share of
-  a cold compile (docs/benchmarks.md, "Kernels").  The parallel kernels,
-  called from Python, keep theirs; a test calling a per-ray function
-  directly uses ``python_callable``.
+  a cold compile (docs/benchmarks.md, "Kernels").  A thread's share of a
+  batch kernel, called from Python (``BLOCK``), keeps its wrapper; a test
+  calling a per-ray function directly uses ``python_callable``.
+- No ``parallel=True``: threads.py runs a kernel's shares on Python
+  threads, where a ``prange`` loop would compile a parallel wrapper of its
+  own for every type of its arguments.
 """
 from numba import njit
 
@@ -28,13 +31,10 @@ from raytrace.kernels.jitconfig import CACHING
 JIT = dict(cache=CACHING, error_model="numpy", _nrt=False, forceinline=True,
            no_cpython_wrapper=True, no_cfunc_wrapper=True)
 # A thread's share of a batch kernel (a loop over chunks of rays or points
-# taken by ticket): called once a thread a call, so it stays a call, and a
-# parallel kernel and its one-thread path share one compiled copy of it.
-BLOCK = dict(JIT, forceinline=False)
-# Kernels called from Python: the parallel batch kernels, and the serial
-# ray validation.
-ENTRY = dict(JIT, no_cpython_wrapper=False)
-PARALLEL = dict(ENTRY, parallel=True, forceinline=False)
+# taken by ticket): called from Python on each of a call's threads
+# (threads.py), so it has its wrapper and releases the GIL, and stays a
+# call, not inlined.
+BLOCK = dict(JIT, forceinline=False, no_cpython_wrapper=False, nogil=True)
 # Implementations of @overload'ed dispatch functions: one-line wrappers,
 # not cached (their closures hold dispatchers, which pickle differently in
 # every process, so a cached entry would never be found again).

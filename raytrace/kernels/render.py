@@ -1,6 +1,6 @@
 """The render kernel: camera rays, shading, shadow rays.
 
-``render_rows`` is a thin parallel loop over thread parts; ``render_part``
+``render_rows`` runs ``render_part`` on each thread (threads.py), which
 does a part's rows.  What a render needs is chosen by the types of its
 arguments, so each combination compiles on first use and nothing else is
 compiled: the structure's layout (query.py), the shadow mode (PointShadows,
@@ -8,10 +8,11 @@ SoftShadows) and mirror and glass rays (NoBounces, Bounces).
 AOV buffers are written when they have rows: a render with them and one
 without share a kernel.
 """
+import functools
 from collections import namedtuple
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 from numba.extending import overload
 
 from raytrace.kernels.buffers import (
@@ -34,7 +35,7 @@ from raytrace.kernels.counters import (
     SHADOW_POINTS,
     SHADOW_RAYS,
 )
-from raytrace.kernels.jit import JIT, OVERLOAD, PARALLEL
+from raytrace.kernels.jit import BLOCK, JIT, OVERLOAD
 from raytrace.kernels.limits import MAX_BOUNCES
 from raytrace.kernels.lowlevel import frame_array, take_ticket
 from raytrace.kernels.optics import bounce_weights, reflect, refract
@@ -43,6 +44,7 @@ from raytrace.kernels.ray import make_ray
 from raytrace.kernels.sampling import hash_key, rand01, square_sample
 from raytrace.kernels.shade import albedo, albedo_filtered, smooth_point, surface
 from raytrace.kernels.texture import mesh_color
+from raytrace.kernels.threads import run_on_threads
 
 # Shadow modes: rays to each light's centre (``cast`` False: none, every light seen;
 # one kernel for both, as they differ by a branch), or from samples of
@@ -427,7 +429,7 @@ def _push(stack, sp, ox, oy, oz, dx, dy, dz, wr, wg, wb, depth, kind):
 TILE = 8
 
 
-@njit(**JIT)
+@njit(**BLOCK)
 def render_part(geo, acc, cam, lights, shadows, textures, bounces, aovs, background, width, height,
                 y0, y_end, row0, spp, seed, image, stats_rows, clock):
     """Bands of TILE rows from y0 (band k: rows y0 + k TILE ...) below y_end
@@ -477,7 +479,6 @@ def _render_span(geo, acc, cam, lights, shadows, textures, bounces, aovs, backgr
         record_cost(aovs, row, x, cnt[BOX_TESTS] + cnt[PRIM_TESTS] - before)
 
 
-@njit(**PARALLEL)
 def render_rows(geo, acc, cam, lights, shadows, textures, bounces, aovs, background, width, height,
                 y0, y1, row0, n_threads, spp, seed, image, stats_rows, clock):
     """Render rows y0 .. y1-1 into a band: image row y is image[y - row0]
@@ -485,15 +486,13 @@ def render_rows(geo, acc, cam, lights, shadows, textures, bounces, aovs, backgro
     first row), likewise stats_rows and the AOVs.  clock: a one-element
     int64 array, 0 at the call.
 
-    Each of n_threads parts takes the next band of TILE rows until none is
-    left: prange gives each thread one contiguous range, and the bottom of
-    a picture (ground, with its shadow rays) costs more than the top
-    (sky).  Bands taken in turn by ticket keep
-    the threads together (a fixed share each was slower whenever another
-    process slowed one thread's core).  (Numba's get_num_threads() inside
-    the kernel would stop it being cached.)
+    Each of n_threads parts (threads.py) takes the next band of TILE rows
+    until none is left: the bottom of a picture (ground, with its shadow
+    rays) costs more than the top (sky), and bands taken in turn by ticket
+    keep the threads together (a fixed share each was slower whenever
+    another process slowed one thread's core).
     """
     n_parts = max(1, min(n_threads, -(-(y1 - y0) // TILE)))
-    for _part in prange(n_parts):
-        render_part(geo, acc, cam, lights, shadows, textures, bounces, aovs, background, width,
-                    height, y0, y1, row0, spp, seed, image, stats_rows, clock)
+    run_on_threads([functools.partial(
+        render_part, geo, acc, cam, lights, shadows, textures, bounces, aovs, background, width,
+        height, y0, y1, row0, spp, seed, image, stats_rows, clock)] * n_parts)

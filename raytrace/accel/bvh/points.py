@@ -7,12 +7,15 @@ than the best point found so far (the point-query form of the ray
 traversal in traverse.py).  Ties between primitives at the same distance go to
 the smaller id, so the answer does not depend on the visiting order.
 """
+import functools
+
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from raytrace.accel.bvh.layout import MAX_DEPTH, WIDTH
-from raytrace.kernels.jit import BLOCK, JIT, PARALLEL
+from raytrace.kernels.jit import BLOCK, JIT
 from raytrace.kernels.lowlevel import frame_array, take_ticket
+from raytrace.kernels.threads import run_on_threads
 
 STACK_SIZE = 3 * MAX_DEPTH + 4
 CHUNK = 64
@@ -166,13 +169,9 @@ def _points_block(geo, bvh, points, out_point, out_prim, out_u, out_v, out_d2, c
         c = take_ticket(clock)
 
 
-@njit(**PARALLEL)
 def closest_points(geo, bvh, points, out_point, out_prim, out_u, out_v, out_d2, n_blocks, clock):
     """The surfaces' closest point to each query point, its primitive, its
     barycentric weights (triangles) and the squared distance; n_blocks
     threads take chunks of points by ticket from clock (0 at the call)."""
-    if n_blocks == 1:     # one chunk: in this thread, as kernels/cast.py's kernels
-        _points_block(geo, bvh, points, out_point, out_prim, out_u, out_v, out_d2, clock)
-        return
-    for _block in prange(n_blocks):
-        _points_block(geo, bvh, points, out_point, out_prim, out_u, out_v, out_d2, clock)
+    run_on_threads([functools.partial(_points_block, geo, bvh, points, out_point, out_prim, out_u,
+                                      out_v, out_d2, clock)] * n_blocks)
