@@ -178,7 +178,7 @@ def run_scaling(cfg):
     from raytrace.renderer.driver import render
     from raytrace.scene.builtin import teapot
     w, h = cfg["width"], cfg["height"]
-    structures = HIERARCHICAL
+    structures = cfg.get("scaling_structures", HIERARCHICAL)
     for a in structures:
         warm_up(teapot(2), a, {}, w, h)
     rows = []
@@ -251,7 +251,7 @@ def scaling_markdown(res):
               "Nodes or cells/ray", "Structure MB", "Structure B/triangle", "Peak MB", "Whole s"]
     body = []
     for row in res["rows"]:
-        for a in HIERARCHICAL:
+        for a in row["cells"]:
             c = row["cells"][a]
             visits = c[STRUCTURES[a].visit_metric]
             body.append([row["detail"], f"{row['triangles']:,}", a, fmt_g(c["build_s"] * 1e3),

@@ -95,11 +95,14 @@ def test_scaling_table_reports_size_memory_and_whole_command():
     one-run threshold: each cell has its structure's bytes per triangle and
     a fresh process's peak memory and wall time, and the table shows them."""
     import bench
-    cfg = dict(bench.QUICK, width=32, height=24, scaling_details=(2, 3), scaling_runs=2, scaling_big=2)
+    # Two structures: the table's rows and cells are the same code for each.
+    cfg = dict(bench.QUICK, width=32, height=24, scaling_details=(2, 3), scaling_runs=2, scaling_big=2,
+               scaling_structures=("bvh", "grid"))
     res = bench.run_scaling(cfg)
     assert [(r["detail"], r["runs"]) for r in res["rows"]] == [(2, 2), (3, 1)]
     for row in res["rows"]:
-        for a in bench.HIERARCHICAL:
+        assert list(row["cells"]) == ["bvh", "grid"]
+        for a in ("bvh", "grid"):
             c = row["cells"][a]
             assert len(c["times_s"]) == len(c["build_times_s"]) == row["runs"]
             assert c["structure_bytes"] > 0
@@ -116,7 +119,7 @@ def test_scaling_table_reports_size_memory_and_whole_command():
     for col in ("Triangles", "Build ms", "Render s", "Mrays/s", "Structure B/triangle", "Peak MB",
                 "Whole s"):
         assert col in header
-    assert len(md.splitlines()) == 4 + 2 * len(bench.HIERARCHICAL) + 2
+    assert len(md.splitlines()) == 4 + 2 * 2 + 2
     assert "details above 2 (3) one render each" in md
 
 

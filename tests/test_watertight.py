@@ -17,10 +17,10 @@ import pytest
 from raytrace import cast_rays, occluded
 from tests.structures import STRUCTURES
 
-N_RAYS = 10 ** 6
+N_RAYS = 250_000
 # Far from the origin the question is only whether rounding there opens an
 # edge, which the aimed rays probe; fewer random ones keep the suite fast.
-N_RAYS_SHIFTED = 2 * 10 ** 5
+N_RAYS_SHIFTED = 100_000
 
 
 def jittered_icosphere(subdivisions=2, jitter=0.05, seed=0):
