@@ -212,10 +212,12 @@ def _blocks(n, chunk=None):
     """Counter rows: one per thread (kernels/cast.py: each takes chunks of
     rays, or of points, by ticket), fewer when there are fewer chunks than
     threads.  One block runs in the calling thread, without waking Numba's."""
-    import numba
-
     from raytrace.kernels.cast import CHUNK
-    return max(1, min(numba.get_num_threads(), -(-n // (chunk or CHUNK))))
+    chunks = -(-n // (chunk or CHUNK))
+    if chunks <= 1:
+        return 1
+    import numba
+    return min(numba.get_num_threads(), chunks)
 
 
 def _counter_rows(n):
@@ -239,7 +241,7 @@ def _closest(geo, acc, origins, dirs, t_min, t_max, check=True):
     cast_closest(geo, acc, origins, dirs, t_min, t_max, *out, cnt, _clock())
     if check:
         _check_rays(cnt, (origins, dirs, t_min, t_max))
-    return out, cnt.sum(axis=0)
+    return out, (cnt[0] if len(cnt) == 1 else cnt.sum(axis=0))
 
 
 def _any_hit(geo, acc, origins, dirs, t_min, t_max, check=True):
@@ -256,8 +258,12 @@ def _any_hit(geo, acc, origins, dirs, t_min, t_max, check=True):
 
 
 def _counters(cnt, n):
-    from raytrace.renderer.stats import counters_from_rows
-    c = counters_from_rows(cnt[None, :])
-    return {"rays": n, "prim_tests": c["prim_tests"], "prim_hits": c["prim_hits"],
-            "box_tests": c["box_tests"], "nodes_visited": c["nodes_visited"],
-            "cells_visited": c["cells_visited"]}
+    """A query's counters under the renderer's names, made when first read
+    (RayHits.stats): a call of one ray is not worth a dictionary."""
+    def make():
+        from raytrace.renderer.stats import counters_from_rows
+        c = counters_from_rows(cnt[None, :])
+        return {"rays": n, "prim_tests": c["prim_tests"], "prim_hits": c["prim_hits"],
+                "box_tests": c["box_tests"], "nodes_visited": c["nodes_visited"],
+                "cells_visited": c["cells_visited"]}
+    return make

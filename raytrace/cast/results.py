@@ -62,7 +62,7 @@ class RayHits(_Fields):
         self._raw_uv = (u, v)
         self._rays = (origins, directions)
         self._prepared = prepared
-        self.stats = stats
+        self._stats = stats          # a dict, or a function making it when first read
         self._cache = {}
 
     def _shaped(self, a):
@@ -74,6 +74,12 @@ class RayHits(_Fields):
             self._cache[name] = (tuple(self._shaped(a) for a in made) if isinstance(made, tuple)
                                  else self._shaped(made))
         return self._cache[name]
+
+    @property
+    def stats(self):
+        if callable(self._stats):
+            self._stats = self._stats()
+        return self._stats
 
     @property
     def hit(self):

@@ -57,6 +57,9 @@ def _worker():
 def run_on_threads(jobs):
     """Run ``jobs`` (callables) at once, one a thread; returns when all are
     done, raising the first error any of them raised."""
+    if len(jobs) == 1:       # a small call: no thread to wake or wait for
+        jobs[0]()
+        return
     failed = []
     done = threading.Semaphore(0)
     for job in jobs[1:]:
