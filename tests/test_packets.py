@@ -202,3 +202,24 @@ def test_rays_in_strided_arrays_go_one_by_one_with_the_same_answers():
     assert (answers[0][1] >= 0).sum() > n // 4
     for a, b in zip(*answers):
         assert np.array_equal(a, b)
+
+
+def test_small_calls_go_one_by_one_with_the_same_answers(scenes):
+    """Calls of fewer than PACKET_MIN rays run kernels without the packet
+    code (kernels/cast.py); each ray's answer is the one a big call gives."""
+    from raytrace.kernels import cast
+    bvh, _ = scenes
+    rays = create_rays_pinhole(50, [0, 0.7, 0], [0.3, 2.2, 5.5], [0, 1, 0], 32, 24).reshape(-1, 6)
+    o, d = rays[:, :3], rays[:, 3:]
+    assert len(o) >= cast.PACKET_MIN
+    whole, blocked = bvh.cast_rays(o, d), bvh.occluded(o, d, t_max=6.0)
+    assert whole.hit.sum() > len(o) // 4 and blocked.any() and not blocked.all()
+    step = cast.PACKET_MIN - 1
+    parts = [bvh.cast_rays(o[s:s + step], d[s:s + step]) for s in range(0, len(o), step)]
+    for name in ("t", "prim_id", "geometry_id", "u", "v"):
+        assert np.array_equal(whole[name], np.concatenate([p[name] for p in parts]),
+                              equal_nan=True), name
+    assert np.array_equal(blocked, np.concatenate(
+        [bvh.occluded(o[s:s + step], d[s:s + step], t_max=6.0) for s in range(0, len(o), step)]))
+    # The small calls compiled the one-by-one kernels, the big ones the packet kernels.
+    assert cast._closest_single.signatures and cast._closest_block.signatures
