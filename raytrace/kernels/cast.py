@@ -14,14 +14,16 @@ the call, as a fixed share each would.  Chunks of 1,024 rays rather than
 behind both choices: docs/benchmarks.md, "Kernels".
 
 A call of one chunk or less (one counter row) runs in the calling thread:
-waking Numba's workqueue threads costs more than thousands of shadow
-rays.  A thread's loop (``*_block``) is compiled as a function of its own
-(``BLOCK``), so the kernel's two paths share one copy of it.
+waking a worker (threads.py) costs more than thousands of shadow rays.  A
+thread's loop (``*_block``) is compiled as a function of its own
+(``BLOCK``), called from Python on each thread.
 
 Closest and any hit take the rays PACKET at a time: a structure with
 packet traversals (the BVH, accel/bvh/packet.py) traces neighbouring rays
 together where they can go so, each ray getting the answer it gets alone;
-the rest, and every other structure, go one ray at a time.
+the rest, and every other structure, go one ray at a time.  Calls of
+fewer than PACKET_MIN rays go one ray at a time through kernels compiled
+without the packet code.
 
 Rays are checked as they are read (``ray_ok``): a bad one is not traced,
 its output is a miss, and it is counted in column BAD_RAYS of the counter

@@ -5,7 +5,7 @@ this declaration (raytrace/renderer/stats.py; tests/test_readme.py checks the
 README).
 
 Kernels count into a small int64 array private to an image row or a
-thread's block of rays (never a shared counter inside prange, which would
+thread's block of rays (never a counter two threads share, which would
 race) and the Python layer sums the rows.  Module-level ints are
 compile-time constants to Numba.
 """

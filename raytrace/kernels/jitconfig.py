@@ -50,13 +50,12 @@ else:
     warn(f"kernel cache {numba.config.CACHE_DIR}: cannot write ({_why}); compiling "
          "without a cache (set NUMBA_CACHE_DIR to a writable directory)")
 
-# Numba picks OpenMP when it can, and GNU OpenMP's parallel-region start
-# costs far more per kernel call than Numba's own workqueue (threads asleep
-# between calls; docs/benchmarks.md, "Kernels").  The workqueue cannot run
-# kernels from several Python threads at once (it aborts the process):
-# Dask's tasks, which may share a process, take KERNEL_LOCK around their
-# kernel calls.
+# The kernels run on threads.py's threads, not Numba's; Numba's thread count
+# (numba.set_num_threads) holds the command's --threads, and its threading
+# layer starts only to hold it: the workqueue, the lightest to start
+# (OpenMP's pool would start threads that never run a kernel).
 if not os.environ.get("NUMBA_THREADING_LAYER"):
     numba.config.THREADING_LAYER = "workqueue"
-# One parallel kernel at a time in a process; each uses every render thread.
+# One batch kernel at a time in a process: each uses every render thread,
+# and Dask's tasks, which may share a process, would oversubscribe the cores.
 KERNEL_LOCK = threading.Lock()

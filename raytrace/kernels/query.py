@@ -131,8 +131,7 @@ def register_count_stream(layout, stream):
     _COUNT_STREAMS[layout] = stream
 
 
-# Not inlined: the parallel kernel calls it from two places (one thread,
-# prange), which then share one copy.
+# Not inlined: a stream is large, and its thread's block calls it once.
 @overload(count_rays, jit_options=dict(OVERLOAD, forceinline=False))
 def _count_rays(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
     _traversal(acc, ALL_HITS)
