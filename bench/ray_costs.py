@@ -13,7 +13,7 @@ import time
 
 import click
 import numpy as np
-from workload import ray_sets, teapot_mesh
+from workload import scene_and_sets
 
 
 def _median_s(fn, runs):
@@ -29,18 +29,8 @@ def _median_s(fn, runs):
 @click.option("--detail", default=43, show_default=True, help="teapot tessellation (43: 118k triangles)")
 @click.option("--runs", default=7, show_default=True)
 def main(detail, runs):
-    import numba
-
-    from raytrace import RayScene
-    numba.set_num_threads(2)
-    v, f, camera, light = teapot_mesh(detail)
-    scene = RayScene((v, f))
-
-    def closest(o, d):
-        h = scene.cast_rays(o, d)
-        return h.prim_id, h.t
-    sets = ray_sets(v, f, camera, light, closest, 640, 480)
-    print(f"### What a ray costs: RayScene, BVH, {len(f):,} triangles, 2 threads\n")
+    scene, sets, n_tris = scene_and_sets(detail, 640, 480)
+    print(f"### What a ray costs: RayScene, BVH, {n_tris:,} triangles, 2 threads\n")
     print("| rays | count | closest us/ray | any us/ray |\n| --- | ---: | ---: | ---: |")
     for name in ("camera", "shuffled", "box", "shadow-point"):
         o, d, tm = sets[name]

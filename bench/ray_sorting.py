@@ -14,7 +14,7 @@ import time
 
 import click
 import numpy as np
-from workload import ray_sets, teapot_mesh
+from workload import scene_and_sets
 
 # Key bits shared out among the dimensions that vary over the rays (origin
 # x, y, z; direction u, v), at most MAX_BITS each.
@@ -69,18 +69,8 @@ def _median_ms(fn, runs=7):
 @click.option("--width", default=320, show_default=True)
 @click.option("--height", default=240, show_default=True)
 def main(detail, width, height):
-    import numba
-
-    from raytrace import RayScene
-    numba.set_num_threads(2)
-    v, f, camera, light = teapot_mesh(detail)
-    scene = RayScene((v, f))
-
-    def closest(o, d):
-        h = scene.cast_rays(o, d)
-        return h.prim_id, h.t
-    sets = ray_sets(v, f, camera, light, closest, width, height)
-    print(f"### Sorting rays: RayScene, BVH, {len(f):,} triangles, trace time in ms\n")
+    scene, sets, n_tris = scene_and_sets(detail, width, height)
+    print(f"### Sorting rays: RayScene, BVH, {n_tris:,} triangles, trace time in ms\n")
     print("| rays | closest, given order | closest, sorted | any, given order | any, sorted | "
           "key + sort |\n| --- | ---: | ---: | ---: | ---: | ---: |")
     for name in ("camera", "shuffled", "box", "bounce"):

@@ -168,6 +168,23 @@ def ray_sets(v, f, camera, light, closest_prim_t, width, height, seed=SEED):
     return sets
 
 
+def scene_and_sets(detail, width, height, threads=THREADS):
+    """(RayScene of the teapot mesh with the BVH, the ray sets for it, its
+    triangle count) on ``threads`` threads: bench/ray_costs.py's and
+    bench/ray_sorting.py's start."""
+    import numba
+
+    from raytrace import RayScene
+    numba.set_num_threads(threads)
+    v, f, camera, light = teapot_mesh(detail)
+    scene = RayScene((v, f))
+
+    def closest(o, d):
+        h = scene.cast_rays(o, d)
+        return h.prim_id, h.t
+    return scene, ray_sets(v, f, camera, light, closest, width, height), len(f)
+
+
 # ---- the contestants: build(v32, f32) once, then query(scene, o, d, t_max) --
 
 def _ours(v, f):
