@@ -3,8 +3,8 @@
     python bench/ray_costs.py [--detail 43] [--runs 7]
 
 The workload suite's ray sets (bench/workload.py: camera rays in image
-order, the same shuffled, random rays through the mesh's box, shadow rays
-to the point light; 640x480 of each) on the teapot mesh alone, BVH, 2
+order, and as float32 arrays, the same shuffled, random rays through the
+mesh's box, shadow rays to the point light; 640x480 of each) on the teapot mesh alone, BVH, 2
 threads: the median time of a closest-hit and an any-hit call over
 ``runs`` calls, per ray; then a call of one ray, the median of 3,000.
 Markdown on stdout.
@@ -32,7 +32,9 @@ def main(detail, runs):
     scene, sets, n_tris = scene_and_sets(detail, 640, 480)
     print(f"### What a ray costs: RayScene, BVH, {n_tris:,} triangles, 2 threads\n")
     print("| rays | count | closest us/ray | any us/ray |\n| --- | ---: | ---: | ---: |")
-    for name in ("camera", "shuffled", "box", "shadow-point"):
+    o, d, tm = sets["camera"]
+    sets["camera f32"] = (o.astype(np.float32), d.astype(np.float32), tm)
+    for name in ("camera", "camera f32", "shuffled", "box", "shadow-point"):
         o, d, tm = sets[name]
         scene.cast_rays(o, d, t_max=tm)
         scene.occluded(o, d, t_max=tm)

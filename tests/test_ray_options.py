@@ -142,3 +142,27 @@ def test_closest_points_answer_with_normals_in_one_result_type():
     assert np.allclose(s.normal, [[0, 1, 0], [0, 1, 0], [1, 0, 0]])
     with pytest.raises(KeyError, match="fields"):
         c["nope"]
+
+
+def test_float32_rays_answer_as_their_float64_values_and_kept_hits_stay_theirs():
+    """float32 rays (and Open3D's float32 rows of 6) are copied into a
+    buffer the thread keeps for its next call (cast/rays.py): the answers
+    are those of the same values in float64, and a RayHits read after a
+    later call still describes its own rays (it keeps the rays as given)."""
+    scene = Scene("f32", Camera((0, 0, 5), (0, 0, 0)),
+                  [Sphere((0.0, 0.0, 0.0), 1.0), Plane((0, -2, 0), (0, 1, 0))])
+    rs = RayScene(scene)
+    rng = np.random.default_rng(4)
+    o32 = np.tile(np.float32([0.1, 0.2, 5.0]), (5000, 1))
+    d32 = (rng.standard_normal((5000, 3)) * [0.3, 0.3, 0.1] - [0, 0, 1]).astype(np.float32)
+    first = rs.cast_rays(o32, d32)
+    same = rs.cast_rays(o32.astype(np.float64), d32.astype(np.float64))
+    rows = rs.cast_rays(np.hstack([o32, d32]))
+    for h in (same, rows):
+        assert np.array_equal(first.t, h.t) and np.array_equal(first.prim_id, h.prim_id)
+    assert first.hit.sum() > 1000 and (~first.hit).sum() > 100
+    # Another float32 call of the same size overwrites the thread's buffers.
+    rs.cast_rays(-o32, -d32)
+    assert rs.occluded(o32[::-1].copy(), d32[::-1].copy()).shape == (5000,)
+    assert np.array_equal(first.point, same.point, equal_nan=True)
+    assert np.array_equal(first.normal, same.normal, equal_nan=True)

@@ -1,6 +1,8 @@
 """Rays and points from the caller to the kernels: shapes, dtypes and
 values checked (a bad one named by argument and row), query points put in
 Morton order, and the batch kernels called over counter rows."""
+import threading
+
 import numpy as np
 
 from raytrace.errors import RaytraceError
@@ -93,12 +95,14 @@ def _filled(n, value):
 
 
 def _rays(origins, directions, t_min, t_max):
-    """Validated kernel arrays (origins, directions, t_min, t_max), and the
-    rays' leading shape (None for rows).  ``directions`` None: ``origins``
-    holds (origin, direction) rows of 6."""
+    """Validated kernel arrays (origins, directions, t_min, t_max), the
+    rays' leading shape (None for rows), and the origins and directions as
+    given, (n, 3) in their own dtype, for answers read after the call
+    (RayHits): the kernel arrays may be this thread's buffers (_kernel_rows).
+    ``directions`` None: ``origins`` holds (origin, direction) rows of 6."""
     if directions is None:
         rows, shape = _ray_rows("rays", origins, 6)
-        o, d = kernel_array(rows[:, :3]), kernel_array(rows[:, 3:])
+        o, d = rows[:, :3], rows[:, 3:]
     else:
         o, o_shape = _ray_rows("origins", origins)
         d, d_shape = _ray_rows("directions", directions)
@@ -106,17 +110,45 @@ def _rays(origins, directions, t_min, t_max):
             raise RaytraceError(f"origins and directions differ in shape "
                                 f"({o_shape or o.shape} and {d_shape or d.shape})")
         shape = d_shape if len(o) == 1 else o_shape
-        o, d = kernel_array(o), kernel_array(d)
         if len(o) == 1 and len(d) > 1:     # one origin for every direction
-            o = np.ascontiguousarray(np.broadcast_to(o, d.shape))
+            o = np.broadcast_to(o, d.shape)
         if len(d) == 1 and len(o) > 1:     # one direction for every origin
-            d = np.ascontiguousarray(np.broadcast_to(d, o.shape))
+            d = np.broadcast_to(d, o.shape)
         if len(o) != len(d):
             raise RaytraceError(f"origins and directions differ in length ({len(o)} and {len(d)})")
     n = len(d)
     tmin = _interval_end("t_min", t_min, n, shape)
     tmax = _interval_end("t_max", t_max, n, shape)
-    return (o, d, tmin, tmax), shape
+    return (_kernel_rows(o, 0), _kernel_rows(d, 1), tmin, tmax), shape, (o, d)
+
+
+# Rays that are not C float64 arrays already (float32, Open3D's (..., 6)
+# rows, one origin for all) are copied for the kernels into buffers each
+# thread keeps for its next call, up to this size each: a fresh array
+# faults its pages in as the copy writes it, which cost float32 rays more
+# than the copy itself (docs/benchmarks.md, "Ray queries").
+_SCRATCH_MAX_BYTES = 8 << 20
+_scratch = threading.local()
+
+
+def _kernel_rows(a, slot):
+    """(n, 3) rows ``a`` as a C float64 array: ``a`` itself when it is one,
+    else a copy, into this thread's buffer ``slot`` (0 origins, 1
+    directions) when it fits.  float32 and integers convert exactly."""
+    if a.dtype == np.float64 and a.flags.c_contiguous and a.flags.aligned and a.flags.writeable:
+        return a
+    n = a.shape[0]
+    if n * 24 > _SCRATCH_MAX_BYTES:
+        return np.array(a, dtype=np.float64, order="C")
+    buffers = getattr(_scratch, "rows", None)
+    if buffers is None:
+        buffers = _scratch.rows = {}
+    buf = buffers.get(slot)
+    if buf is None or len(buf) < n:
+        buf = buffers[slot] = np.empty((n, 3))
+    out = buf[:n]
+    np.copyto(out, a, casting="unsafe")
+    return out
 
 
 def _check_rays(cnt, rays):

@@ -86,16 +86,16 @@ class RayScene:
         of (origin, direction) rows, as create_rays_pinhole and Open3D make
         them.  t_min, t_max: numbers or arrays over the rays, t_min < t_max
         (inf allowed); t_min < 0 counts hits at the origin (t = 0) too."""
-        rays, shape = _rays(origins, directions, t_min, t_max)
+        rays, shape, given = _rays(origins, directions, t_min, t_max)
         p = self._built()
         (t, prim, u, v), cnt = _closest(p.geo, p.acc, *rays, check=self._check)
-        return RayHits(t, prim, u, v, *rays[:2], p, _counters(cnt, len(t)), shape)
+        return RayHits(t, prim, u, v, *given, p, _counters(cnt, len(t)), shape)
 
     def occluded(self, origins, directions=None, t_min=0.0, t_max=np.inf):
         """Whether anything is hit along each ray with t_min < t < t_max: a
         boolean array over the rays (rays as cast_rays takes them).  For a
         shadow ray, pass the unnormalised direction to the light and t_max = 1."""
-        rays, shape = _rays(origins, directions, t_min, t_max)
+        rays, shape, _ = _rays(origins, directions, t_min, t_max)
         p = self._built()
         return _shaped(_any_hit(p.geo, p.acc, *rays, check=self._check)[0], shape)
 
@@ -113,7 +113,7 @@ class RayScene:
         a BVH the first count or listing builds a tree of its own for
         counting and copies the triangles in its leaf order (about 95 bytes
         a triangle, kept with the scene)."""
-        rays, shape = _rays(origins, directions, t_min, t_max)
+        rays, shape, _ = _rays(origins, directions, t_min, t_max)
         p = self._built()
         return _shaped(np.minimum(_counts(p, rays, self._check), _max_hits(max_hits, p)), shape)
 
@@ -126,7 +126,7 @@ class RayScene:
         order (rays as cast_rays takes them).  One traversal a ray,
         writing its hits into rows taken as they come (LISTING_GUESS rows a
         ray reserved in all); a second only for rays that find them spent."""
-        rays, _ = _rays(origins, directions, t_min, t_max)
+        rays, _, given = _rays(origins, directions, t_min, t_max)
         p = self._built()
         limit = _max_hits(max_hits, p)
         splits, (t, prim, u, v), cnt = _listing(p, rays, self._check)
@@ -136,7 +136,7 @@ class RayScene:
             ray, j = _rows_of(np.arange(len(counts)), kept)
             rows = splits[ray] + j
             splits, (t, prim, u, v) = _splits(kept), (a[rows] for a in (t, prim, u, v))
-        return HitList(splits, t, prim, u, v, *rays[:2], p, _counters(cnt, len(counts)))
+        return HitList(splits, t, prim, u, v, *given, p, _counters(cnt, len(counts)))
 
     def contains(self, points, votes=1):
         """Whether each point is inside the closed surfaces: a boolean (n,)
