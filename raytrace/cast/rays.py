@@ -32,8 +32,13 @@ def _ray_rows(name, a, width=3):
     (None for (n, width), or (width,) as one row)."""
     try:
         arr = np.asarray(a)
-        if np.iscomplexobj(arr):
-            raise RaytraceError(f"{name}: complex numbers are not coordinates")
+    except (TypeError, ValueError) as exc:   # ragged rows
+        raise RaytraceError(f"{name}: not convertible to float64 ({exc})") from None
+    if np.iscomplexobj(arr):
+        raise RaytraceError(f"{name}: complex numbers are not coordinates")
+    if arr.dtype.kind in "mM":
+        raise RaytraceError(f"{name}: dates and times are not coordinates (dtype {arr.dtype})")
+    try:
         if arr.dtype.kind not in "biuf":
             arr = arr.astype(np.float64)
     except (TypeError, ValueError) as exc:   # ragged rows, text
@@ -54,6 +59,8 @@ def _shaped(a, shape):
 def _interval_end(name, value, n, shape=None):
     """An (n,) float64 array from a number or an array over the rays: (n,)
     or the rays' leading shape."""
+    if np.iscomplexobj(value):
+        raise RaytraceError(f"{name}: complex numbers are not distances")
     try:
         a = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:

@@ -255,7 +255,7 @@ def _max_hits(max_hits, prepared):
         return int(2 * (g.tri_v0.shape[0] + g.sph_center.shape[0] + g.pl_point.shape[0]) + 1)
     if isinstance(max_hits, bool) or not isinstance(max_hits, (int, np.integer)) or max_hits < 1:
         raise RaytraceError(f"max_hits: must be a positive integer or None, got {max_hits!r}")
-    return int(max_hits)
+    return min(int(max_hits), _max_hits(None, prepared))    # more than any ray can have: no limit
 
 
 def _counts(prepared, rays, check=True):

@@ -12,9 +12,17 @@ watertight, each crossing of the surface counted once).
 """
 import numpy as np
 
+from raytrace.errors import RaytraceError
+
 # A t_min below 0: hits at the ray's origin count (rayscene.py), as in
 # trimesh's ray_triangle (which keeps hits down to t = -1e-6) and Embree.
 _FROM_ORIGIN = -1.0
+
+
+def _has(obj, name):
+    """Whether obj has the attribute, by its class or its own fields: not
+    by reading it, which a trimesh primitive being made cannot answer yet."""
+    return hasattr(type(obj), name) or name in getattr(obj, "__dict__", {})
 
 
 def _mesh_key(mesh):
@@ -51,6 +59,9 @@ class RayMeshIntersector:
     def __init__(self, mesh, scale_to_box=True, accel="bvh"):
         from raytrace.accel.registry import get
         get(accel)
+        if not (_has(mesh, "vertices") and _has(mesh, "faces")):
+            raise RaytraceError(f"mesh: expected a mesh with .vertices and .faces (a trimesh.Trimesh), "
+                                f"got {type(mesh).__name__}")
         self.mesh = mesh
         self._scale_to_box = scale_to_box
         self.accel = accel

@@ -63,6 +63,28 @@ def _check_int(name, value, lo, hi):
         raise RaytraceError(f"{name} must be between {lo} and {hi}, got {value}")
 
 
+def _check_materials(scene):
+    """Raise RaytraceError naming the first object whose material has a
+    colour or a weight that is not a finite number (NaN would render as
+    garbage pixels, with a warning from NumPy's cast)."""
+    for k, obj in enumerate(scene.objects):
+        m = getattr(obj, "material", None)
+        if m is None:
+            continue
+        values = [*np.ravel(np.asarray(m.color, dtype=object)), m.ambient, m.diffuse, m.specular,
+                  m.shininess, m.checker, m.reflect, m.transmit, m.ior]
+        for x in values:
+            try:
+                ok = isinstance(x, (int, float, np.integer, np.floating)) and not \
+                    isinstance(x, (bool, np.bool_)) and math.isfinite(x)
+            except (TypeError, ValueError):
+                ok = False
+            if not ok:
+                raise RaytraceError(f"object {k} ({getattr(obj, 'name', type(obj).__name__)}): its "
+                                    f"material has {x!r} among its colour and weights; they must be "
+                                    "finite numbers")
+
+
 def validate(opts, scene):
     """Raise RaytraceError for any option the render cannot honour."""
     from raytrace.scene.model import Camera
@@ -91,6 +113,7 @@ def validate(opts, scene):
                 if opts.pattern in ("grid", "stratified") and side * side != light.samples:
                     raise RaytraceError(f"{where}: the {opts.pattern} pattern needs a square "
                                         f"number of light samples, got {light.samples}")
+    _check_materials(scene)
     if not isinstance(opts.aov, (bool, np.bool_)):
         raise RaytraceError(f"aov must be True or False, got {opts.aov!r}")
     # Each row also has an int64 counter row: little, but a 1-pixel-wide

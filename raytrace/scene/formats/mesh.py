@@ -145,6 +145,9 @@ def check_readable(path):
 def check_mesh_arrays(name, vertices, faces):
     """Validate user or file data: (n, 3) finite coordinates, (m, 3) integer
     faces indexing them.  Returns (float64 vertices, int64 faces)."""
+    kind = getattr(vertices, "dtype", None)
+    if np.iscomplexobj(vertices) or (kind is not None and kind.kind in "mM"):
+        raise RaytraceError(f"{name}: vertices must be real numbers, got {vertices.dtype}")
     try:
         v = np.asarray(vertices, dtype=np.float64)
     except (TypeError, ValueError) as exc:
