@@ -10,22 +10,22 @@ from raytrace.scene.model import Material
 
 V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.0]])
 F = np.array([[0, 1, 2]])
-O = np.array([[0.2, 0.2, 1.0]])
-D = np.array([[0, 0, -1.0]])
+ORIGIN = np.array([[0.2, 0.2, 1.0]])
+DIRECTION = np.array([[0, 0, -1.0]])
 
 
 def test_a_max_hits_past_any_count_is_no_limit():
     rs = RayScene((V, F))
-    assert rs.count_intersections(O, D, max_hits=10**30).tolist() == [1]
-    assert len(rs.list_intersections(O, D, max_hits=10**30).t) == 1
+    assert rs.count_intersections(ORIGIN, DIRECTION, max_hits=10**30).tolist() == [1]
+    assert len(rs.list_intersections(ORIGIN, DIRECTION, max_hits=10**30).t) == 1
 
 
 @pytest.mark.parametrize("call, message", [
-    (lambda rs: rs.cast_rays(O, D, t_max=np.array([5 + 1j])), r"t_max: complex numbers"),
-    (lambda rs: rs.occluded(O, D, t_min=0.1 + 0j), r"t_min: complex numbers"),
-    (lambda rs: rs.cast_rays(np.array([["2020-01-01"] * 3], dtype="datetime64[D]"), D),
+    (lambda rs: rs.cast_rays(ORIGIN, DIRECTION, t_max=np.array([5 + 1j])), r"t_max: complex numbers"),
+    (lambda rs: rs.occluded(ORIGIN, DIRECTION, t_min=0.1 + 0j), r"t_min: complex numbers"),
+    (lambda rs: rs.cast_rays(np.array([["2020-01-01"] * 3], dtype="datetime64[DIRECTION]"), DIRECTION),
      r"origins: dates and times are not coordinates"),
-    (lambda rs: rs.cast_rays(O, np.array([[1, 2, 3]], dtype="timedelta64[s]")),
+    (lambda rs: rs.cast_rays(ORIGIN, np.array([[1, 2, 3]], dtype="timedelta64[s]")),
      r"directions: dates and times"),
     (lambda rs: RayScene((V.astype(complex), F)), r"vertices must be real numbers, got complex128"),
 ])
