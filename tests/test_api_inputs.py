@@ -23,7 +23,7 @@ def test_a_max_hits_past_any_count_is_no_limit():
 @pytest.mark.parametrize("call, message", [
     (lambda rs: rs.cast_rays(ORIGIN, DIRECTION, t_max=np.array([5 + 1j])), r"t_max: complex numbers"),
     (lambda rs: rs.occluded(ORIGIN, DIRECTION, t_min=0.1 + 0j), r"t_min: complex numbers"),
-    (lambda rs: rs.cast_rays(np.array([["2020-01-01"] * 3], dtype="datetime64[DIRECTION]"), DIRECTION),
+    (lambda rs: rs.cast_rays(np.array([["2020-01-01"] * 3], dtype="datetime64[D]"), DIRECTION),
      r"origins: dates and times are not coordinates"),
     (lambda rs: rs.cast_rays(ORIGIN, np.array([[1, 2, 3]], dtype="timedelta64[s]")),
      r"directions: dates and times"),
