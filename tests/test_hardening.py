@@ -265,6 +265,29 @@ def test_16_ctrl_c_python_dropped_still_stops_the_render(tmp_path):
     assert not (tmp_path / "x.png").exists()
 
 
+def test_16_errors_a_ctrl_c_leaves_in_library_callbacks_stay_quiet(tmp_path):
+    """A callback the Ctrl-C cut short leaves its library's state broken and
+    the next call of it fails (distributed's GC timer asserts): once the
+    command is stopping, such "Exception ignored" errors are not printed."""
+    rc, err = _command(tmp_path, "import weakref\n"
+                                 "class Part: pass\n"
+                                 "first, second = Part(), Part()\n"
+                                 "from raytrace.renderer import interrupt\n"
+                                 "def signal_lands_here(ref):\n"
+                                 "    interrupt.on_sigint(2, None)\n"
+                                 "def state_was_cut_short(ref):\n"
+                                 "    assert False, 'timer already running'\n"
+                                 "refs = [weakref.ref(first, signal_lands_here),\n"
+                                 "        weakref.ref(second, state_was_cut_short)]\n"
+                                 "import signal, sys\n"
+                                 "signal.signal(signal.SIGINT, interrupt.on_sigint)\n"
+                                 "sys.unraisablehook = interrupt.unraisable\n"
+                                 "del first\n"
+                                 "del second\n")
+    assert rc == 130, (rc, err)
+    assert one_line(err) == "interrupted: no image written"
+
+
 @pytest.mark.parametrize("call, words", [
     (lambda: raytrace.cast_rays((np.eye(3), [[0, 1, 2], [0, 1]]), [[0, 0, 1.0]], [[0, 0, -1.0]]),
      "faces"),

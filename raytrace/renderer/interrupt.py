@@ -55,8 +55,11 @@ def interrupted():
 def unraisable(info):
     """A Ctrl-C that lands in a weakref callback or a __del__ cannot propagate:
     Python prints it as "Exception ignored" and goes on.  Keep quiet about it:
-    raise_if_interrupted reports it at the command's next check."""
-    if not issubclass(info.exc_type, KeyboardInterrupt):
+    raise_if_interrupted reports it at the command's next check.  Once the
+    command is stopping, so is any other such error: a callback the Ctrl-C
+    cut short leaves its library's state half-changed, and the next call of
+    it fails (distributed's GC timer asserts), which is not news to the user."""
+    if not (issubclass(info.exc_type, KeyboardInterrupt) or _interrupted):
         sys.__unraisablehook__(info)
 
 
