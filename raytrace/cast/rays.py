@@ -142,7 +142,7 @@ def _kernel_rows(a, slot):
     """(n, 3) rows ``a`` as a C float64 array: ``a`` itself when it is one,
     else a copy, into this thread's buffer ``slot`` (0 origins, 1
     directions) when it fits.  float32 and integers convert exactly."""
-    if a.dtype == np.float64 and a.flags.c_contiguous and a.flags.aligned and a.flags.writeable:
+    if _kernel_ready(a, np.float64):
         return a
     n = a.shape[0]
     if n * 24 > _SCRATCH_MAX_BYTES:
@@ -242,9 +242,15 @@ def kernel_array(a, dtype=np.float64):
     only when it is not one already): a read-only or strided array would
     compile the kernels again for its type."""
     a = np.asarray(a)
-    if a.dtype != dtype or not (a.flags.c_contiguous and a.flags.aligned and a.flags.writeable):
+    if not _kernel_ready(a, dtype):
         a = np.array(a, dtype=dtype, order="C", copy=True)
     return a
+
+
+def _kernel_ready(a, dtype):
+    """Whether the kernels take array ``a`` as it is: ``dtype``, C-contiguous,
+    aligned and writeable."""
+    return a.dtype == dtype and a.flags.c_contiguous and a.flags.aligned and a.flags.writeable
 
 
 def _blocks(n, chunk=None):

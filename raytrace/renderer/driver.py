@@ -6,6 +6,7 @@ import math
 import sys
 import time
 from dataclasses import dataclass, field, make_dataclass
+from numbers import Real
 from typing import NamedTuple
 
 import numpy as np
@@ -74,12 +75,7 @@ def _check_materials(scene):
         values = [*np.ravel(np.asarray(m.color, dtype=object)), m.ambient, m.diffuse, m.specular,
                   m.shininess, m.checker, m.reflect, m.transmit, m.ior]
         for x in values:
-            try:
-                ok = isinstance(x, (int, float, np.integer, np.floating)) and not \
-                    isinstance(x, (bool, np.bool_)) and math.isfinite(x)
-            except (TypeError, ValueError):
-                ok = False
-            if not ok:
+            if isinstance(x, (bool, np.bool_)) or not isinstance(x, Real) or not math.isfinite(x):
                 raise RaytraceError(f"object {k} ({getattr(obj, 'name', type(obj).__name__)}): its "
                                     f"material has {x!r} among its colour and weights; they must be "
                                     "finite numbers")
