@@ -503,7 +503,7 @@ def test_build_kernel_depth_reported():
     n = len(lo)
     nodes = (np.empty((2 * n, 3), BOX), np.empty((2 * n, 3), BOX), np.empty(2 * n, LINK),
              np.empty(2 * n, LINK))
-    rows, depth, tasks = build_bvh_kernel(box_rows(lo, hi), np.arange(n), 0, n, 0, 4, 1.0, *nodes,
+    rows, depth, tasks = build_bvh_kernel(box_rows(lo, hi), np.arange(n), 0, n, 0, 4, 1.0, nodes,
                                           0, 0, np.empty((0, 4), np.int64))
     assert 0 < depth <= MAX_DEPTH and 0 < rows < 2 * n and tasks == 0
 

@@ -1,5 +1,6 @@
 """The package's imports run one way: no module reaches, even through a
-function-level import, a module that imports it back."""
+function-level import, a module that imports it back; and its modules and
+functions stay small enough to read (issue 41's limits)."""
 import ast
 from pathlib import Path
 
@@ -117,3 +118,27 @@ def test_structure_folders_do_not_import_each_other_in_a_loop():
     for a, bs in edges.items():
         for b in bs:
             assert a not in edges.get(b, set()), f"structures {a} and {b} import each other"
+
+
+MAX_MODULE_LINES = 600
+MAX_PARAMETERS = 12
+
+
+def test_modules_and_functions_stay_small():
+    """No module over 600 lines and no function over 12 parameters (*args
+    and **kwargs count one each): what travels together goes as a record
+    (kernels/render.py's Render and Band, cli/params.py's SceneArgs)."""
+    too_long, too_many = [], []
+    for path in PKG.rglob("*.py"):
+        text = path.read_text()
+        if text.count("\n") > MAX_MODULE_LINES:
+            too_long.append(str(path.relative_to(PKG)))
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+                a = node.args
+                n = (len(a.posonlyargs) + len(a.args) + len(a.kwonlyargs)
+                     + (a.vararg is not None) + (a.kwarg is not None))
+                if n > MAX_PARAMETERS:
+                    too_many.append(f"{path.relative_to(PKG)}:{node.lineno} ({n})")
+    assert not too_long, f"modules over {MAX_MODULE_LINES} lines: {too_long}"
+    assert not too_many, f"functions over {MAX_PARAMETERS} parameters: {too_many}"

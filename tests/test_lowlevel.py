@@ -269,9 +269,7 @@ def crossing_masks(leaf_tris, v0, v1, v2, origins, dirs, t_min, t_max, partner):
         consts[i, 5], consts[i, 6], consts[i, 7] = ray.okx, ray.oky, ray.okz
         for c in range(partner.shape[0]):
             chunks = (4 * c, 4 * partner[c])
-            mask = crossing_mask(leaf_tris, chunks[0], chunks[1], ray.kx, ray.ky, ray.kz,
-                                 ray.okx, ray.oky, ray.okz, ray.sx, ray.sy, ray.sz, ray.t_min,
-                                 t_max[i])
+            mask = crossing_mask(leaf_tris, chunks[0], chunks[1], ray, t_max[i])
             for half in range(2):
                 g = chunks[half]
                 for j in range(min(4, m - g)):

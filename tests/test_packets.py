@@ -104,7 +104,7 @@ def test_which_rays_go_as_a_packet():
         out = np.full(n, -7.0), np.full(n, -7, np.int64), np.full(n, -7.0), np.full(n, -7.0)
         hit = np.zeros(n, np.bool_)
         cnt = np.zeros(16, np.int64)
-        went = closest(bvh.geo, bvh.acc, o, d, t_min, t_max, 0, m, *out, cnt)
+        went = closest(bvh.geo, bvh.acc, o, d, t_min, t_max, 0, m, out, cnt)
         assert occluded(bvh.geo, bvh.acc, o, d, t_min, t_max, 0, m, hit, cnt) == went
         return went, out
 

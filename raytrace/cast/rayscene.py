@@ -317,7 +317,7 @@ def _run_listing(prepared, rays, rows, start=None, check=True):
     # Slabs of at most a quarter of a thread's share, so that no thread's
     # first slab leaves the others without rows.
     slab = max(1, min(SLAB, rows // (4 * len(cnt))))
-    cast_listing(prepared.geo, prepared.counting(), *rays, start, fixed, slab, *out, found,
+    cast_listing(prepared.geo, prepared.counting(), tuple(rays), start, fixed, slab, out, found,
                  cnt, np.zeros(2, np.int64))
     if check:
         _check_rays(cnt, rays)

@@ -21,7 +21,7 @@ from raytrace.cli.outputs import (
     _show_structure,
     _write_outputs,
 )
-from raytrace.cli.params import AovType, _render_options, _scene_options, _view_options, _work_options
+from raytrace.cli.params import AovType, _render_options, _scene_options, _work_options, scene_kwargs
 from raytrace.errors import OptionError, RaytraceError
 from raytrace.options import BY_NAME
 from raytrace.renderer import interrupt
@@ -141,9 +141,11 @@ def _runner(workers, scheduler):
     return connect(workers=workers, scheduler=scheduler)
 
 
-def _scene_kind(scene, detail, view, up, crease, flat):
+def _scene_kind(scene, scene_args):
     """The scene's kind (load.scene_kind); UsageError for a scene option
-    that does not apply to it."""
+    (params.SceneArgs) that does not apply to it."""
+    detail, view, up, crease, flat = (scene_args.detail, scene_args.view, scene_args.up,
+                                      scene_args.crease, scene_args.flat)
     from raytrace.scene.load import scene_kind, unknown_scene_message
     kind = scene_kind(scene)
     if kind is None:
@@ -177,8 +179,8 @@ def _scene_kind(scene, detail, view, up, crease, flat):
 @_work_options
 @click.option("--json", "as_json", is_flag=True, help="Print the statistics as JSON on stdout.")
 @click.option("-q", "--quiet", is_flag=True, help="No table, no progress bar.")
-def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, heatmap, show_depth,
-               turntable, fps, resume, tiles, workers, scheduler, as_json, quiet, **options):
+def render_cmd(scene, bvol, scene_args, output, aov, heatmap, show_depth, work, as_json, quiet,
+               **options):
     """Render SCENE to PNG (or frames: --turntable, -o .gif) and print the statistics table.
 
     SCENE is a built-in scene name (see `raytrace scenes`), a TOML scene
@@ -201,26 +203,24 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
     # the scene, whose camera a mesh file's framing fits to it.
     width, height = options.pop("width"), options.pop("height")
     options = {k: v for k, v in options.items() if v is not None}
-    kind = _scene_kind(scene, detail, view, up, crease, flat)
+    kind = _scene_kind(scene, scene_args)
     if kind == "builtin" or _is_file(scene):      # no notice before "no such file"
         from raytrace.renderer.firstrun import RENDER_S, announce_if_cold
         accel = options.get("accel") or "bvh"
         announce_if_cold(f"{Path(scene).name}: {accel}, {options.get('shadows') or 'hard'} shadows",
                          RENDER_S.get(accel, 12) + 2)
-    animated = turntable is not None or _is_frame_path(output)
+    animated = work.turntable is not None or _is_frame_path(output)
     still_extras = [flag for flag, value in (("--aov", aov), ("--heatmap", heatmap),
                                              ("--show-structure", show_depth)) if value is not None]
-    _check_work(animated, still_extras, turntable, fps, resume, tiles, workers, scheduler)
+    _check_work(animated, still_extras, work)
     if animated:
-        return _render_animation(scene, kind, output, turntable, fps, resume, tiles, workers,
-                                 scheduler, as_json, quiet, options, width, height,
-                                 dict(detail=detail, fov=fov, crease=crease, flat=flat,
-                                      **_view_options(view, up)))
+        return _render_animation(scene, kind, output, work, as_json, quiet, options, width, height,
+                                 scene_kwargs(scene_args))
     _check_image_path("-o/--output", output, linear=True)
     _check_image_path("--heatmap", heatmap)
     from raytrace.renderer.linear import is_linear
     if is_linear(output):
-        _check_linear(output, show_depth, tiles, workers, scheduler)
+        _check_linear(output, show_depth, work)
     named = output is not None
     output = output or f"{scene if kind == 'builtin' else Path(scene).stem}.png"
     aov_out = _aov_out(output, aov)
@@ -242,11 +242,10 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
             accel, shadows = options.get("accel", "bvh"), options.get("shadows", "hard")
             with expecting(f"{scene}: {accel}, {shadows} shadows", RENDER_S.get(accel, 12) + 2,
                            load=False):
-                t_kernels = load_kernels(scene, detail)     # compile time, not loading's
+                t_kernels = load_kernels(scene, scene_args.detail)   # compile time, not loading's
             t_load = time.perf_counter()
             with _warnings_once():
-                sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
-                                crease=crease, flat=flat, **_view_options(view, up))
+                sc = load_scene(scene, width=width, height=height, **scene_kwargs(scene_args))
             t_load = time.perf_counter() - t_load
             raise_if_interrupted()
             if not named and kind == "toml":      # a scene file's name names its image
@@ -258,12 +257,12 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
             progress = _Progress(enabled=not quiet)
             opts = RenderOptions(aov=bool(aov or heatmap), progress=progress, **options)
             try:
-                if tiles is None and workers is None and scheduler is None:
+                if work.tiles is None and work.workers is None and work.scheduler is None:
                     result = render(sc, opts, drop_meshes=True)
                 else:
                     from raytrace.frames.batch import render_tiled
-                    with _runner(workers, scheduler) as runner:
-                        n = tiles or (4 * runner.workers if runner is not None else 1)
+                    with _runner(work.workers, work.scheduler) as runner:
+                        n = work.tiles or (4 * runner.workers if runner is not None else 1)
                         result = render_tiled(sc, opts, runner, n)
             finally:
                 progress.close()
@@ -292,10 +291,12 @@ def render_cmd(scene, bvol, detail, view, up, crease, flat, fov, output, aov, he
             click.echo(note)
 
 
-def _render_animation(scene, kind, output, turntable, fps, resume, tiles, workers, scheduler,
-                      as_json, quiet, options, width, height, scene_opts):
+def _render_animation(scene, kind, output, work, as_json, quiet, options, width, height,
+                      scene_opts):
     """`raytrace SCENE --turntable N` or -o with frames: a turntable or the
-    scene file's [animation], written frame by frame (frames/writers.py)."""
+    scene file's [animation], written frame by frame (frames/writers.py);
+    work: params.WorkArgs."""
+    resume = work.resume
     from pathlib import Path
 
     from raytrace.errors import RaytraceError
@@ -319,13 +320,13 @@ def _render_animation(scene, kind, output, turntable, fps, resume, tiles, worker
             if output is None:
                 output = f"{sc.name if kind == 'toml' else stem}.gif"
                 check_frame_output(output, resume=resume)
-            cameras = camera_path(sc, turntable)
+            cameras = camera_path(sc, work.turntable)
             progress = _Progress(enabled=not quiet, label="frames")
             opts = RenderOptions(**options)
             try:
-                with _runner(workers, scheduler) as runner:
-                    _, stats = animate(sc, cameras, opts, output=output, fps=fps or 24,
-                                       resume=resume, runner=runner, tiles=tiles or 1,
+                with _runner(work.workers, work.scheduler) as runner:
+                    _, stats = animate(sc, cameras, opts, output=output, fps=work.fps or 24,
+                                       resume=resume, runner=runner, tiles=work.tiles or 1,
                                        progress=progress)
             finally:
                 progress.close()
@@ -364,8 +365,8 @@ QUICK_SIZE = (320, 240)
 @click.option("--json", "as_json", is_flag=True, help="Print the comparison as JSON on stdout.")
 @click.option("-q", "--quiet", is_flag=True, help="No table.")
 @click.pass_context
-def compare_cmd(ctx, scene, accel_list, detail, view, up, crease, flat, fov, repeat, quick, output,
-                as_json, quiet, **options):
+def compare_cmd(ctx, scene, accel_list, scene_args, repeat, quick, output, as_json, quiet,
+                **options):
     """Render SCENE with every structure and compare them.
 
     Prints the workshop's table (build and render time, speedup, rays,
@@ -379,7 +380,7 @@ def compare_cmd(ctx, scene, accel_list, detail, view, up, crease, flat, fov, rep
     from raytrace.scene.examples import resolve
     set_quiet(quiet)
     scene = resolve(scene)
-    kind = _scene_kind(scene, detail, view, up, crease, flat)
+    kind = _scene_kind(scene, scene_args)
     _check_image_path("-o/--output", output)
     width, height = options.pop("width"), options.pop("height")
     if quick and width is None and height is None:
@@ -398,8 +399,7 @@ def compare_cmd(ctx, scene, accel_list, detail, view, up, crease, flat, fov, rep
             entries = parse_entries(accel_list) if accel_list is not None else default_entries()
             _load_threads(options)
             with _warnings_once():
-                sc = load_scene(scene, detail=detail, fov=fov, width=width, height=height,
-                                crease=crease, flat=flat, **_view_options(view, up))
+                sc = load_scene(scene, width=width, height=height, **scene_kwargs(scene_args))
             raise_if_interrupted()
             stem = sc.name if kind == "toml" else scene if kind == "builtin" else Path(scene).stem
             output = output or f"{stem}.compare.png"

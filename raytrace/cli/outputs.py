@@ -63,12 +63,12 @@ def _aov_files(aov_out):
     return list(aov_out.values()) if isinstance(aov_out, dict) else [aov_out]
 
 
-def _check_linear(output, show_depth, tiles, workers, scheduler):
+def _check_linear(output, show_depth, work):
     """UsageError for what a linear (.npy, .pfm, .exr) output cannot go with."""
     from raytrace.renderer.linear import check_available
     if show_depth is not None:
         raise click.UsageError("--show-structure draws on the 8-bit image: write a .png")
-    if tiles is not None or workers is not None or scheduler is not None:
+    if work.tiles is not None or work.workers is not None or work.scheduler is not None:
         raise click.UsageError(f"{output}: a linear image needs the whole render in this process: "
                                "drop --tiles, --workers and --scheduler")
     try:
@@ -100,8 +100,11 @@ def _is_numbered(path):
     return path is not None and bool(number_fields(path.rsplit("/", 1)[-1]))
 
 
-def _check_work(animated, still_extras, turntable, fps, resume, tiles, workers, scheduler):
-    """UsageError for the frame and work options that contradict each other."""
+def _check_work(animated, still_extras, work):
+    """UsageError for the frame and work options (params.WorkArgs) that
+    contradict each other."""
+    fps, resume, tiles, workers, scheduler = (work.fps, work.resume, work.tiles, work.workers,
+                                              work.scheduler)
     if workers is not None and scheduler is not None:
         raise click.UsageError("--workers starts a local cluster; --scheduler (or "
                                "DASK_SCHEDULER_ADDRESS) names a running one: give one")

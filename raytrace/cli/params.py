@@ -1,6 +1,8 @@
 """The command line's option types and the decorators that add the shared
 options (render, scene, work) to a command, each derived from
 raytrace/options.py."""
+import functools
+from collections import namedtuple
 
 import click
 
@@ -100,9 +102,33 @@ def _render_options(command, skip=()):
     return command
 
 
+# A command's scene options and work options reach it as one record each
+# (``scene_args``, ``work``), not as a dozen keyword arguments.
+SceneArgs = namedtuple("SceneArgs", ["detail", "view", "up", "crease", "flat", "fov"])
+WorkArgs = namedtuple("WorkArgs", ["turntable", "fps", "resume", "tiles", "workers", "scheduler"])
+
+
+def _as_record(command, record, name):
+    """``command`` called with its options named in ``record`` gathered into
+    one keyword argument ``name``."""
+    @functools.wraps(command)
+    def gathered(*args, **kwargs):
+        kwargs[name] = record(*(kwargs.pop(field) for field in record._fields))
+        return command(*args, **kwargs)
+    return gathered
+
+
+def scene_kwargs(scene_args):
+    """load.load_scene's keyword arguments for the scene options."""
+    s = scene_args
+    return dict(detail=s.detail, fov=s.fov, crease=s.crease, flat=s.flat,
+                **_view_options(s.view, s.up))
+
+
 def _scene_options(command):
     """How the scene is made: the teapot's detail, a mesh file's framing,
-    the field of view."""
+    the field of view; the command gets them as ``scene_args``."""
+    command = _as_record(command, SceneArgs, "scene_args")
     options = [
         click.option("--detail", type=click.IntRange(min=DETAIL.lo, max=DETAIL.hi), default=None,
                      metavar=DETAIL.metavar, help=f"{DETAIL.help} [default: {DETAIL.default}]."),
@@ -128,7 +154,9 @@ def _scene_options(command):
 
 
 def _work_options(command):
-    """Frame sequences, tiles, and where the work runs (frames/batch.py, frames/distributed.py)."""
+    """Frame sequences, tiles, and where the work runs (frames/batch.py,
+    frames/distributed.py); the command gets them as ``work``."""
+    command = _as_record(command, WorkArgs, "work")
     options = [
         click.option("--turntable", type=click.IntRange(min=1, max=100_000), default=None,
                      metavar="N", help="Render N frames orbiting the camera about its look-at "

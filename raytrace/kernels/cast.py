@@ -73,8 +73,8 @@ def _closest_kernel(packets):
             for i0 in range(c * CHUNK, end, PACKET):
                 m = min(PACKET, end - i0)
                 if packets:
-                    if closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_t,
-                                      out_prim, out_u, out_v, cnt):
+                    if closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m,
+                                      (out_t, out_prim, out_u, out_v), cnt):
                         continue
                 for i in range(i0, i0 + m):
                     if ray_ok(origins, dirs, t_min, t_max, i):
@@ -168,8 +168,9 @@ SLAB = 4096
 
 
 @njit(**BLOCK)
-def _listing_block(geo, acc, origins, dirs, t_min, t_max, start, fixed, slab, out_t, out_prim,
-                   out_u, out_v, found, cnt, clock):
+def _listing_block(geo, acc, rays, start, fixed, slab, outs, found, cnt, clock):
+    origins, dirs, t_min, t_max = rays
+    out_t, out_prim, out_u, out_v = outs
     n = origins.shape[0]
     rows = out_t.shape[0]
     n_chunks = (n + CHUNK - 1) // CHUNK
@@ -218,10 +219,11 @@ def _listing_block(geo, acc, origins, dirs, t_min, t_max, start, fixed, slab, ou
         c = take_ticket(clock)
 
 
-def cast_listing(geo, acc, origins, dirs, t_min, t_max, start, fixed, slab, out_t, out_prim,
-                 out_u, out_v, found, cnt_rows, clock):
-    """Every hit of ray i with t_min[i] < t < t_max[i], each crossing of a
-    closed surface once, in order of (t, primitive id), into rows of out_*:
+def cast_listing(geo, acc, rays, start, fixed, slab, outs, found, cnt_rows, clock):
+    """Every hit of ray i = (origins[i], dirs[i]) of rays = (origins, dirs,
+    t_min, t_max) with t_min[i] < t < t_max[i], each crossing of a closed
+    surface once, in order of (t, primitive id), into rows of outs (its t,
+    prim, u and v arrays):
     one traversal that never narrows the interval, as cast_counts's.
     found[i] gets the number of hits found, which is that count.
 
@@ -230,8 +232,7 @@ def cast_listing(geo, acc, origins, dirs, t_min, t_max, start, fixed, slab, out_
     in slabs of at least ``slab`` (clock[1], 0 at the call, counts the rows
     taken) and start[i] gets ray i's first row, or -1 where the rows ran
     out before its hits were written."""
-    run_rows(_listing_block, (geo, acc, origins, dirs, t_min, t_max, start, fixed, slab, out_t,
-                              out_prim, out_u, out_v, found), cnt_rows, clock)
+    run_rows(_listing_block, (geo, acc, rays, start, fixed, slab, outs, found), cnt_rows, clock)
 
 
 @njit(**BLOCK)

@@ -186,9 +186,9 @@ def _occluded(geo, acc, ray, t_max, cnt):
     return impl
 
 
-def closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_t, out_prim, out_u, out_v,
-                   cnt):
-    """Closest hits of rays i0 .. i0 + m - 1 as one packet, if the
+def closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
+    """Closest hits of rays i0 .. i0 + m - 1 (into outs: the t, prim, u and
+    v arrays) as one packet, if the
     structure traces packets and the rays can go as one; returns whether
     they did (if not, nothing is written).  Compiled code only."""
     raise NotImplementedError("compiled code only")
@@ -212,19 +212,16 @@ def _packets(acc, origins, dirs):
 
 
 @overload(closest_packet, jit_options=OVERLOAD)
-def _closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_t, out_prim, out_u, out_v,
-                    cnt):
+def _closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
     packets = _packets(acc, origins, dirs)
     if packets is None:
-        def impl(geo, acc, origins, dirs, t_min, t_max, i0, m, out_t, out_prim, out_u, out_v,
-                 cnt):
+        def impl(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
             return False
         return impl
     closest = packets[0]
 
-    def impl(geo, acc, origins, dirs, t_min, t_max, i0, m, out_t, out_prim, out_u, out_v, cnt):
-        return closest(geo, acc, origins, dirs, t_min, t_max, i0, m, out_t, out_prim, out_u,
-                       out_v, cnt)
+    def impl(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
+        return closest(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt)
     return impl
 
 

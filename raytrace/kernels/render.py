@@ -67,6 +67,20 @@ MeshTextures = namedtuple("MeshTextures", Textures._fields)
 # whose materials neither reflect nor transmit never compiles them.
 NoBounces = namedtuple("NoBounces", [])
 Bounces = namedtuple("Bounces", ["max_depth"])
+# What a shading point's direct light reads: the geometry, its structure,
+# the lights, the shadow mode and the sampling seed.  Its own record, so
+# _direct compiles once for renders that differ only in textures, mirrors
+# or glass.
+Lighting = namedtuple("Lighting", ["geo", "acc", "lights", "shadows", "seed"])
+# What every pixel of a render reads (cam: camera_buffer's 12 numbers).
+Render = namedtuple("Render", ["lighting", "cam", "textures", "bounces", "background", "width",
+                               "height", "spp"])
+# Where a band of rows is written: image (rows, width, 3) float32 linear,
+# the AOVs and the counter rows, each row y at y - row0.
+Band = namedtuple("Band", ["image", "aovs", "stats_rows", "row0"])
+# A hit's shading frame (_frame).
+Frame = namedtuple("Frame", ["px", "py", "pz", "gx", "gy", "gz", "nx", "ny", "nz", "side", "mat",
+                             "eps", "front"])
 
 # Shadow rays start this far off the surface, relative to the magnitude of
 # the hit point's coordinates.  The point is rebuilt from the primitive, so
@@ -218,14 +232,19 @@ def _frame(geo, ray, hit):
         nx, ny, nz = -nx, -ny, -nz
         side = -1.0
     eps = RAY_OFFSET * max(scale, abs(px), abs(py), abs(pz))
-    return px, py, pz, gx, gy, gz, nx, ny, nz, side, mat, eps, front
+    return Frame(px, py, pz, gx, gy, gz, nx, ny, nz, side, mat, eps, front)
 
 
 @njit(**JIT)
-def _direct(geo, acc, lights, shadows, hit, mat, ar, ag, ab, px, py, pz, gx, gy, gz, nx, ny, nz,
-            side, eps, dx, dy, dz, seed, pixel, sample, cnt):
-    """Blinn-Phong with the material's colour (ar, ag, ab): ambient, then
-    each light it faces, times the light's visibility (shadow rays)."""
+def _direct(lighting, hit, f, rgb, ray, pixel, sample, cnt):
+    """Blinn-Phong at frame f of the ray's hit with the material's colour
+    (rgb, a 3-tuple): ambient, then each light it faces, times the
+    light's visibility (shadow rays)."""
+    geo, acc, lights = lighting.geo, lighting.acc, lighting.lights
+    mat, ar, ag, ab = f.mat, rgb[0], rgb[1], rgb[2]
+    px, py, pz, gx, gy, gz = f.px, f.py, f.pz, f.gx, f.gy, f.gz
+    nx, ny, nz, eps = f.nx, f.ny, f.nz, f.eps
+    dx, dy, dz = ray.dx, ray.dy, ray.dz
     ka = geo.mat_param[mat, MAT_AMBIENT]
     kd = geo.mat_param[mat, MAT_DIFFUSE]
     ks = geo.mat_param[mat, MAT_SPECULAR]
@@ -233,7 +252,7 @@ def _direct(geo, acc, lights, shadows, hit, mat, ar, ag, ab, px, py, pz, gx, gy,
     r, g, b = ka * ar, ka * ag, ka * ab
     # Shadow rays start from the smooth surface the vertex normals imply,
     # not the flat facet (Hanika 2021), then off it along the facet normal.
-    sx, sy, sz = smooth_point(geo, hit, px, py, pz, side)
+    sx, sy, sz = smooth_point(geo, hit, px, py, pz, f.side)
     lifted = (sx - px) * gx + (sy - py) * gy + (sz - pz) * gz > eps
     ox, oy, oz = sx + eps * gx, sy + eps * gy, sz + eps * gz
     for li in range(lights.pos.shape[0]):
@@ -255,7 +274,8 @@ def _direct(geo, acc, lights, shadows, hit, mat, ar, ag, ab, px, py, pz, gx, gy,
         spec = 0.0
         if hl > 0.0:
             spec = ks * max(0.0, (nx * hx + ny * hy + nz * hz) / hl) ** shin
-        vis = light_visibility(shadows, geo, acc, lights, li, ox, oy, oz, seed, pixel, sample, cnt)
+        vis = light_visibility(lighting.shadows, geo, acc, lights, li, ox, oy, oz, lighting.seed,
+                               pixel, sample, cnt)
         lr, lg, lb = lights.color[li, 0], lights.color[li, 1], lights.color[li, 2]
         r += vis * lr * (kd * ar * ndl + spec)
         g += vis * lg * (kd * ag * ndl + spec)
@@ -279,8 +299,7 @@ def _camera_ray(cam, fx, fy):
     return make_ray(cam[0], cam[1], cam[2], dx, dy, dz), sxn, syn
 
 
-def shade_sample(bounces, geo, acc, cam, lights, shadows, textures, background, seed, pixel,
-                 sample, fx, fy, cnt):
+def shade_sample(render, pixel, sample, fx, fy, cnt):
     """Colour of one camera ray through film position (fx, fy) in [0,1]^2:
     (r, g, b, t, prim, nx, ny, nz), the last five for the AOVs.  With
     NoBounces the surface's own shading; with Bounces mirror and glass
@@ -289,38 +308,34 @@ def shade_sample(bounces, geo, acc, cam, lights, shadows, textures, background, 
 
 
 @overload(shade_sample, jit_options=OVERLOAD)
-def _shade_sample(bounces, geo, acc, cam, lights, shadows, textures, background, seed, pixel,
-                  sample, fx, fy, cnt):
-    if bounces.instance_class is NoBounces:
-        def impl(bounces, geo, acc, cam, lights, shadows, textures, background, seed, pixel,
-                 sample, fx, fy, cnt):
-            return _local_sample(geo, acc, cam, lights, shadows, textures, background, seed,
-                                 pixel, sample, fx, fy, cnt)
+def _shade_sample(render, pixel, sample, fx, fy, cnt):
+    if render.types[render.fields.index("bounces")].instance_class is NoBounces:
+        def impl(render, pixel, sample, fx, fy, cnt):
+            return _local_sample(render, pixel, sample, fx, fy, cnt)
         return impl
 
-    def impl(bounces, geo, acc, cam, lights, shadows, textures, background, seed, pixel, sample,
-             fx, fy, cnt):
-        return _whitted_sample(bounces.max_depth, geo, acc, cam, lights, shadows, textures,
-                               background, seed, pixel, sample, fx, fy, cnt)
+    def impl(render, pixel, sample, fx, fy, cnt):
+        return _whitted_sample(render, pixel, sample, fx, fy, cnt)
     return impl
 
 
 @njit(**JIT)
-def _local_sample(geo, acc, cam, lights, shadows, textures, background, seed, pixel, sample, fx,
-                  fy, cnt):
+def _local_sample(render, pixel, sample, fx, fy, cnt):
     """A camera ray's hit shaded by its own material alone (shade_sample)."""
-    ray, sxn, syn = _camera_ray(cam, fx, fy)
+    lighting = render.lighting
+    geo = lighting.geo
+    ray, sxn, syn = _camera_ray(render.cam, fx, fy)
     cnt[PRIMARY_RAYS] += 1
-    hit = closest_hit(geo, acc, ray, np.inf, cnt)
+    hit = closest_hit(geo, lighting.acc, ray, np.inf, cnt)
     if hit.prim < 0:
-        r, g, b = _sky(background, ray.dy)
+        r, g, b = _sky(render.background, ray.dy)
         return r, g, b, np.inf, -1, 0.0, 0.0, 0.0
     cnt[SHADING_POINTS] += 1
-    px, py, pz, gx, gy, gz, nx, ny, nz, side, mat, eps, _ = _frame(geo, ray, hit)
-    ar, ag, ab = surface_albedo(textures, geo, cam, hit, mat, px, py, pz, sxn, syn)
-    r, g, b = _direct(geo, acc, lights, shadows, hit, mat, ar, ag, ab, px, py, pz, gx, gy, gz,
-                      nx, ny, nz, side, eps, ray.dx, ray.dy, ray.dz, seed, pixel, sample, cnt)
-    return r, g, b, hit.t, hit.prim, nx, ny, nz
+    f = _frame(geo, ray, hit)
+    rgb = surface_albedo(render.textures, geo, render.cam, hit, f.mat, f.px, f.py, f.pz, sxn,
+                            syn)
+    r, g, b = _direct(lighting, hit, f, rgb, ray, pixel, sample, cnt)
+    return r, g, b, hit.t, hit.prim, f.nx, f.ny, f.nz
 
 
 # Pending rays of a Whitted tree, depth first: at most one waiting sibling
@@ -332,8 +347,7 @@ _CAMERA, _REFLECTED, _REFRACTED = 0.0, 1.0, 2.0   # a pending ray's kind
 
 
 @njit(**JIT)
-def _whitted_sample(max_depth, geo, acc, cam, lights, shadows, textures, background, seed, pixel,
-                    sample, fx, fy, cnt):
+def _whitted_sample(render, pixel, sample, fx, fy, cnt):
     """Whitted (1980), for shade_sample: at each hit the material's own
     shading weighted by 1 - reflect - transmit, plus mirror and glass rays
     weighted by the material and Fresnel (Schlick) and tinted by its colour
@@ -341,9 +355,12 @@ def _whitted_sample(max_depth, geo, acc, cam, lights, shadows, textures, backgro
     pending rays (origin, direction, RGB weight, depth, kind) replaces
     recursion, which the kernels cannot have; the camera ray is its first
     entry, so the tracing and shading code is compiled once."""
+    lighting, textures, cam = render.lighting, render.textures, render.cam
+    geo = lighting.geo
+    max_depth = render.bounces.max_depth
     ray0, sxn, syn = _camera_ray(cam, fx, fy)
     stack = frame_array(_STACK_FLOATS, np.float64)
-    sp = _push(stack, 0, ray0.ox, ray0.oy, ray0.oz, ray0.dx, ray0.dy, ray0.dz, 1.0, 1.0, 1.0,
+    sp = _push(stack, 0, (ray0.ox, ray0.oy, ray0.oz), (ray0.dx, ray0.dy, ray0.dz), (1.0, 1.0, 1.0),
                0, _CAMERA)
     r = g = b = 0.0
     t0, prim0, n0x, n0y, n0z = np.inf, -1, 0.0, 0.0, 0.0
@@ -357,32 +374,33 @@ def _whitted_sample(max_depth, geo, acc, cam, lights, shadows, textures, backgro
         kind = stack[e + _KIND]
         cnt[PRIMARY_RAYS if kind == _CAMERA else
             REFLECTION_RAYS if kind == _REFLECTED else REFRACTION_RAYS] += 1
-        hit = closest_hit(geo, acc, ray, np.inf, cnt)
+        hit = closest_hit(geo, lighting.acc, ray, np.inf, cnt)
         if hit.prim < 0:
-            sr, sg, sb = _sky(background, ray.dy)
+            sr, sg, sb = _sky(render.background, ray.dy)
             r += wr * sr
             g += wg * sg
             b += wb * sb
             continue
-        px, py, pz, gx, gy, gz, nx, ny, nz, side, mat, eps, front = _frame(geo, ray, hit)
+        f = _frame(geo, ray, hit)
+        px, py, pz, gx, gy, gz, nx, ny, nz = f.px, f.py, f.pz, f.gx, f.gy, f.gz, f.nx, f.ny, f.nz
+        mat, eps = f.mat, f.eps
         if kind == _CAMERA:
             cnt[SHADING_POINTS] += 1
             t0, prim0, n0x, n0y, n0z = hit.t, hit.prim, nx, ny, nz
-            ar, ag, ab = surface_albedo(textures, geo, cam, hit, mat, px, py, pz, sxn, syn)
+            rgb = surface_albedo(textures, geo, cam, hit, mat, px, py, pz, sxn, syn)
         else:
-            ar, ag, ab = point_albedo(textures, geo, hit, mat, px, py, pz)
+            rgb = point_albedo(textures, geo, hit, mat, px, py, pz)
+        ar, ag, ab = rgb
         kr = geo.mat_param[mat, MAT_REFLECT]
         kt = geo.mat_param[mat, MAT_TRANSMIT]
         dx, dy, dz = ray.dx, ray.dy, ray.dz
         eta = 1.0
         if kt > 0.0:
             ior = geo.mat_param[mat, MAT_IOR]
-            eta = 1.0 / ior if front else ior
+            eta = 1.0 / ior if f.front else ior
         own, w_refl, w_refr = bounce_weights(kr, kt, -(dx * nx + dy * ny + dz * nz), eta)
         if own > 0.0:
-            lr, lg, lb = _direct(geo, acc, lights, shadows, hit, mat, ar, ag, ab, px, py, pz,
-                                 gx, gy, gz, nx, ny, nz, side, eps, dx, dy, dz, seed, pixel,
-                                 sample, cnt)
+            lr, lg, lb = _direct(lighting, hit, f, rgb, ray, pixel, sample, cnt)
             r += wr * own * lr
             g += wg * own * lg
             b += wb * own * lb
@@ -395,8 +413,8 @@ def _whitted_sample(max_depth, geo, acc, cam, lights, shadows, textures, backgro
                 ok, tx, ty, tz = refract(dx, dy, dz, gx, gy, gz, eta)
             if ok:
                 # Refracted rays start just inside the surface.
-                sp = _push(stack, sp, px - eps * gx, py - eps * gy, pz - eps * gz, tx, ty, tz,
-                           wr * w_refr * ar, wg * w_refr * ag, wb * w_refr * ab, depth + 1,
+                sp = _push(stack, sp, (px - eps * gx, py - eps * gy, pz - eps * gz), (tx, ty, tz),
+                           (wr * w_refr * ar, wg * w_refr * ag, wb * w_refr * ab), depth + 1,
                            _REFRACTED)
             else:
                 w_refl += w_refr     # total internal reflection by the facet's normal
@@ -404,19 +422,20 @@ def _whitted_sample(max_depth, geo, acc, cam, lights, shadows, textures, backgro
             qx, qy, qz = reflect(dx, dy, dz, nx, ny, nz)
             if qx * gx + qy * gy + qz * gz <= 0.0:
                 qx, qy, qz = reflect(dx, dy, dz, gx, gy, gz)
-            sp = _push(stack, sp, px + eps * gx, py + eps * gy, pz + eps * gz, qx, qy, qz,
-                       wr * w_refl * ar, wg * w_refl * ag, wb * w_refl * ab, depth + 1,
+            sp = _push(stack, sp, (px + eps * gx, py + eps * gy, pz + eps * gz), (qx, qy, qz),
+                       (wr * w_refl * ar, wg * w_refl * ag, wb * w_refl * ab), depth + 1,
                        _REFLECTED)
     return r, g, b, t0, prim0, n0x, n0y, n0z
 
 
 @njit(**JIT)
-def _push(stack, sp, ox, oy, oz, dx, dy, dz, wr, wg, wb, depth, kind):
-    """Put a pending ray on the bounce stack; returns the new height."""
+def _push(stack, sp, origin, direction, weight, depth, kind):
+    """Put a pending ray (origin, direction and RGB weight: 3-tuples) on the
+    bounce stack; returns the new height."""
     e = sp * _ENTRY
-    stack[e + _O], stack[e + _O + 1], stack[e + _O + 2] = ox, oy, oz
-    stack[e + _D], stack[e + _D + 1], stack[e + _D + 2] = dx, dy, dz
-    stack[e + _W], stack[e + _W + 1], stack[e + _W + 2] = wr, wg, wb
+    stack[e + _O], stack[e + _O + 1], stack[e + _O + 2] = origin
+    stack[e + _D], stack[e + _D + 1], stack[e + _D + 2] = direction
+    stack[e + _W], stack[e + _W + 1], stack[e + _W + 2] = weight
     stack[e + _DEPTH] = depth
     stack[e + _KIND] = kind
     return sp + 1
@@ -430,31 +449,30 @@ TILE = 8
 
 
 @njit(**BLOCK)
-def render_part(geo, acc, cam, lights, shadows, textures, bounces, aovs, background, width, height,
-                y0, y_end, row0, spp, seed, image, stats_rows, clock):
+def render_part(render, band, y0, y_end, clock):
     """Bands of TILE rows from y0 (band k: rows y0 + k TILE ...) below y_end
-    into image (rows, width, 3) float32, linear, at row y - row0, square by
-    square, each band the next nobody has taken (a ticket from clock, as
-    the query kernels take chunks: kernels/cast.py).  Each row counts into
-    its own stats_rows[y - row0]."""
+    into band, square by square, each band the next nobody has taken (a
+    ticket from clock, as the query kernels take chunks: kernels/cast.py).
+    Each row counts into its own band.stats_rows[y - band.row0]."""
     n_bands = (y_end - y0 + TILE - 1) // TILE
-    band = take_ticket(clock)
-    while band < n_bands:
-        top = y0 + band * TILE
+    width = render.width
+    ticket = take_ticket(clock)
+    while ticket < n_bands:
+        top = y0 + ticket * TILE
         for x0 in range(0, width, TILE):
             for y in range(top, min(top + TILE, y_end)):
-                _render_span(geo, acc, cam, lights, shadows, textures, bounces, aovs, background,
-                             width, height, y, x0, min(x0 + TILE, width), row0, spp, seed, image,
-                             stats_rows)
-        band = take_ticket(clock)
+                _render_span(render, band, y, x0, min(x0 + TILE, width))
+        ticket = take_ticket(clock)
 
 
 @njit(**JIT)
-def _render_span(geo, acc, cam, lights, shadows, textures, bounces, aovs, background, width,
-                 height, y, x_first, x_end, row0, spp, seed, image, stats_rows):
+def _render_span(render, band, y, x_first, x_end):
     """Pixels x_first .. x_end - 1 of row y."""
-    row = y - row0
-    cnt = stats_rows[row]
+    width, height, spp = render.width, render.height, render.spp
+    seed = render.lighting.seed
+    row = y - band.row0
+    cnt = band.stats_rows[row]
+    image = band.image
     for x in range(x_first, x_end):
         pixel = y * width + x
         before = cnt[BOX_TESTS] + cnt[PRIM_TESTS]
@@ -466,25 +484,23 @@ def _render_span(geo, acc, cam, lights, shadows, textures, bounces, aovs, backgr
                 key = hash_key(seed, pixel, s, 0x5EED)
                 jx, jy = rand01(key, 0, 0), rand01(key, 0, 1)
             sr, sg, sb, t, prim, nx, ny, nz = shade_sample(
-                bounces, geo, acc, cam, lights, shadows, textures, background, seed, pixel, s,
-                (x + jx) / width, (y + jy) / height, cnt)
+                render, pixel, s, (x + jx) / width, (y + jy) / height, cnt)
             r += sr
             g += sg
             b += sb
             if s == 0:
-                record_sample(aovs, row, x, t, prim, nx, ny, nz)
+                record_sample(band.aovs, row, x, t, prim, nx, ny, nz)
         image[row, x, 0] = r / spp
         image[row, x, 1] = g / spp
         image[row, x, 2] = b / spp
-        record_cost(aovs, row, x, cnt[BOX_TESTS] + cnt[PRIM_TESTS] - before)
+        record_cost(band.aovs, row, x, cnt[BOX_TESTS] + cnt[PRIM_TESTS] - before)
 
 
-def render_rows(geo, acc, cam, lights, shadows, textures, bounces, aovs, background, width, height,
-                y0, y1, row0, n_threads, spp, seed, image, stats_rows, clock):
-    """Render rows y0 .. y1-1 into a band: image row y is image[y - row0]
-    (row0 = 0 for a whole-image buffer; a tile's own buffer starts at its
-    first row), likewise stats_rows and the AOVs.  clock: a one-element
-    int64 array, 0 at the call.
+def render_rows(render, band, y0, y1, n_threads, clock):
+    """Render rows y0 .. y1-1 of a Render into a Band: image row y is
+    band.image[y - band.row0] (row0 = 0 for a whole-image buffer; a tile's
+    own buffer starts at its first row), likewise its counter rows and
+    AOVs.  clock: a one-element int64 array, 0 at the call.
 
     Each of n_threads parts (threads.py) takes the next band of TILE rows
     until none is left: the bottom of a picture (ground, with its shadow
@@ -493,6 +509,4 @@ def render_rows(geo, acc, cam, lights, shadows, textures, bounces, aovs, backgro
     another process slowed one thread's core).
     """
     n_parts = max(1, min(n_threads, -(-(y1 - y0) // TILE)))
-    run_on_threads([functools.partial(
-        render_part, geo, acc, cam, lights, shadows, textures, bounces, aovs, background, width,
-        height, y0, y1, row0, spp, seed, image, stats_rows, clock)] * n_parts)
+    run_on_threads([functools.partial(render_part, render, band, y0, y1, clock)] * n_parts)

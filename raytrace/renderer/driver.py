@@ -370,7 +370,7 @@ def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows
     a tile of a poster costs its own rows, not the poster's).  ``load``:
     first compile or load the kernel, timed apart (compile_s; 0 without)."""
     from raytrace.kernels.counters import N_COUNTERS
-    from raytrace.kernels.render import render_rows
+    from raytrace.kernels.render import Band, Lighting, Render, render_rows
     p = payload
     width = p.width
     if image is None:
@@ -381,20 +381,21 @@ def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows
         aovs = aov_buffers(width, p.height, False)
     # Plain Python scalars only: a NumPy integer or a bool where an int is
     # expected would compile the kernel again for that type.
-    args = (p.geo, p.acc, cam, p.lights, p.shadows, p.textures, p.bounces, aovs, p.background,
-            int(width), int(p.height))
-    tail = (int(threads), int(p.spp), int(p.seed), image, stats_rows)
+    render = Render(lighting=Lighting(p.geo, p.acc, p.lights, p.shadows, int(p.seed)), cam=cam,
+                    textures=p.textures, bounces=p.bounces, background=p.background,
+                    width=int(width), height=int(p.height), spp=int(p.spp))
+    band = Band(image=image, aovs=aovs, stats_rows=stats_rows, row0=int(row0))
     clock = np.zeros(1, np.int64)    # the kernel's band tickets (kernels/render.py)
     # An empty band compiles the kernel (or loads it from Numba's cache)
     # without rendering anything, so that time is reported apart.
     t_compile = 0.0
     if load:
         t0 = time.perf_counter()
-        render_rows(*args, 0, 0, int(row0), *tail, clock)
+        render_rows(render, band, 0, 0, int(threads), clock)
         t_compile = time.perf_counter() - t0
     t0 = time.perf_counter()
     clock[0] = 0
-    render_rows(*args, int(y0), int(y1), int(row0), *tail, clock)
+    render_rows(render, band, int(y0), int(y1), int(threads), clock)
     return image, stats_rows, t_compile, time.perf_counter() - t0
 
 

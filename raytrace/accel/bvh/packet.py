@@ -316,12 +316,11 @@ _occluded_query = _packet_query(ANY_HIT)
 
 
 @njit(**JIT)
-def closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_t, out_prim, out_u, out_v,
-                   cnt):
-    """Closest hits of rays i0 .. i0 + m - 1 as cast_closest writes them,
-    if they go as a packet; returns whether they did."""
-    return _closest_query(geo, acc, origins, dirs, t_min, t_max, i0, m,
-                          (out_t, out_prim, out_u, out_v), cnt)
+def closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
+    """Closest hits of rays i0 .. i0 + m - 1 as cast_closest writes them
+    (outs: its t, prim, u and v arrays), if they go as a packet; returns
+    whether they did."""
+    return _closest_query(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt)
 
 
 @njit(**JIT)

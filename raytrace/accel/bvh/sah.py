@@ -58,12 +58,12 @@ def _row_area(rows, i):
 
 
 @njit(**dict(BUILD, nogil=True))
-def build_bvh_kernel(boxes, prim_ids, start, end, depth, max_leaf, traversal_cost, node_lo,
-                     node_hi, node_start, node_count, first, defer, tasks):
+def build_bvh_kernel(boxes, prim_ids, start, end, depth, max_leaf, traversal_cost, nodes, first,
+                     defer, tasks):
     """The binned-SAH tree over prim_ids[start:end] (reordered in place),
     its root at ``depth``, with a node visit costing ``traversal_cost``
-    primitive tests (TRAVERSAL_COST for tracing rays), into node rows
-    first, first + 1, ...
+    primitive tests (TRAVERSAL_COST for tracing rays), into rows first,
+    first + 1, ... of nodes = (node_lo, node_hi, node_start, node_count)
     depth-first.  With defer > 0, a node below the root with at most defer
     primitives is not built but left as a task: a row (node, start, end,
     depth) of ``tasks`` (n, 4), and node_count -1 at its row, for
@@ -83,6 +83,7 @@ def build_bvh_kernel(boxes, prim_ids, start, end, depth, max_leaf, traversal_cos
     node's box and centroid box and each bin grow 8 lanes at a time, and
     a primitive's three bins are found together: the same trees, 0.62 ->
     0.40 s for the 1M-triangle teapot on one thread (AVX-512 Xeon)."""
+    node_lo, node_hi, node_start, node_count = nodes
     bin_count = np.empty((3, N_BINS), np.int64)
     # Bin b of axis a: box row a * N_BINS + b (exact: minima of float32 rows).
     bin_box = np.empty((3 * N_BINS, LANES), BOX)
@@ -287,7 +288,7 @@ def build_bvh(lo, hi, max_leaf=MAX_LEAF, traversal_cost=TRAVERSAL_COST):
     if n == 0:
         return (*nodes, prim_ids)
     n_nodes, _, _ = build_bvh_kernel(boxes, prim_ids, 0, n, 0, int(max_leaf),
-                                     float(traversal_cost), *nodes, 0, 0, _NO_TASKS)
+                                     float(traversal_cost), nodes, 0, 0, _NO_TASKS)
     return tuple(a[:n_nodes] for a in nodes) + (prim_ids,)
 
 
@@ -339,7 +340,7 @@ def build_bvh_parallel(boxes, max_leaf, threads=None, split=SPLIT, refine=REFINE
     prim_ids = np.arange(n)
     tasks = np.empty((n, 4), np.int64)
     cost = float(traversal_cost)
-    top_end, _, n_tasks = build_bvh_kernel(boxes, prim_ids, 0, n, 0, max_leaf, cost, *nodes, top,
+    top_end, _, n_tasks = build_bvh_kernel(boxes, prim_ids, 0, n, 0, max_leaf, cost, nodes, top,
                                            max(n // split, 1), tasks)
     tasks = tasks[:n_tasks].copy()   # the (n, 4) bound goes
     split_to = {}   # a split task's placeholder row -> its root's row in the top
@@ -351,7 +352,7 @@ def build_bvh_parallel(boxes, max_leaf, threads=None, split=SPLIT, refine=REFINE
             break
         more = np.empty((2, 4), np.int64)
         split_to[row] = top_end
-        top_end, _, n_more = build_bvh_kernel(boxes, prim_ids, s, e, depth, max_leaf, cost, *nodes,
+        top_end, _, n_more = build_bvh_kernel(boxes, prim_ids, s, e, depth, max_leaf, cost, nodes,
                                               top_end, e - s - 1, more)
         tasks = np.concatenate([np.delete(tasks, k, axis=0), more[:n_more]])
         queues = _plan(tasks, threads)
@@ -363,7 +364,7 @@ def build_bvh_parallel(boxes, max_leaf, threads=None, split=SPLIT, refine=REFINE
     def work(queue):
         for k in queue:
             s, e, depth = (int(x) for x in tasks[k, 1:])
-            ends[k] = build_bvh_kernel(boxes, prim_ids, s, e, depth, max_leaf, cost, *nodes, 2 * s,
+            ends[k] = build_bvh_kernel(boxes, prim_ids, s, e, depth, max_leaf, cost, nodes, 2 * s,
                                        0, no_tasks)[0]
     run_on_threads([functools.partial(work, q) for q in queues])
     # A top node's children are rows of the top, or placeholders (count -1)

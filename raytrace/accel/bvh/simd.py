@@ -71,14 +71,14 @@ BOX_ARRAY = types.Array(from_dtype(np.dtype(BOX)), 3, "C")
 
 
 @intrinsic
-def ray_aabb4(typingctx, node_box, node, nx, ny, nz, onx, ony, onz, ofx, ofy, ofz,
-              inx, iny, inz, ifx, ify, ifz, t_max):
-    """Slab test of one ray against the 4 child boxes of BVH node ``node``,
+def ray_aabb4(typingctx, node_box, node, br, t_max):
+    """Slab test of one ray (its BoxRay br) against the 4 child boxes of BVH
+    node ``node``,
     in float32 (<4 x float>: on a 128-bit SIMD unit half the
     micro-operations of <4 x double>, and no widening of the stored boxes).
 
     ``node_box`` is (m, 6, 4) float32: rows lo x, y, z, hi x, y, z, one
-    lane per child.  ``nx, ny, nz`` are the rows of the planes the ray
+    lane per child.  ``br.nx, ny, nz`` are the rows of the planes the ray
     meets first on each axis (0/3, 1/4, 2/5 by the sign of its inverse
     direction), so no swap is needed: pbrt's dirIsNeg trick, vectorised
     across children as in Dammertz et al. 2008 ("Shallow Bounding Volume
@@ -119,20 +119,23 @@ def ray_aabb4(typingctx, node_box, node, nx, ny, nz, onx, ony, onz, ofx, ofy, of
     LLVM does not vectorise the scalar form of this; the explicit vector
     form is faster, and float32 faster again (docs/benchmarks.md, "BVH").
     """
-    args = (node_box, node, nx, ny, nz, onx, ony, onz, ofx, ofy, ofz, inx, iny, inz,
-            ifx, ify, ifz, t_max)
-    if node_box != BOX_ARRAY or not all(isinstance(a, types.Integer) for a in args[1:5]) \
-            or not all(a == types.float32 for a in args[5:17]) \
+    fields = tuple(getattr(br, "types", ()))     # BoxRay: 3 rows, 12 float32 constants
+    if node_box != BOX_ARRAY or not isinstance(node, types.Integer) or len(fields) != 15 \
+            or not all(isinstance(a, types.Integer) for a in fields[:3]) \
+            or not all(a == types.float32 for a in fields[3:]) \
             or not isinstance(t_max, types.Float):
         return None
-    sig = types.Tuple((types.int64, types.UniTuple(types.float64, WIDTH)))(*args)
+    sig = types.Tuple((types.int64, types.UniTuple(types.float64, WIDTH)))(node_box, node, br,
+                                                                           t_max)
 
     def codegen(context, builder, sig, llargs):
-        box, node, nx, ny, nz = [context.cast(builder, v, t, to) for v, t, to in zip(
-            llargs[:5], sig.args[:5], (sig.args[0],) + (types.int64,) * 4)]
-        near_o, far_o, near_i, far_i = llargs[5:8], llargs[8:11], llargs[11:14], llargs[14:17]
+        box = llargs[0]
+        parts = [builder.extract_value(llargs[2], k) for k in range(15)]
+        node, nx, ny, nz = [context.cast(builder, v, t, types.int64) for v, t in zip(
+            [llargs[1]] + parts[:3], (sig.args[1],) + fields[:3])]
+        near_o, far_o, near_i, far_i = parts[3:6], parts[6:9], parts[9:12], parts[12:15]
         f32 = ir.FloatType()
-        t_max = builder.fptrunc(context.cast(builder, llargs[17], sig.args[17], types.float64),
+        t_max = builder.fptrunc(context.cast(builder, llargs[3], sig.args[3], types.float64),
                                 f32)
         data = context.make_array(sig.args[0])(context, builder, value=box).data
         vec = ir.VectorType(f32, WIDTH)
@@ -263,13 +266,15 @@ VERTICES = types.Array(types.float64, 2, "C")
 
 
 CROSSING_LANES = 8    # crossing_mask's lanes: two chunks of 4 columns
+# The fields of a ray crossing_mask reads: axes, then floats.
+_CROSSING_FIELDS = ("kx", "ky", "kz", "okx", "oky", "okz", "sx", "sy", "sz", "t_min")
 
 
 @intrinsic
-def crossing_mask(typingctx, leaf_tris, k, k2, kx, ky, kz, okx, oky, okz, sx, sy, sz, t_min,
-                  t_max):
+def crossing_mask(typingctx, leaf_tris, k, k2, ray, t_max):
     """The crossing triangle test (intersect._triangle with ``crossing``)
-    of one ray against 8 triangles at once, in <8 x double>: columns k ..
+    of one ray (a CrossingRay or ListingRay: its watertight constants and
+    t_min) against 8 triangles at once, in <8 x double>: columns k ..
     k + 3 and k2 .. k2 + 3 of ``leaf_tris`` (accel/bvh/build.py's CountingBVH:
     row 3 * corner + axis), two contiguous loads of 4 a row, no gather.
     Two chunks, so that two small leaves share a test.
@@ -287,11 +292,16 @@ def crossing_mask(typingctx, leaf_tris, k, k2, kx, ky, kz, okx, oky, okz, sx, sy
       decides which triangle owns the edge, or NaN: a column that holds
       no triangle) is unsure: the caller runs the scalar test on it.
     """
-    floats = (okx, oky, okz, sx, sy, sz, t_min, t_max)
-    if leaf_tris != VERTICES or not all(isinstance(a, types.Integer) for a in (k, k2, kx, ky, kz)) \
+    names = getattr(ray, "fields", ())
+    if not all(f in names for f in _CROSSING_FIELDS):
+        return None
+    place = [names.index(f) for f in _CROSSING_FIELDS]
+    ints = (k, k2) + tuple(ray.types[j] for j in place[:3])
+    floats = tuple(ray.types[j] for j in place[3:]) + (t_max,)
+    if leaf_tris != VERTICES or not all(isinstance(a, types.Integer) for a in ints) \
             or not all(isinstance(a, types.Float) for a in floats):
         return None
-    sig = types.int64(leaf_tris, k, k2, kx, ky, kz, *floats)
+    sig = types.int64(leaf_tris, k, k2, ray, t_max)
     lanes = CROSSING_LANES
 
     def codegen(context, builder, sig, llargs):
@@ -301,11 +311,12 @@ def crossing_mask(typingctx, leaf_tris, k, k2, kx, ky, kz, okx, oky, okz, sx, sy
         both = ir.Constant(ir.VectorType(ir.IntType(32), lanes), list(range(lanes)))
         rows = context.make_array(sig.args[0])(context, builder, value=llargs[0])
         stride = builder.extract_value(rows.shape, 1)
-        k, k2, kx, ky, kz = [context.cast(builder, llargs[j], sig.args[j], types.int64)
-                             for j in range(1, 6)]
+        values = [*llargs[1:3], *(builder.extract_value(llargs[3], j) for j in place), llargs[4]]
+        k, k2, kx, ky, kz = [context.cast(builder, v, t, types.int64)
+                             for v, t in zip(values[:5], ints)]
         okx, oky, okz, sx, sy, sz, t_min, t_max = [
-            broadcast(builder, vec, context.cast(builder, llargs[j], sig.args[j], types.float64))
-            for j in range(6, 14)]
+            broadcast(builder, vec, context.cast(builder, v, t, types.float64))
+            for v, t in zip(values[5:], floats)]
 
         def coordinate(corner, axis):
             """Component ``axis`` of the 8 triangles' corner, one per lane."""

@@ -115,9 +115,7 @@ def box_ray(acc, ray):
 def child_boxes(node_box, node, br, t_box):
     """(mask, entry distances) of the ray whose BoxRay is br against node's
     4 child boxes."""
-    return ray_aabb4(node_box, node, br.nx, br.ny, br.nz, br.onx, br.ony, br.onz,
-                     br.ofx, br.ofy, br.ofz, br.inx, br.iny, br.inz, br.ifx, br.ify, br.ifz,
-                     t_box)
+    return ray_aabb4(node_box, node, br, t_box)
 
 
 @njit(**JIT)
@@ -232,8 +230,7 @@ def _count_chunks(geo, ray, leaf_tris, prim_ids, k, n, k2, n2, t_max):
     functions agree cost a quarter of the count when only the edge
     functions were in SIMD (docs/history.md)."""
     inside = ((1 << n) - 1) | (((1 << n2) - 1) << CHUNK)
-    m = crossing_mask(leaf_tris, k, k2, ray.kx, ray.ky, ray.kz, ray.okx, ray.oky, ray.okz,
-                      ray.sx, ray.sy, ray.sz, ray.t_min, t_max)
+    m = crossing_mask(leaf_tris, k, k2, ray, t_max)
     hits = m & inside
     todo = (m >> CROSSING_LANES) & inside
     n_hits = 0
@@ -411,21 +408,31 @@ def _crossing_ray(origins, dirs, t_min, t_max, i):
     return ray, t_max[i]
 
 
+# What both of count_stream's slots read and write: the scene, its
+# counting tree, the rays, the counts, counters and ticket clock, the chunk
+# size, and whether the scene has hits no tree holds.
+CountJob = namedtuple("CountJob", ["geo", "acc", "origins", "dirs", "t_min", "t_max", "out", "cnt",
+                                   "clock", "chunk", "unbounded"])
+
+
 @njit(**JIT)
-def _count_slot(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk, unbounded, i, ray,
-                tm, br, s, t, stack, queue, after, end):
-    """A round of the ray in one of count_stream's slots: ray i (below the
-    number of rays), its t_max tm, BoxRay br and state s; t the stream's
-    tallies.  When its traversal is done its count is written, with the
+def _count_slot(job, i, ray, tm, br, s, t, stack, queue, after, end):
+    """A round of the ray in one of count_stream's slots (job: its
+    CountJob): ray i (below the number of rays), its t_max tm, BoxRay br
+    and state s; t the stream's tallies.  When its traversal is done its count is written, with the
     hits no tree holds if the scene has them (``unbounded``: planes,
     spheres' far roots), and the slot takes the next good ray from
     ``after`` on (_next_good_ray).  Returns (i, ray, tm, br, s, t, after,
     end) for the next round."""
+    geo, acc, origins, dirs, t_min, t_max = job.geo, job.acc, job.origins, job.dirs, job.t_min, \
+        job.t_max
+    cnt = job.cnt
     if s.node >= 0:
         s, t = _count_round(geo, acc, ray, br, tm, stack, queue, s, t)
     if s.node < 0:
-        out[i] = s.hits + (count_unbounded_hits(geo, ray, tm, cnt) if unbounded else 0)
-        i, end = _next_good_ray(origins, dirs, t_min, t_max, out, after, end, clock, chunk, cnt)
+        job.out[i] = s.hits + (count_unbounded_hits(geo, ray, tm, cnt) if job.unbounded else 0)
+        i, end = _next_good_ray(origins, dirs, t_min, t_max, job.out, after, end, job.clock,
+                                job.chunk, cnt)
         after = i + 1
         ray, tm = _crossing_ray(origins, dirs, t_min, t_max, i)
         br = box_ray(acc, ray)
@@ -463,15 +470,14 @@ def count_stream(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
     sa = _count_start(acc, ia < n)
     sb = _count_start(acc, ib < n)
     t = Tallies(0, 0, 0, 0)
+    job = CountJob(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk, unbounded)
     while ia < n or ib < n:
         if ia < n:
             ia, ray_a, tm_a, br_a, sa, t, after, end = _count_slot(
-                geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk, unbounded,
-                ia, ray_a, tm_a, br_a, sa, t, stack_a, queue_a, after, end)
+                job, ia, ray_a, tm_a, br_a, sa, t, stack_a, queue_a, after, end)
         if ib < n:
             ib, ray_b, tm_b, br_b, sb, t, after, end = _count_slot(
-                geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk, unbounded,
-                ib, ray_b, tm_b, br_b, sb, t, stack_b, queue_b, after, end)
+                job, ib, ray_b, tm_b, br_b, sb, t, stack_b, queue_b, after, end)
     tally(cnt, t.n_inner, t.n_leaves, t.n_tests, t.n_hits)
 
 

@@ -132,12 +132,18 @@ def _grid_enter(acc, ray, t_max, cnt):
 
 
 @njit(**JIT)
-def _dda_step(ray, glo, cell, rx, ry, rz, ix, iy, iz, sx, sy, sz, tx, ty, tz, t_stop):
+def _dda_step(ray, glo, cell, res, cell_index, step, t_next, t_stop):
     """Step into the neighbour across the nearest face, unless the next cell
-    starts beyond t_stop or the ray leaves the grid.
+    starts beyond t_stop or the ray leaves the grid: res, the cell's index,
+    the walk's step (+-1) and the distance to the next cell boundary are
+    (x, y, z) tuples.
 
     Returns (inside, ix, iy, iz, tx, ty, tz); inside False ends the walk.
     """
+    rx, ry, rz = res
+    ix, iy, iz = cell_index
+    sx, sy, sz = step
+    tx, ty, tz = t_next
     t_exit = min(tx, ty, tz)
     inside = True
     if t_exit == np.inf or t_exit * STOP_SCALE > t_stop:
@@ -193,8 +199,8 @@ def _traversal(mode):
                     m3, m2, m1, m0 = m2, m1, m0, p
                     best = test_and_keep(geo, ray, p, t_max, best, cnt, mode != ALL_HITS)
                 k += 1
-            inside, ix, iy, iz, tx, ty, tz = _dda_step(ray, glo, cell, rx, ry, rz, ix, iy, iz,
-                                                       sx, sy, sz, tx, ty, tz,
+            inside, ix, iy, iz, tx, ty, tz = _dda_step(ray, glo, cell, (rx, ry, rz), (ix, iy, iz),
+                                                       (sx, sy, sz), (tx, ty, tz),
                                                        min(best.t, t_max))
         return best
     return traverse
