@@ -13,9 +13,17 @@ def setuptools_config():
     return tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
 
 
-def test_every_subpackage_is_listed(setuptools_config):
-    found = {".".join(p.parent.relative_to(ROOT).parts) for p in (ROOT / "raytrace").rglob("__init__.py")}
-    assert found | {"raytrace.assets"} == set(setuptools_config["packages"])
+def test_every_folder_of_code_ships(setuptools_config):
+    """setup.py's package list is every folder of raytrace/ holding code (a
+    folder without __init__.py would be left out of a wheel) and the
+    assets; pyproject.toml lists none of them itself."""
+    import runpy
+    listed = runpy.run_path(str(ROOT / "setup.py"), run_name="setup")["packages"]()
+    code = {".".join(p.parent.relative_to(ROOT).parts) for p in (ROOT / "raytrace").rglob("*.py")
+            if "__pycache__" not in p.parts}
+    assert set(listed) == code | {"raytrace.assets"}
+    assert "packages" not in setuptools_config
+    assert setuptools_config["package-dir"]["raytrace.assets"] == "assets"
 
 
 def test_every_asset_type_is_package_data(setuptools_config):

@@ -332,8 +332,7 @@ def _local_sample(render, pixel, sample, fx, fy, cnt):
         return r, g, b, np.inf, -1, 0.0, 0.0, 0.0
     cnt[SHADING_POINTS] += 1
     f = _frame(geo, ray, hit)
-    rgb = surface_albedo(render.textures, geo, render.cam, hit, f.mat, f.px, f.py, f.pz, sxn,
-                            syn)
+    rgb = surface_albedo(render.textures, geo, render.cam, hit, f.mat, f.px, f.py, f.pz, sxn, syn)
     r, g, b = _direct(lighting, hit, f, rgb, ray, pixel, sample, cnt)
     return r, g, b, hit.t, hit.prim, f.nx, f.ny, f.nz
 
