@@ -72,17 +72,25 @@ def main(rev, width, height, quick, cache):
                            check=True, capture_output=True)
         try:
             bad = 0
+            added = set()
             print(f"| case ({width}x{height}) | pixels | counters | structure |")
             print("| --- | --- | --- | --- |")
             for k, case in enumerate(cases):
                 caches = Path(cache) if cache else tmp
                 a_img, a = run(ROOT, case, size, tmp / f"a{k}.png", caches / "cache-a")
                 b_img, b = run(other, case, size, tmp / f"b{k}.png", caches / "cache-b")
+                # A counter one tree has and the other lacks (added since) is
+                # listed below the table, not compared.
+                shared = a["counters"].keys() & b["counters"].keys()
+                added |= a["counters"].keys() ^ b["counters"].keys()
                 same = [a_img.shape == b_img.shape and bool((a_img == b_img).all()),
-                        a["counters"] == b["counters"], a.get("structure") == b.get("structure")]
+                        all(a["counters"][k] == b["counters"][k] for k in shared),
+                        a.get("structure") == b.get("structure")]
                 bad += not all(same)
                 print(f"| `{' '.join(case)}` | " + " | ".join("same" if s else "**differ**"
                                                             for s in same) + " |", flush=True)
+            if added:
+                print(f"\nCounters in one tree only (not compared): {', '.join(sorted(added))}")
         finally:
             if other.parent == tmp:
                 subprocess.run(["git", "worktree", "remove", "--force", str(other)], cwd=ROOT,

@@ -155,3 +155,14 @@ def test_a_big_teapots_tessellation_kernels_count_as_compile_time(run, monkeypat
     assert r.exit_code == 0, r.output
     stats = json.loads(r.output)
     assert stats["time"]["compile_s"] >= 0.5 > stats["time"]["load_s"]
+
+
+def test_rays_cut_by_max_depth_are_counted_and_named(run):
+    """Glass rays the depth limit stops leave dark pixels: the table counts
+    them and a line names the option to raise; a deep enough limit is quiet."""
+    r = run("whitted", *SMALL, "--max-depth", "1")
+    assert r.exit_code == 0, r.output
+    assert "Rays cut by --max-depth" in r.output
+    assert "mirror and glass rays were cut by --max-depth 1: raise it" in r.output
+    r = run("teapot", *SMALL, "--json")
+    assert json.loads(r.output)["counters"]["depth_limited_rays"] == 0

@@ -103,6 +103,7 @@ def test_recursion_stops_at_max_depth(max_depth):
     n = 32 * 24
     assert c["shading_points"] == n
     assert c["reflection_rays"] == n * max_depth and c["refraction_rays"] == 0
+    assert c["depth_limited_rays"] == n              # each pixel's last mirror ray
     assert c["shadow_rays"] == 0                     # a perfect mirror has no shading of its own
     assert r.stats["max_depth"] == max_depth
 
@@ -124,6 +125,8 @@ def test_camera_inside_a_glass_sphere(scale, shift):
     c = r.stats["counters"]
     n = 32 * 24
     assert (c["shading_points"], c["refraction_rays"], c["reflection_rays"]) == (n, 2 * n, 2 * n)
+    # The second reflection's hit, at depth 2, would refract and reflect.
+    assert c["depth_limited_rays"] == 2 * n
     assert c["prim_hits"] == 3 * n                   # the camera ray's hit and two reflections'
     assert np.isfinite(r.linear).all() and (r.linear > 0).all()
 

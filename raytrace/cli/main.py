@@ -289,6 +289,10 @@ def render_cmd(scene, bvol, scene_args, output, aov, heatmap, show_depth, work, 
         click.echo(f"wrote {output}")
         for note in notes:
             click.echo(note)
+        cut = result.stats["counters"]["depth_limited_rays"]
+        if cut:
+            click.echo(f"{cut:,} mirror and glass rays were cut by --max-depth "
+                       f"{result.stats['max_depth']}: raise it where glass looks dark")
 
 
 def _render_animation(scene, kind, output, work, as_json, quiet, options, width, height,

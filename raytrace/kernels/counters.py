@@ -21,6 +21,7 @@ SHADOW_POINTS = 8
 OCCLUDED_RAYS = 9
 REFLECTION_RAYS = 10
 REFRACTION_RAYS = 11
+DEPTH_LIMITED = 12
 
 # index -> (JSON key, label, meaning), in the table's order.
 DECLARED = {
@@ -44,6 +45,10 @@ DECLARED = {
                       "rays reflected by mirror and glass surfaces (only in scenes that have them)"),
     REFRACTION_RAYS: ("refraction_rays", "Refraction rays",
                       "rays refracted into or out of glass"),
+    DEPTH_LIMITED: ("depth_limited_rays", "Rays cut by --max-depth",
+                    "reflection and refraction rays not cast because their path reached "
+                    "--max-depth bounces: what they would have added is missing (glass shows "
+                    "black there)"),
 }
 N_COUNTERS = len(DECLARED)
 # Counter rows of ray queries have one more column: the rays found bad as

@@ -26,6 +26,7 @@ from raytrace.kernels.buffers import (
 )
 from raytrace.kernels.counters import (
     BOX_TESTS,
+    DEPTH_LIMITED,
     OCCLUDED_RAYS,
     PRIM_TESTS,
     PRIMARY_RAYS,
@@ -404,6 +405,9 @@ def _whitted_sample(render, pixel, sample, fx, fy, cnt):
             g += wg * own * lg
             b += wb * own * lb
         if depth >= max_depth:
+            # Counted, so the statistics explain the dark pixels the
+            # missing light leaves (glass between glass surfaces).
+            cnt[DEPTH_LIMITED] += (w_refl > 0.0) + (w_refr > 0.0)
             continue
         if w_refr > 0.0:
             ok, tx, ty, tz = refract(dx, dy, dz, nx, ny, nz, eta)
