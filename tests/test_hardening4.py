@@ -62,3 +62,85 @@ def test_13_ctrl_c_while_the_console_script_imports(tmp_path, delay_ms):
     assert first.rstrip().endswith(f"| {module}")
     assert (p.returncode, lines(err)) == (130, ["interrupted: no image written"])
     assert list(tmp_path.iterdir()) == []
+
+
+# --- 14: a PLY declaring more elements than it holds ------------------------
+
+def _cube():
+    import trimesh
+    box = trimesh.creation.box()
+    return box.vertices, box.faces
+
+
+def _binary(endian, old, new, **opts):
+    """A binary cube (8 vertices, 12 triangles) whose header says ``new``
+    where it said ``old``."""
+    def write(tmp):
+        from tests.test_ply import write_ply
+        v, f = _cube()
+        if "counts" in opts:
+            f = [[*row, row[0]] for row in f]     # room for a fourth index
+        path = write_ply(tmp / "m.ply", v, f, endian=endian, **opts)
+        path.write_bytes(path.read_bytes().replace(old, new, 1))
+        return path
+    return write
+
+
+def _ascii(old, new):
+    def write(tmp):
+        import trimesh
+        path = tmp / "m.ply"
+        path.write_bytes(trimesh.Trimesh(*_cube(), process=False).export(file_type="ply", encoding="ascii")
+                         .replace(old, new, 1))
+        return path
+    return write
+
+
+FACES_50 = (b"element face 12", b"element face 50")
+VERTICES_20 = (b"element vertex 8", b"element vertex 20")
+HELD_12 = "the header declares 50 face elements, the file ends after 12 of them"
+VERTEX_BYTES = "the header declares 20 vertex and 12 face elements, at least 396 bytes; the file holds 252"
+FACE_COLOURS = (("uchar", "red"), ("uchar", "green"), ("uchar", "blue"))
+
+# (name, write(tmp) -> path, the words of the one line)
+PLY_COUNT_CASES = [
+    ("ascii faces", _ascii(*FACES_50), HELD_12),
+    ("ascii vertices", _ascii(*VERTICES_20), "declares 20 vertex elements, the file ends after 8 of them"),
+    ("binary le faces", _binary("<", *FACES_50), HELD_12),
+    ("binary be faces", _binary(">", *FACES_50), HELD_12),
+    ("binary le face colours", _binary("<", *FACES_50, extra_face=FACE_COLOURS), HELD_12),
+    ("binary be quads", _binary(">", *FACES_50, counts=[4] * 12), HELD_12),
+    ("binary le vertices", _binary("<", *VERTICES_20), VERTEX_BYTES),
+    ("binary be vertices", _binary(">", *VERTICES_20), VERTEX_BYTES),
+    ("binary mixed polygons", _binary("<", *FACES_50, counts=[3, 4] * 6),
+     "the header declares 8 vertex and 50 face elements, at least"),
+]
+
+
+@pytest.mark.parametrize("name, write, words", PLY_COUNT_CASES, ids=[c[0] for c in PLY_COUNT_CASES])
+def test_14_ply_declaring_more_than_it_holds(tmp_path, name, write, words):
+    from raytrace.errors import RaytraceError
+    from raytrace.scene.formats.mesh import read_mesh_parts
+    path = write(tmp_path)
+    with pytest.raises(RaytraceError) as info:
+        read_mesh_parts(path)
+    assert str(info.value).startswith(f"{path}: ") and words in str(info.value)
+
+
+@pytest.mark.parametrize("name, write, _", PLY_COUNT_CASES[:1], ids=["cli"])
+def test_14_ply_count_cli_one_line(tmp_path, name, write, _):
+    write(tmp_path)
+    p = subprocess.run([sys.executable, "-m", "raytrace", "m.ply", "-o", "x.png"], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=120)
+    assert (p.returncode, lines(p.stderr)) == (1, [f"Error: m.ply: {HELD_12}"])
+
+
+@pytest.mark.parametrize("name, write", [
+    ("ascii", _ascii(b"", b"")),
+    ("binary face colours", _binary("<", b"", b"", extra_face=FACE_COLOURS)),
+    ("binary mixed polygons", _binary(">", b"", b"", counts=[3, 4] * 6)),
+])
+def test_14_ply_holding_what_it_declares_reads(tmp_path, name, write):
+    from raytrace.scene.formats.mesh import read_mesh_parts
+    (part,) = read_mesh_parts(write(tmp_path))
+    assert len(part.vertices) == 8 and len(part.faces) in (12, 18)
