@@ -144,3 +144,94 @@ def test_14_ply_holding_what_it_declares_reads(tmp_path, name, write):
     from raytrace.scene.formats.mesh import read_mesh_parts
     (part,) = read_mesh_parts(write(tmp_path))
     assert len(part.vertices) == 8 and len(part.faces) in (12, 18)
+
+
+# --- 6: a --scheduler peer that does not speak Dask -------------------------
+
+def _peer(answer):
+    """A TCP server on 127.0.0.1 that answers each connection with
+    ``answer(sock)``, in a thread: its address."""
+    import socket
+    import threading
+    server = socket.create_server(("127.0.0.1", 0))
+
+    def serve():
+        while True:
+            sock, _ = server.accept()
+            threading.Thread(target=answer, args=(sock,), daemon=True).start()
+    threading.Thread(target=serve, daemon=True).start()
+    return f"tcp://127.0.0.1:{server.getsockname()[1]}"
+
+
+def _http(sock):
+    sock.recv(4096)        # Dask's handshake, read as a request: an HTTP server's answer
+    sock.sendall(b"HTTP/1.0 400 Bad request\r\nContent-Type: text/html\r\n\r\n<html>400</html>\n")
+
+
+def _garbage(sock):
+    sock.sendall(b"\xff" * 64 + b"not dask\n" * 100)
+
+
+def _silent(sock):
+    sock.recv(4096)
+    time.sleep(30)
+
+
+def _closes(sock):
+    sock.close()
+
+
+def _refused():
+    import socket
+    with socket.create_server(("127.0.0.1", 0)) as s:
+        return f"tcp://127.0.0.1:{s.getsockname()[1]}"       # closed again: nothing listens
+
+
+def _http_server():
+    """Python's own HTTP server (which waits for the rest of a request)."""
+    import http.server
+    import threading
+
+    class Quiet(http.server.BaseHTTPRequestHandler):
+        def log_message(self, *args):
+            pass
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Quiet)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    return f"tcp://127.0.0.1:{server.server_address[1]}"
+
+
+UNLIKE = "(is it a Dask scheduler's address?)"
+# (name, address(), the words of the one line after the address)
+PEER_CASES = [
+    ("http.server", _http_server, f"no answer from {{}} in 1 s {UNLIKE}"),
+    ("http answer", lambda: _peer(_http), f"answered with something other than Dask's handshake {UNLIKE}"),
+    ("garbage bytes", lambda: _peer(_garbage), "answered with something other than Dask's handshake"),
+    ("silent", lambda: _peer(_silent), f"no answer from {{}} in 1 s {UNLIKE}"),
+    ("closes", lambda: _peer(_closes), "closed the connection before Dask's handshake"),
+    ("refused", _refused, "cannot reach the Dask scheduler at {}: Connection refused"),
+]
+
+
+@pytest.mark.parametrize("name, address, words", PEER_CASES, ids=[c[0] for c in PEER_CASES])
+def test_6_peer_not_speaking_dask_fails_in_time(name, address, words):
+    pytest.importorskip("distributed")
+    from raytrace.errors import RaytraceError
+    from raytrace.frames.distributed import check_handshake
+    address = address()
+    t0 = time.monotonic()
+    with pytest.raises(RaytraceError) as info:
+        check_handshake(address, timeout=1)
+    assert time.monotonic() - t0 < 3
+    assert address in str(info.value) and words.format(address) in str(info.value), str(info.value)
+
+
+def test_6_cli_peer_not_speaking_dask_is_one_line(tmp_path):
+    pytest.importorskip("distributed")
+    address = _peer(_garbage)
+    p = subprocess.run([sys.executable, "-m", "raytrace", "spheres", "--width", "16", "--height",
+                        "12", "-o", "x.png", "--scheduler", address], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=300)
+    got = [ln for ln in lines(p.stderr) if not ln.startswith("compiling kernels")]
+    assert (p.returncode, got) == (1, [f"Error: {address} answered with something other than "
+                                       f"Dask's handshake {UNLIKE}"])
+    assert list(tmp_path.iterdir()) == []
