@@ -235,3 +235,99 @@ def test_6_cli_peer_not_speaking_dask_is_one_line(tmp_path):
     assert (p.returncode, got) == (1, [f"Error: {address} answered with something other than "
                                        f"Dask's handshake {UNLIKE}"])
     assert list(tmp_path.iterdir()) == []
+
+
+# --- 7: memory planned: lazy fields in blocks, camera rays refused ---------
+
+def _mixed_scene():
+    """A mesh, a plane and a sphere, and rays that hit each and miss."""
+    import numpy as np
+    import trimesh
+
+    from raytrace.cast.rayscene import RayScene
+    from raytrace.scene.model import Camera, Material, Mesh, Plane, Scene, Sphere
+    box = trimesh.creation.box()
+    m = Material()
+    scene = Scene("s", Camera((0, 0, 5), (0, 0, 0)), objects=[
+        Mesh(np.asarray(box.vertices), np.asarray(box.faces), m), Plane((0, -1, 0), (0, 2, 0), m),
+        Sphere((3, 0, 0), 1.0, m)])
+    rng = np.random.default_rng(1)
+    n = 1000
+    origins = np.c_[rng.uniform(-5, 5, (n, 2)), np.full(n, 5.0)]
+    directions = np.c_[rng.uniform(-0.3, 0.3, (n, 2)), -np.ones(n)]
+    return RayScene(scene), origins, directions
+
+
+LAZY_FIELDS = [
+    ("cast_rays", lambda rs, o, d: rs.cast_rays(o, d), ("normal", "point", "geometry_id", "prim_id")),
+    ("list_intersections", lambda rs, o, d: rs.list_intersections(o, d),
+     ("normal", "point", "geometry_id", "prim_id")),
+    ("closest_points", lambda rs, o, d: rs.closest_points(o + 5 * d), ("normal", "geometry_id", "prim_id")),
+]
+
+
+@pytest.mark.parametrize("name, query, fields", LAZY_FIELDS, ids=[c[0] for c in LAZY_FIELDS])
+def test_7_lazy_fields_in_blocks_are_the_whole_answer(monkeypatch, name, query, fields):
+    """Blocks of 7 rows give, bit for bit, the fields made in one block."""
+    import numpy as np
+
+    import raytrace.cast.prepared as prepared
+    rs, o, d = _mixed_scene()
+    whole = query(rs, o, d)
+    want = {f: np.array(getattr(whole, f)) for f in fields}
+    assert {0, 1, 2} <= set(want["geometry_id"].tolist())      # mesh, plane and sphere
+    monkeypatch.setattr(prepared, "SURFACE_BLOCK", 7)
+    blocked = query(rs, o, d)
+    for f in fields:
+        np.testing.assert_array_equal(getattr(blocked, f), want[f], err_msg=f)
+        assert getattr(blocked, f).dtype == want[f].dtype, f
+
+
+@pytest.mark.parametrize("field", ["normal", "point", "prim_id"])
+def test_7_lazy_field_costs_its_answer_not_several(field):
+    """Reading a field of many rays allocates about its own size (whole,
+    normal took six times it)."""
+    import tracemalloc
+
+    import numpy as np
+
+    import raytrace.cast.prepared as prepared
+    from raytrace.cast.rayscene import RayScene
+    n = 50 * prepared.SURFACE_BLOCK
+    hits = RayScene(_cube()).cast_rays(np.tile([0.0, 0.0, 5.0], (n, 1)),
+                                       np.tile([0.0, 0.0, -1.0], (n, 1)))
+    tracemalloc.start()
+    try:
+        answer = getattr(hits, field)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    answers = 2 * answer.nbytes if field == "prim_id" else answer.nbytes   # ids come in pairs
+    assert peak < answers + 64 * prepared.SURFACE_BLOCK * 8, (peak, answer.nbytes)
+
+
+GIB = 1 << 30
+# (name, free bytes, call, words or None if made)
+RAY_MEMORY_CASES = [
+    ("65536 squared", 64 * GIB, lambda r: r.create_rays_pinhole(60, [0, 0, 0], [0, 0, 5], [0, 1, 0],
+                                                                 65536, 65536),
+     "65536x65536 rays need about 448.0 GiB of memory while they are made, more than the 64.0 GiB "
+     "available"),
+    ("matrices", 1 * GIB, lambda r: r.create_rays_from_matrices([[100, 0, 50], [0, 100, 50], [0, 0, 1]],
+                                                                 __import__("numpy").eye(4), 4096, 4096),
+     "4096x4096 rays need about 1.8 GiB"),
+    ("fits", 1 * GIB, lambda r: r.create_rays_pinhole(60, [0, 0, 0], [0, 0, 5], [0, 1, 0], 64, 48), None),
+]
+
+
+@pytest.mark.parametrize("name, free, call, words", RAY_MEMORY_CASES, ids=[c[0] for c in RAY_MEMORY_CASES])
+def test_7_camera_rays_refused_before_allocating(monkeypatch, name, free, call, words):
+    import raytrace
+    import raytrace.scene.formats.mesh
+    monkeypatch.setattr(raytrace.scene.formats.mesh, "available_memory", lambda: free)
+    if words is None:
+        assert call(raytrace).shape == (48, 64, 6)
+        return
+    with pytest.raises(raytrace.RaytraceError) as info:
+        call(raytrace)
+    assert words in str(info.value)
