@@ -331,3 +331,63 @@ def test_7_camera_rays_refused_before_allocating(monkeypatch, name, free, call, 
     with pytest.raises(raytrace.RaytraceError) as info:
         call(raytrace)
     assert words in str(info.value)
+
+
+def _counting_camera_buffers(monkeypatch):
+    import raytrace.frames.batch as batch
+    made = []
+    real = batch.camera_buffer
+    monkeypatch.setattr(batch, "camera_buffer", lambda *a: made.append(1) or real(*a))
+    return made
+
+
+def test_7_tasks_are_made_as_they_are_taken(monkeypatch):
+    """--turntable 100000 --tiles 65536: 6.5e9 tasks, counted without making
+    them; the first ones cost one camera buffer, shared by the frame's bands."""
+    import itertools
+
+    import numpy as np
+
+    import raytrace
+    from raytrace.frames.batch import Tasks, bands
+    from raytrace.renderer.driver import camera_buffer
+    from raytrace.scene.animation import turntable
+    made = _counting_camera_buffers(monkeypatch)
+    camera = raytrace.load_scene("spheres").camera
+    tasks = Tasks(turntable(camera, 100_000), range(100_000), bands(65536, 65536), 640, 65536)
+    assert (len(tasks), tasks.tallest) == (100_000 * 65536, 1)
+    first = list(itertools.islice(tasks, 3))
+    assert made == [1] and [t[1:] for t in first] == [(0, 0, 1), (0, 1, 2), (0, 2, 3)]
+    # Small: the same tasks a list made up front held, skipped frames left out.
+    cams = turntable(camera, 4)
+    rows = bands(48, 3)
+    want = [(camera_buffer(c, 64, 48), f, y0, y1) for f, c in enumerate(cams) if f != 2
+            for y0, y1 in rows]
+    got = list(Tasks(cams, [0, 1, 3], rows, 64, 48))
+    assert len(got) == len(want) == 9
+    for (a, *ra), (b, *rb) in zip(got, want):
+        assert ra == rb and np.array_equal(a, b)
+
+
+def test_7_render_frames_hands_the_runner_lazy_tasks(monkeypatch):
+    """The runner is handed the tasks before any is made; it makes them."""
+    import raytrace
+    from raytrace.frames.batch import render_frames
+    from raytrace.renderer.driver import RenderOptions
+    from raytrace.scene.animation import turntable
+    made = _counting_camera_buffers(monkeypatch)
+    seen = []
+
+    class FirstTask:
+        workers = 1
+
+        def run(self, payload, tasks):
+            seen.append((len(tasks), len(made)))
+            next(iter(tasks))
+            seen.append(len(made))
+            return iter(())
+
+    scene = raytrace.load_scene("spheres", width=16, height=12)
+    render_frames(scene, turntable(scene.camera, 100_000), RenderOptions(width=16, height=12),
+                  FirstTask(), tiles=65536)
+    assert seen == [(100_000 * 12, 0), 1]

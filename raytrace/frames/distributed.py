@@ -8,6 +8,7 @@ a task's answer depends only on its arguments, so a rerun changes
 nothing in the image.
 """
 import contextlib
+import itertools
 import os
 import sys
 import time
@@ -168,14 +169,14 @@ class DaskRunner:
         # Sending the scene; the first time, also each worker's import of
         # raytrace and Numba to unpickle it: start-up, timed apart.
         self.scatter_s = time.perf_counter() - t0
-        tasks = list(tasks)
         workers = self.workers
         window = TASKS_PER_WORKER * workers
-        group = _group_size(tasks, payload, workers)
+        group = _group_size(len(tasks), tasks.tallest, payload, workers)
+        untaken = iter(tasks)         # batch.Tasks: made as they are submitted
         futures = []      # (future, its tiles, the scatter it was given)
         try:
-            for k in range(0, len(tasks), group):
-                futures.append(self._submit(tasks[k:k + group]))
+            while tiles := list(itertools.islice(untaken, group)):
+                futures.append(self._submit(tiles))
                 if len(futures) >= window:
                     yield from self._result(payload, *futures.pop(0))
             while futures:
@@ -221,14 +222,15 @@ class DaskRunner:
 TASK_SAMPLES = 1 << 20
 
 
-def _group_size(tasks, payload, workers):
-    """How many consecutive tiles make one Dask task."""
+def _group_size(n_tasks, tallest, payload, workers):
+    """How many consecutive tiles (of ``n_tasks``, at most ``tallest`` rows
+    each) make one Dask task."""
     width, spp = payload.width, payload.spp
-    if not tasks or not isinstance(width, int) or not isinstance(spp, int):
+    if not n_tasks or not isinstance(width, int) or not isinstance(spp, int):
         return 1
-    samples = max(1, max((y1 - y0) * width * spp for _, _, y0, y1 in tasks))
+    samples = max(1, tallest * width * spp)
     by_size = max(1, TASK_SAMPLES // samples)
-    by_balance = max(1, len(tasks) // (TASKS_PER_WORKER * workers))
+    by_balance = max(1, n_tasks // (TASKS_PER_WORKER * workers))
     return min(by_size, by_balance)
 
 
