@@ -233,9 +233,10 @@ def _ascii_short(path, fmt, elements, offset):
     so a short vertex element is named rather than the faces after it."""
     with open(path, "rb") as f:
         f.seek(offset)
+        if sum(1 for line in f if line.strip()) >= sum(count for _, count, _ in elements):
+            return None
+        f.seek(offset)                 # short: read again to say which element
         words = [len(line.split()) for line in f if line.strip()]
-    if len(words) >= sum(count for _, count, _ in elements):
-        return None
     pos = 0
     for name, count, props in elements:
         n = min(count, len(words) - pos)
