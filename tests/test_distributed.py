@@ -12,7 +12,7 @@ import pytest
 
 import raytrace
 from raytrace import RaytraceError
-from raytrace.frames.batch import InProcess, animate, bands, render_frames, render_tiled
+from raytrace.frames.batch import InProcess, Tasks, animate, bands, render_frames, render_tiled
 from raytrace.renderer.driver import RenderOptions
 from raytrace.scene.animation import turntable
 
@@ -102,9 +102,8 @@ def test_small_tiles_share_a_task_and_still_come_back_in_order(scene, cluster):
     from raytrace.renderer.driver import prepare
     cams = turntable(scene.camera, 24)
     payload = prepare(scene, RenderOptions(**HARD)).payload()
-    tasks = [(None, f, 0, HARD["height"]) for f in range(24)]
-    assert _group_size(tasks, payload, 2) == 3
-    assert _group_size(tasks[:8], payload, 2) == 1           # too few to share
+    assert _group_size(24, HARD["height"], payload, 2) == 3
+    assert _group_size(8, HARD["height"], payload, 2) == 1           # too few to share
     here, _ = animate(scene, cams, RenderOptions(**HARD))
     order = []
     there, stats = animate(scene, cams, RenderOptions(**HARD), runner=DaskRunner(cluster, 1),
@@ -149,7 +148,7 @@ def test_a_task_that_fails_on_a_worker_is_one_raytrace_error(scene, cluster):
     from raytrace.renderer.driver import Payload
     bad = Payload(*(None,) * 11)            # not a scene's buffers: the worker's kernel call fails
     with pytest.raises(RaytraceError, match="a Dask worker failed"):
-        list(DaskRunner(cluster, 1).run(bad, [(np.zeros(12), 0, 0, 4)]))
+        list(DaskRunner(cluster, 1).run(bad, Tasks([scene.camera], [0], [(0, 4)], 16, 12)))
 
 
 def test_tiled_render_has_no_linear_image_and_refuses_aovs(scene):

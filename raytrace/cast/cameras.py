@@ -5,6 +5,10 @@ import numpy as np
 from raytrace.errors import RaytraceError
 from raytrace.scene.formats.mesh import MAX_COORD
 
+# Float64s a pixel at the peak: the (h, w, 6) rays, and while they are
+# filled mgrid's two index arrays, the pixel grid (3) and its product (3).
+BYTES_PER_PIXEL = 8 * (6 + 2 + 3 + 3)
+
 
 def create_rays_pinhole(fov, center, eye, up, width, height):
     """Rays of a pinhole camera at ``eye`` looking at ``center``, Open3D's
@@ -63,11 +67,18 @@ def create_rays_from_matrices(intrinsic, extrinsic, width, height):
 
 
 def _pixels(width, height):
+    """(width, height) as ints, checked, and refused before anything is
+    allocated if their rays would not fit in free memory."""
     out = []
     for name, v in (("width", width), ("height", height)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 1 <= v <= 1 << 16:
             raise RaytraceError(f"{name}: must be an integer from 1 to 65536, got {v!r}")
         out.append(int(v))
+    from raytrace.scene.formats.mesh import available_memory
+    need, free = out[0] * out[1] * BYTES_PER_PIXEL, available_memory()
+    if need > free:
+        raise RaytraceError(f"{out[0]}x{out[1]} rays need about {need / 2**30:.1f} GiB of memory "
+                            f"while they are made, more than the {free / 2**30:.1f} GiB available")
     return out
 
 

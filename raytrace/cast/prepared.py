@@ -57,45 +57,68 @@ class _Prepared:
         return self._bvh
 
     def ids(self, prim):
-        hit = prim >= 0
-        safe = np.where(hit, prim, 0)
+        """(geometry id, face) of each unified primitive id, -1 for a miss."""
         if not len(self.prim_object):
             return np.full(len(prim), -1), np.full(len(prim), -1)
-        return (np.where(hit, self.prim_object[safe], -1), np.where(hit, self.prim_face[safe], -1))
+        gid = np.full(len(prim), -1, self.prim_object.dtype)
+        face = np.full(len(prim), -1, self.prim_face.dtype)
+        for s in _blocks(len(prim)):
+            hit = np.flatnonzero(prim[s] >= 0)
+            gid[s][hit] = self.prim_object[prim[s][hit]]
+            face[s][hit] = self.prim_face[prim[s][hit]]
+        return gid, face
 
-    def surface(self, prim, u, v, t, origins, directions):
-        """(normal, point) of each hit, NaN rows for misses."""
+    def surface(self, field, prim, u, v, t, origins, directions, rows=None):
+        """The unit geometric normal or the point (``field``: "normal" or
+        "point") of each hit, NaN rows for misses.  Hit i's ray is row i of
+        ``origins`` and ``directions``, or row ``rows[i]`` (a HitList's)."""
+        out = np.full((len(prim), 3), np.nan)
+        for s in _blocks(len(prim)):
+            r = s if rows is None else rows[s]
+            self._surface_block(field, out[s], prim[s], u[s], v[s], t[s], origins[r], directions[r])
+        return out
+
+    def _surface_block(self, field, out, prim, u, v, t, origins, directions):
         g = self.geo
-        n = len(prim)
-        normal = np.full((n, 3), np.nan)
-        point = np.full((n, 3), np.nan)
         n_tris, n_sph = self.n_tris, g.sph_center.shape[0]
         tri = np.flatnonzero((prim >= 0) & (prim < n_tris))
         if len(tri):
             p = prim[tri]
             a, b, c = g.tri_v0[p], g.tri_v1[p], g.tri_v2[p]
-            uu, vv = u[tri, None], v[tri, None]
-            point[tri] = (1.0 - uu - vv) * a + uu * b + vv * c
-            from raytrace.scene.flatten import cross_rows, unit_rows
-            normal[tri] = unit_rows(cross_rows(b - a, c - a))
+            if field == "point":
+                uu, vv = u[tri, None], v[tri, None]
+                out[tri] = (1.0 - uu - vv) * a + uu * b + vv * c
+            else:
+                from raytrace.scene.flatten import cross_rows, unit_rows
+                out[tri] = unit_rows(cross_rows(b - a, c - a))
         if n_sph + g.pl_normal.shape[0] == 0:    # triangles only: the usual scene
-            return normal, point
+            return
         sph = np.flatnonzero((prim >= n_tris) & (prim < n_tris + n_sph))
         if len(sph):
             k = prim[sph] - n_tris
             c, r = g.sph_center[k], g.sph_radius[k, None]
             d = origins[sph] + t[sph, None] * directions[sph] - c
             d /= np.linalg.norm(d, axis=1, keepdims=True)
-            normal[sph] = d
-            point[sph] = c + r * d
+            out[sph] = d if field == "normal" else c + r * d
         pl = np.flatnonzero(prim >= n_tris + n_sph)
         if len(pl):
             k = prim[pl] - n_tris - n_sph
             nn, q = g.pl_normal[k], g.pl_point[k]
-            x = origins[pl] + t[pl, None] * directions[pl]
-            normal[pl] = nn
-            point[pl] = x - np.einsum("ij,ij->i", x - q, nn)[:, None] * nn
-        return normal, point
+            if field == "normal":
+                out[pl] = nn
+            else:
+                x = origins[pl] + t[pl, None] * directions[pl]
+                out[pl] = x - np.einsum("ij,ij->i", x - q, nn)[:, None] * nn
+
+
+# Hits a block when ids, normals and points are made: whole, a batch's
+# temporaries were several times its answer (docs/benchmarks.md, "Ray queries").
+SURFACE_BLOCK = 1 << 16
+
+
+def _blocks(n):
+    """Slices of at most SURFACE_BLOCK rows covering range(n)."""
+    return [slice(lo, min(n, lo + SURFACE_BLOCK)) for lo in range(0, n, SURFACE_BLOCK)]
 
 
 def _mesh_arrays(mesh, faces=None):

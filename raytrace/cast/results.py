@@ -109,14 +109,15 @@ class RayHits(_Fields):
 
     @property
     def normal(self):
-        return self._get("surface", self._surface)[0]
+        return self._get("normal", lambda: self._surface("normal"))
 
     @property
     def point(self):
-        return self._get("surface", self._surface)[1]
+        return self._get("point", lambda: self._surface("point"))
 
-    def _surface(self):
-        return self._prepared.surface(self._prim, *self._raw_uv, self.t.reshape(-1), *self._rays)
+    def _surface(self, field):
+        return self._prepared.surface(field, self._prim, *self._raw_uv, self.t.reshape(-1),
+                                      *self._rays)
 
     def __len__(self):
         return len(self.t)
@@ -139,10 +140,9 @@ class HitList(RayHits):
         self.ray_splits = splits
         self.ray_id = np.repeat(np.arange(len(splits) - 1), np.diff(splits))
 
-    def _surface(self):
-        o, d = self._rays
-        return self._prepared.surface(self._prim, *self._raw_uv, self.t, o[self.ray_id],
-                                      d[self.ray_id])
+    def _surface(self, field):
+        return self._prepared.surface(field, self._prim, *self._raw_uv, self.t, *self._rays,
+                                      rows=self.ray_id)
 
     def __repr__(self):
         return f"HitList({len(self.ray_splits) - 1} rays, {len(self)} hits)"
@@ -184,9 +184,9 @@ class ClosestPoints(_Fields):
     def normal(self):
         if self._normal is None:
             point, prim, u, v = self._raw
-            zero = np.zeros_like(point)
             # The surface at t = 0 of a ray from the point itself.
-            n = self._prepared.surface(prim, u, v, zero[:, 0], point, zero)[0]
+            zero = np.broadcast_to(0.0, point.shape)
+            n = self._prepared.surface("normal", prim, u, v, zero[:, 0], point, zero)
             self._normal = _unsorted(n, self._order)
         return self._normal
 

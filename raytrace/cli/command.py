@@ -1,6 +1,7 @@
-"""The `raytrace` command's entry point.  It imports nothing heavy before it
-can report Ctrl-C as an interruption: a SIGINT while click and the rest load
-is exit 130 and one line, like one during the render."""
+"""The `raytrace` command's main (entered through raytrace_command, outside
+the package, which also covers the package's own import).  It imports
+nothing heavy before it can report Ctrl-C as an interruption: a SIGINT while
+click and the rest load is exit 130 and one line, like one during the render."""
 import os
 import sys
 

@@ -62,6 +62,30 @@ def bands(height, tiles):
     return list(zip(edges[:-1], edges[1:]))
 
 
+class Tasks:
+    """A render's tasks, (camera buffer, frame, y0, y1) for each band of
+    rows of each frame not skipped, made as they are taken: a list made up
+    front held frames x bands of them, with a camera buffer each, before the
+    first tile rendered.  len() and ``tallest`` (a band's most rows) plan
+    Dask's tasks without making them."""
+
+    def __init__(self, cameras, frames, rows, width, height):
+        self._cameras = cameras
+        self._frames = frames
+        self._size = (width, height)
+        self.rows = rows
+        self.tallest = max((y1 - y0 for y0, y1 in rows), default=0)
+
+    def __len__(self):
+        return len(self._frames) * len(self.rows)
+
+    def __iter__(self):
+        for f in self._frames:
+            cam = camera_buffer(self._cameras[f], *self._size)     # one a frame, for all its bands
+            for y0, y1 in self.rows:
+                yield cam, f, y0, y1
+
+
 class InProcess:
     """Runs tasks here, one after another, each on all the render threads."""
     workers = 1
@@ -130,8 +154,7 @@ def _render_frames(scene, cameras, opts, runner, tiles, skip, on_frame):
     runner = runner or InProcess(setup.threads)
     w, h = setup.width, setup.height
     rows = bands(h, tiles)
-    tasks = [(camera_buffer(cam, w, h), f, y0, y1)
-             for f, cam in enumerate(cameras) if f not in skip for y0, y1 in rows]
+    tasks = Tasks(cameras, [f for f in range(len(cameras)) if f not in skip], rows, w, h)
     tally = Tally()
     pending = {}
     per_frame = len(rows)

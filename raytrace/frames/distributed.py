@@ -8,6 +8,7 @@ a task's answer depends only on its arguments, so a rerun changes
 nothing in the image.
 """
 import contextlib
+import itertools
 import os
 import sys
 import time
@@ -88,12 +89,61 @@ def connect(workers=None, scheduler=None):
         from raytrace.frames.dask_address import check_scheduler_address
         scheduler = check_scheduler_address(scheduler)
         distributed = _dask("--scheduler")
+        check_handshake(scheduler)
         try:
             client = distributed.Client(scheduler, timeout=CONNECT_S)
         except (OSError, TimeoutError) as exc:
             raise RaytraceError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
         with client:
             yield DaskRunner(client, None)
+
+
+def check_handshake(scheduler, timeout=None):
+    """Connect to ``scheduler`` and exchange Dask's handshake, all within
+    ``timeout`` seconds (CONNECT_S), or raise a RaytraceError naming it.
+    distributed.Client bounds only the TCP connection: it then waits for
+    ever on a peer that answers nothing Dask can read (an HTTP server's
+    port), and reads another's bytes as frame sizes (a traceback, or a
+    MemoryError after asking for exabytes)."""
+    import asyncio
+
+    from distributed.comm import CommClosedError
+    from distributed.comm import connect as comm_connect
+    from distributed.security import Security
+    timeout = CONNECT_S if timeout is None else timeout
+    unlike = "(is it a Dask scheduler's address?)"
+
+    async def handshake():
+        # Dask retries a refused connection for this long; the handshake
+        # gets the rest of the time.
+        comm = await comm_connect(scheduler, timeout=0.8 * timeout,
+                                  **Security().get_connection_args("client"))
+        await comm.close()
+
+    try:
+        asyncio.run(asyncio.wait_for(handshake(), timeout))
+    except (asyncio.TimeoutError, TimeoutError):
+        raise RaytraceError(f"no answer from {scheduler} in {timeout:g} s {unlike}") from None
+    except CommClosedError:
+        raise RaytraceError(f"{scheduler} closed the connection before Dask's handshake "
+                            f"{unlike}") from None
+    except OSError as exc:                   # refused, or no such host
+        raise RaytraceError(f"cannot reach the Dask scheduler at {scheduler}: "
+                            f"{_os_reason(exc)}") from None
+    except Exception:  # noqa: BLE001 -- whatever the peer's bytes made Dask's reader raise
+        raise RaytraceError(f"{scheduler} answered with something other than Dask's handshake "
+                            f"{unlike}") from None
+
+
+def _os_reason(exc):
+    """The system's words under Dask's wrappers ("Connection refused"), or
+    Dask's own ("Timed out trying to connect ...")."""
+    inner = exc
+    while inner is not None:
+        if getattr(inner, "strerror", None):
+            return inner.strerror
+        inner = inner.__cause__ or inner.__context__
+    return str(exc)
 
 
 class DaskRunner:
@@ -119,14 +169,14 @@ class DaskRunner:
         # Sending the scene; the first time, also each worker's import of
         # raytrace and Numba to unpickle it: start-up, timed apart.
         self.scatter_s = time.perf_counter() - t0
-        tasks = list(tasks)
         workers = self.workers
         window = TASKS_PER_WORKER * workers
-        group = _group_size(tasks, payload, workers)
+        group = _group_size(len(tasks), tasks.tallest, payload, workers)
+        untaken = iter(tasks)         # batch.Tasks: made as they are submitted
         futures = []      # (future, its tiles, the scatter it was given)
         try:
-            for k in range(0, len(tasks), group):
-                futures.append(self._submit(tasks[k:k + group]))
+            while tiles := list(itertools.islice(untaken, group)):
+                futures.append(self._submit(tiles))
                 if len(futures) >= window:
                     yield from self._result(payload, *futures.pop(0))
             while futures:
@@ -172,14 +222,15 @@ class DaskRunner:
 TASK_SAMPLES = 1 << 20
 
 
-def _group_size(tasks, payload, workers):
-    """How many consecutive tiles make one Dask task."""
+def _group_size(n_tasks, tallest, payload, workers):
+    """How many consecutive tiles (of ``n_tasks``, at most ``tallest`` rows
+    each) make one Dask task."""
     width, spp = payload.width, payload.spp
-    if not tasks or not isinstance(width, int) or not isinstance(spp, int):
+    if not n_tasks or not isinstance(width, int) or not isinstance(spp, int):
         return 1
-    samples = max(1, max((y1 - y0) * width * spp for _, _, y0, y1 in tasks))
+    samples = max(1, tallest * width * spp)
     by_size = max(1, TASK_SAMPLES // samples)
-    by_balance = max(1, len(tasks) // (TASKS_PER_WORKER * workers))
+    by_balance = max(1, n_tasks // (TASKS_PER_WORKER * workers))
     return min(by_size, by_balance)
 
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from raytrace.errors import RaytraceError
 from raytrace.kernels.limits import MAX_COORD
-from raytrace.scene.formats.ply import check_ascii_counts, read_simple_ply
+from raytrace.scene.formats.ply import check_counts, read_simple_ply
 from raytrace.scene.model import Material
 
 MESH_EXTENSIONS = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")
@@ -236,7 +236,7 @@ def read_mesh_parts(path, warn=None, base=None):
             # A byte-order mark (some Windows editors) would hide the first line.
             data = data[3:] if data.startswith(b"\xef\xbb\xbf") else None
         elif ext == ".ply":
-            check_ascii_counts(path)
+            check_counts(path)
         parts = _read_with_trimesh(path, ext, library, warn, base, data)
         if ext == ".stl":      # an ASCII STL's triangle soup
             from raytrace.scene.formats.stl import weld

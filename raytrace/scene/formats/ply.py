@@ -28,8 +28,9 @@ _HEADER_LIMIT = 1 << 16     # bytes: a header longer than this is not the simple
 
 
 def _header(head):
-    """(endian, [(element, count, [property words])], data offset) of a
-    binary PLY header at the start of ``head``, or None."""
+    """(format, [(element, count, [property words])], data offset) of a
+    PLY header at the start of ``head``, or None; format is "ascii", or
+    "<" or ">" for binary little or big endian."""
     end = head.find(b"end_header")
     if not head.startswith(b"ply") or end < 0:
         return None
@@ -40,20 +41,21 @@ def _header(head):
         lines = [line.split() for line in head[:end].decode("ascii").splitlines()]
     except UnicodeDecodeError:
         return None
-    endian = None
+    fmt = None
     elements = []
     for words in lines[1:]:
         if not words or words[0] in ("comment", "obj_info"):
             continue
         if words[0] == "format" and len(words) == 3:
-            endian = {"binary_little_endian": "<", "binary_big_endian": ">"}.get(words[1])
+            fmt = {"ascii": "ascii", "binary_little_endian": "<",
+                   "binary_big_endian": ">"}.get(words[1])
         elif words[0] == "element" and len(words) == 3 and words[2].isdigit():
             elements.append((words[1], int(words[2]), []))
         elif words[0] == "property" and elements:
             elements[-1][2].append(words[1:])
         else:
             return None
-    return (endian, elements, stop + 1) if endian else None
+    return (fmt, elements, stop + 1) if fmt else None
 
 
 def read_simple_ply(path):
@@ -65,7 +67,7 @@ def read_simple_ply(path):
     if b"TextureFile" in head[:head.find(b"end_header")]:
         return None          # a texture and its coordinates: trimesh's reading
     parsed = _header(head)
-    if parsed is None:
+    if parsed is None or parsed[0] == "ascii":
         return None
     endian, elements, offset = parsed
     if [e[0] for e in elements] != ["vertex", "face"]:
@@ -209,28 +211,116 @@ def _columns(records, names, dtype=np.float64):
     return out
 
 
-def check_ascii_counts(path):
-    """Raise for an ASCII PLY whose data ends before the elements its header
-    declares (trimesh reads what is there and keeps quiet).  One element a
-    line, as the format writes them; the lines are counted, not parsed."""
+def check_counts(path):
+    """Raise for a PLY whose data ends before the elements its header
+    declares: trimesh reads what there is of an ASCII file and keeps quiet,
+    and refuses a binary one in words that do not say why."""
     from raytrace.errors import RaytraceError
     with open(path, "rb") as f:
-        head = f.read(_HEADER_LIMIT)
-        end = head.find(b"end_header")
-        if not head.startswith(b"ply") or end < 0:
-            return
-        try:
-            words = [line.split() for line in head[:end].decode("ascii").splitlines()]
-        except UnicodeDecodeError:
-            return
-        if ["format", "ascii", "1.0"] not in words:
-            return
-        elements = [(w[1], int(w[2])) for w in words if len(w) == 3 and w[0] == "element"
-                    and w[2].isdigit()]
-        f.seek(head.find(b"\n", end) + 1)
-        lines = sum(1 for line in f if line.strip())
-    for name, count in elements:
-        if lines < count:
-            raise RaytraceError(f"{path}: the header declares {count:,} {name} elements, the file "
-                                f"ends after {max(lines, 0):,} of them")
-        lines -= count
+        parsed = _header(f.read(_HEADER_LIMIT))
+    if parsed is None:
+        return
+    fmt, elements, offset = parsed
+    short = (_ascii_short if fmt == "ascii" else _binary_short)(path, fmt, elements, offset)
+    if short:
+        raise RaytraceError(f"{path}: the header declares {short}")
+
+
+def _ascii_short(path, fmt, elements, offset):
+    """What an ASCII PLY holds too few of, or None.  One element a line, as
+    the format writes them; the lines are counted, not parsed.  A line of
+    another length than an element of scalars has ends that element early,
+    so a short vertex element is named rather than the faces after it."""
+    with open(path, "rb") as f:
+        f.seek(offset)
+        if sum(1 for line in f if line.strip()) >= sum(count for _, count, _ in elements):
+            return None
+        f.seek(offset)                 # short: read again to say which element
+        words = [len(line.split()) for line in f if line.strip()]
+    pos = 0
+    for name, count, props in elements:
+        n = min(count, len(words) - pos)
+        if all(p[0] != "list" for p in props):
+            n = next((i for i, w in enumerate(words[pos:pos + n]) if w != len(props)), n)
+        if n < count:
+            return _ends_after(name, count, n)
+        pos += n
+
+
+def _binary_short(path, endian, elements, offset):
+    """What a binary PLY holds too few of, or None.  Records are walked
+    while each element's lists are all of one length (else, polygons of
+    mixed sizes, only the total is checked); an element is named once at
+    least one of its records reads as one, else the file's size is given."""
+    size, pos = os.path.getsize(path), offset
+    for name, count, props in elements:
+        record = _record_type(path, pos, props, endian)
+        if record is None:
+            break
+        n = min(count, (size - pos) // record.itemsize) if record.itemsize else count
+        if not _one_length(path, record, pos, n):
+            break
+        if n < count:
+            if n and all(record[f].shape[0] >= 3 for f in record.names if f.startswith("index")):
+                return _ends_after(name, count, n)
+            break
+        pos += n * record.itemsize
+    least = [_least_size(props, endian) for _, _, props in elements]
+    if None in least:
+        return None
+    need = sum(count * k for (_, count, _), k in zip(elements, least))
+    if size - offset < need:
+        declared = " and ".join(f"{count:,} {name}" for name, count, _ in elements)
+        return (f"{declared} elements, at least {need:,} bytes; the file holds {size - offset:,} "
+                "after its header")
+    return None
+
+
+def _one_length(path, record, pos, n):
+    """Whether the n records at ``pos`` hold lists of the lengths of the
+    first (as ``record`` takes them)."""
+    lists = [f for f in record.names if f.startswith("count")]
+    if not (lists and n):
+        return True
+    records = np.memmap(path, record, "r", offset=pos, shape=(n,))
+    return all((records[f] == records[f][0]).all() for f in lists)
+
+
+def _ends_after(name, count, n):
+    return f"{count:,} {name} elements, the file ends after {n:,} of them"
+
+
+def _record_type(path, pos, props, endian):
+    """The dtype of an element's records at ``pos`` if every list in them
+    has the length of the first record's, or None (an unknown type, an
+    implausible length)."""
+    fields = []
+    for i, p in enumerate(props):
+        if p[0] != "list":
+            if len(p) != 2 or p[0] not in _TYPES:
+                return None
+            fields.append((f"_{i}", endian + _TYPES[p[0]]))
+            continue
+        if len(p) != 4 or not _is_integer(p[1]) or p[2] not in _TYPES:
+            return None
+        count_type = endian + _TYPES[p[1]]
+        first = np.fromfile(path, np.dtype(fields + [("n", count_type)]), 1, offset=pos)
+        k = int(first["n"][0]) if len(first) else 0
+        if not 0 <= k <= _HEADER_LIMIT:
+            return None
+        fields += [(f"count{i}", count_type), (f"index{i}", endian + _TYPES[p[2]], (k,))]
+    return np.dtype(fields)
+
+
+def _least_size(props, endian):
+    """The fewest bytes a record of these properties takes: a face's index
+    list holds three indices at least, other lists none; None if a type is unknown."""
+    total = 0
+    for p in props:
+        words = p[1:-1] if p[0] == "list" else p[:1]
+        if len(p) != (4 if p[0] == "list" else 2) or any(w not in _TYPES for w in words):
+            return None
+        total += np.dtype(_TYPES[words[0]]).itemsize
+        if p[0] == "list" and p[-1] in _INDEX_NAMES:
+            total += 3 * np.dtype(_TYPES[words[1]]).itemsize
+    return total
