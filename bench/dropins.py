@@ -17,7 +17,8 @@ same arrays as float32 (Open3D's rays are (n, 6) rows, of the set's dtype).
 
 Ratio: the drop-in's median over RayScene's; ``paired``: the median of the
 rounds' ratios (each round's two calls run back to back, so a load change
-between rounds cancels).
+between rounds cancels).  The control row times one RayScene call against
+itself: how far from 1 the machine's load puts a ratio.
 """
 import argparse
 import time
@@ -84,6 +85,10 @@ def pairs(v, f, o, d):
         return h.ray_splits, h.ray_id, h.geometry_id, h.prim_id, h.u, h.v, h.t
 
     return {
+        # The same call twice: the spread this machine puts on a ratio of 1.
+        "control: cast_rays().prim_id / the same call":
+            (lambda: rs.cast_rays(o, d, t_min=-1).prim_id,
+             lambda: rs.cast_rays(o, d, t_min=-1).prim_id),
         "trimesh intersects_first / cast_rays().prim_id":
             (lambda: mesh.ray.intersects_first(o, d),
              lambda: rs.cast_rays(o, d, t_min=-1).prim_id),
