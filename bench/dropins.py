@@ -5,7 +5,7 @@ in float64 and float32; interleaved (the order swapped each round),
 medians of REPS.
 
     PYTHONPATH=. python bench/dropins.py [--reps 9] [--meshes sphere,teapot]
-                                         [--sets camera,shuffled,box] [--dtypes f64,f32]
+        [--sets camera,shuffled,box] [--dtypes f64,f32] [--calls control,list]
 
 Meshes: a 20,480-triangle icosphere and the teapot alone at detail 43
 (118,336 triangles, bench/workload.py's).  Ray sets, WIDTH x HEIGHT =
@@ -115,14 +115,15 @@ def main():
     ap.add_argument("--meshes", default="sphere,teapot")
     ap.add_argument("--sets", default="camera,shuffled,box")
     ap.add_argument("--dtypes", default="f64,f32")
-    ap.add_argument("--calls", default="", help="only calls whose name contains this")
+    ap.add_argument("--calls", default="",
+                    help="only calls whose name contains one of these (comma-separated)")
     args = ap.parse_args()
     cells = {}
     for mname, (v, f, camera) in meshes(args.meshes.split(",")).items():
         for sname, (o, d) in ray_sets(v, camera, args.sets.split(","),
                                       args.dtypes.split(",")).items():
             for call, fns in pairs(v, f, o, d).items():
-                if args.calls in call:
+                if any(c in call for c in args.calls.split(",")):
                     cells[(f"{mname} ({len(f):,} tris)", sname, call)] = fns
     for ours, base in cells.values():      # compile and build first
         ours(), base()
