@@ -129,6 +129,53 @@ def test_meshes_as_objects_and_more_than_one():
         RaycastingScene(device="CUDA:0")
 
 
+def test_cast_rays_fields_are_rayscenes_in_open3ds_dtypes():
+    """cast_rays' one-pass fields (kernels/hit_fields.py) are RayScene's, cast:
+    the same bits, for hits, misses, a second mesh, normals whose squared
+    length over- or underflows (unit_rows' scaled path) and rays in an image
+    shape, over enough rays for more than one thread."""
+    from raytrace import RayScene
+    rng = np.random.default_rng(42)
+    cube_v, cube_f = CUBE_V.astype(float), CUBE_F.astype(np.int64)
+    soup_f = rng.integers(0, 60, (100, 3))
+    soup_f = soup_f[(soup_f[:, 0] != soup_f[:, 1]) & (soup_f[:, 1] != soup_f[:, 2])
+                    & (soup_f[:, 0] != soup_f[:, 2])]
+    # (vertices, faces, the scale of the mesh): a corner of each at the origin.
+    meshes = [(cube_v + [5, 0, 0], cube_f, 1.0), (cube_v * 1e-100, cube_f, 1e-100),
+              (cube_v * -1e90, cube_f, 1e90), (rng.uniform(0, 1, (60, 3)) + [0, 5, 0], soup_f, 1.0)]
+    ours = RaycastingScene(tensors=False)
+    theirs = RayScene()
+    n = 1500                # rays a mesh
+    o, d = [], []
+    for v, f, scale in meshes:
+        ours.add_triangles(v, f)
+        theirs.add_mesh(v, f)
+        target = v.min(axis=0) + rng.uniform(0, 1, (n, 3)) * (v.max(axis=0) - v.min(axis=0))
+        o.append(target + rng.normal(size=(n, 3)) * scale)
+        d.append(target - o[-1])
+    rays = np.concatenate([np.concatenate(o), np.concatenate(d)], axis=1)
+    rays[::5, 3:] *= -1     # away from the target: mostly misses
+    # float32: the meshes float32 can hold, in an image's shape.
+    small = np.concatenate([rays[:n], rays[3 * n:]]).astype(np.float32).reshape(30, 100, 6)
+    for r, geometries in ((rays, {0, 1, 2, 3}), (small, {0, 3})):
+        ans = ours.cast_rays(r)
+        h = theirs.cast_rays(r, t_min=-1)
+        hit = h.hit
+        assert 0.5 < hit.mean() < 0.9
+        assert geometries <= set(np.unique(h.geometry_id[hit]))
+        with np.errstate(over="ignore"):     # a t beyond float32 (the huge cube's): inf
+            t32 = h.t.astype(np.float32)
+        want = {"t_hit": t32,
+                "geometry_ids": h.geometry_id.astype(np.uint32),
+                "primitive_ids": h.prim_id.astype(np.uint32),
+                "primitive_uvs": np.where(hit[..., None], np.stack([h.u, h.v], -1), 0),
+                "primitive_normals": np.where(hit[..., None], h.normal, 0)}
+        for k, a in want.items():
+            a = a.astype(ans[k].dtype)
+            assert ans[k].shape == a.shape, k
+            assert np.array_equal(ans[k].view(np.uint8), a.view(np.uint8)), k
+
+
 # With Open3D installed: the same answers as its own RaycastingScene, and
 # its tensors in and out.
 

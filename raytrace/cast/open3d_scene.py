@@ -102,17 +102,9 @@ class RaycastingScene:
         primitive_ids, primitive_uvs (..., 2), primitive_normals (..., 3);
         a miss has t_hit inf, ids INVALID_ID, uvs and normals 0."""
         h = self._scene.cast_rays(_array(rays), t_min=_FROM_ORIGIN)
-        hit = h.hit
-        # Masked copies, not gathers by a boolean index: one pass each.
-        uv = np.zeros(hit.shape + (2,), np.float32)
-        np.copyto(uv[..., 0], h.u, where=hit)
-        np.copyto(uv[..., 1], h.v, where=hit)
-        normal = np.zeros(hit.shape + (3,), np.float32)
-        np.copyto(normal, h.normal, where=hit[..., None])
-        return self._answer({"t_hit": h.t.astype(np.float32),
-                        "geometry_ids": h.geometry_id.astype(np.uint32),
-                        "primitive_ids": h.prim_id.astype(np.uint32),
-                        "primitive_uvs": uv, "primitive_normals": normal}, rays)
+        t, geometry, prim, uv, normal = h._hit_fields()
+        return self._answer({"t_hit": t, "geometry_ids": geometry, "primitive_ids": prim,
+                             "primitive_uvs": uv, "primitive_normals": normal}, rays)
 
     def test_occlusions(self, rays, tnear=0.0, tfar=np.inf, nthreads=0):
         """Whether anything is hit along each ray between tnear and tfar: bool."""

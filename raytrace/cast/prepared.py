@@ -68,6 +68,19 @@ class _Prepared:
             face[s][hit] = self.prim_face[prim[s][hit]]
         return gid, face
 
+    def hit_fields(self, prim, t, u, v):
+        """(t, geometry_id, prim_id, uv (n, 2), normal (n, 3)) of closest
+        hits in Open3D's dtypes (float32, uint32; a miss: t inf, ids
+        2**32 - 1, uv and normal 0), in one pass: kernels/hit_fields.py.
+        Triangles only, as the Open3D drop-in adds them."""
+        g = self.geo
+        if g.sph_center.shape[0] + g.pl_normal.shape[0]:
+            raise RaytraceError("hit_fields: a scene of triangles only")
+        from raytrace.cast.rays import _blocks as thread_count
+        from raytrace.kernels.hit_fields import hit_fields
+        return hit_fields(prim, t, u, v, self.prim_object, self.prim_face,
+                          g.tri_v0, g.tri_v1, g.tri_v2, thread_count(len(prim)))
+
     def surface(self, field, prim, u, v, t, origins, directions, rows=None):
         """The unit geometric normal or the point (``field``: "normal" or
         "point") of each hit, NaN rows for misses.  Hit i's ray is row i of

@@ -119,6 +119,12 @@ class RayHits(_Fields):
         return self._prepared.surface(field, self._prim, *self._raw_uv, self.t.reshape(-1),
                                       *self._rays)
 
+    def _hit_fields(self):
+        """(t, geometry_id, prim_id, uv, normal) in Open3D's dtypes, in the
+        rays' shape (_Prepared.hit_fields: one pass, not a field at a time)."""
+        made = self._prepared.hit_fields(self._prim, self.t.reshape(-1), *self._raw_uv)
+        return tuple(self._shaped(a) for a in made)
+
     def __len__(self):
         return len(self.t)
 
