@@ -80,6 +80,36 @@ def _big_builders(accels):
     return run
 
 
+def scene_features(scene):
+    """(textures, mirrors) of a Scene, read from its description as flatten
+    and the driver's records will read it: textures where a mesh has vertex
+    colours or a textured material, mirrors where a material reflects or
+    transmits."""
+    from raytrace.scene.model import Mesh
+    objects = list(getattr(scene, "objects", None) or ())
+    textures = any(isinstance(o, Mesh) and (o.colors is not None
+                                            or getattr(o.material, "texture", None) is not None)
+                   for o in objects)
+    return textures, any(o.material.bounces() for o in objects if hasattr(o, "material"))
+
+
+def worker_payload(scene, opts):
+    """(Payload, camera buffer) of the tiny scene with the render kernel's
+    types that ``scene`` rendered with ``opts`` (RenderOptions) will have.
+    A Dask worker renders an empty band of it before its first tile
+    (frames/distributed.py): the kernel compiles or loads there while this
+    process flattens the scene and builds its structure.  Only the render
+    kernel: making the payload here loads the structure's builder, which
+    the scene's build loads next anyway."""
+    import dataclasses
+
+    from raytrace.renderer.driver import camera_buffer, prepare
+    tiny = _scene(*scene_features(scene))
+    setup = prepare(tiny, dataclasses.replace(opts, width=None, height=None, progress=None,
+                                              aov=False))
+    return setup.payload(), camera_buffer(tiny.camera, setup.width, setup.height)
+
+
 def plan(accels, shadows=("hard",), features=()):
     """The steps that compile ``accels`` (names as --accel, or
     "bvh:median", "bvh:lbvh") with the shadow modes and FEATURES asked for."""
