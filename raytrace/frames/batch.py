@@ -153,10 +153,11 @@ def _render_frames(scene, cameras, opts, runner, tiles, skip, on_frame):
         # Compile/load, summed over processes as the tasks' is: the warm-up's
         # here (the builder) and on each worker (the render kernel).
         stats["time"]["compile_s"] += runner.warm_here_s
+        # Every worker asked, a tile or not: one still warming at the end got none.
         for address, seconds in runner.warmed().items():
             stats["workers"].setdefault(address, {"tiles": 0, "compile_s": 0.0,
                                                   "render_s": 0.0})["warmup_s"] = seconds
-            stats["time"]["compile_s"] += seconds
+            stats["time"]["compile_s"] += seconds or 0.0
     return stats
 
 

@@ -122,19 +122,20 @@ class DaskRunner:
         # The builder's load (or compile) moves here from prepare's: still compile time.
         self.warm_here_s = time.perf_counter() - t0
         for address in self.client.scheduler_info()["workers"]:
-            self._warming.append(self.client.submit(_warm_worker, payload, self.threads, cam,
-                                                    workers=[address], allow_other_workers=False,
-                                                    pure=False))
+            self._warming.append((address, self.client.submit(
+                _warm_worker, payload, self.threads, cam, workers=[address],
+                allow_other_workers=False, pure=False)))
 
     def warmed(self):
-        """{worker: seconds} of the warm-ups that have run (cancelling the others:
-        a worker's that died, or one still compiling for a worker with no tile)."""
+        """{worker: seconds} of every warm-up sent, None for one that has not
+        finished (a worker still compiling when the others had rendered
+        every tile, or one that died), which is cancelled."""
         out = {}
-        for f in self._warming:
+        for address, f in self._warming:
             if f.done() and f.status == "finished":
-                address, seconds = f.result()
-                out[address] = seconds
+                out[address] = f.result()[1]
             else:
+                out[address] = None
                 f.cancel()
         self._warming = []
         return out
