@@ -53,3 +53,22 @@ def test_warmup_runs_and_reports_each_step():
     r = CliRunner().invoke(main, ["warmup", "--accel", "bvh"])
     assert r.exit_code == 0, r.output
     assert "[1/2] render: bvh, none/hard shadows ..." in r.output and "warm: 2 steps" in r.output
+
+
+def test_query_warmup_casts_one_ray_and_packets(monkeypatch):
+    """The queries step calls closest and any hit both below PACKET_MIN
+    rays and at it: each side has kernels of its own (kernels/cast.py), and
+    a warmup that cast one ray left the first call of 64 rays compiling."""
+    from raytrace.cast.rayscene import RayScene
+    from raytrace.cli.warmup import _queries
+    from raytrace.kernels.cast import PACKET_MIN
+    seen = {}
+    for name in ("cast_rays", "occluded", "count_intersections", "list_intersections"):
+        monkeypatch.setattr(RayScene, name, lambda self, o, d, name=name: seen.setdefault(
+            name, []).append(len(o)) or type("Hits", (), {"normal": None})())
+    for name in ("contains", "distance"):
+        monkeypatch.setattr(RayScene, name, lambda self, p, name=name: seen.setdefault(
+            name, []).append(len(p)))
+    _queries("bvh")()
+    for name in ("cast_rays", "occluded"):
+        assert min(seen[name]) < PACKET_MIN <= max(seen[name]), (name, seen[name])

@@ -48,17 +48,21 @@ def _render(accel, shadows, textures, mirrors):
 def _queries(accel):
     def run():
         from raytrace.cast.rayscene import RayScene
+        from raytrace.kernels.cast import PACKET_MIN
         v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
         f = np.array([[0, 1, 2], [0, 2, 3]])
         rays = RayScene(accel=accel)
         rays.add_mesh(v, f)
-        o, d = np.array([[0.5, 0.5, 1.0]]), np.array([[0.0, 0.0, -1.0]])
-        rays.cast_rays(o, d).normal                       # noqa: B018 -- computing it compiles
-        rays.occluded(o, d)
-        rays.count_intersections(o, d)
-        rays.list_intersections(o, d)
-        rays.contains(o)
-        rays.distance(o)
+        # One ray, and PACKET_MIN: from there closest and any hit take the
+        # rays in packets, kernels of their own.
+        for n in (1, PACKET_MIN):
+            o, d = np.tile([0.5, 0.5, 1.0], (n, 1)), np.tile([0.0, 0.0, -1.0], (n, 1))
+            rays.cast_rays(o, d).normal                   # noqa: B018 -- computing it compiles
+            rays.occluded(o, d)
+            rays.count_intersections(o, d)
+            rays.list_intersections(o, d)
+            rays.contains(o)
+            rays.distance(o)
     return run
 
 
