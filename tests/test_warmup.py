@@ -2,6 +2,7 @@
 as real scenes of each kind (so the kernels it compiles are the ones a real
 render loads), and the command checks its arguments."""
 import numba
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -72,3 +73,34 @@ def test_query_warmup_casts_one_ray_and_packets(monkeypatch):
     _queries("bvh")()
     for name in ("cast_rays", "occluded"):
         assert min(seen[name]) < PACKET_MIN <= max(seen[name]), (name, seen[name])
+
+
+def _kernel_signatures(dispatchers):
+    return {d.__name__: set(map(str, d.signatures)) for d in dispatchers}
+
+
+def test_loading_warmup_compiles_what_mesh_files_use(tmp_path):
+    """After the loading step, reading mesh files (an OBJ without normals,
+    a binary PLY of a triangle and a quad) adds no specialisation to the
+    kernels that loading runs: warmup compiled the types a file has.  The
+    step once named meshes but compiled only the big teapot's kernels."""
+    from raytrace.cli.warmup import _loading
+    from raytrace.scene import creases, weld
+    from raytrace.scene.formats import polygons
+    kernels = [weld.first_rows, creases.corner_lists, creases.fan_groups, creases.fan_normals,
+               polygons.polygon_lists]
+    _loading()
+    warmed = _kernel_signatures(kernels)
+    assert all(warmed.values()), warmed
+    (tmp_path / "m.obj").write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\n"
+                                    "f 1 2 3\nf 1 3 4\nf 1 2 5\n")
+    head = ("ply\nformat binary_little_endian 1.0\nelement vertex 5\nproperty float x\n"
+            "property float y\nproperty float z\nelement face 2\n"
+            "property list uchar int vertex_indices\nend_header\n").encode()
+    v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1]], "<f4").tobytes()
+    faces = bytes([3]) + np.array([0, 1, 4], "<i4").tobytes() + bytes([4]) + np.array(
+        [0, 1, 2, 3], "<i4").tobytes()
+    (tmp_path / "m.ply").write_bytes(head + v + faces)
+    for name in ("m.obj", "m.ply"):
+        raytrace.load_scene(str(tmp_path / name))
+    assert _kernel_signatures(kernels) == warmed
