@@ -64,11 +64,17 @@ WORKSHOP_PAPER = {"none": (42, 64, 1800), "bvol": (6, 11, 407)}
 # teapot details (2 * detail^2 * 32 triangles: 43 -> 117,992, 128 ->
 # 1,047,552, 256 -> 4,192,256); sizes above scaling_big get one timed
 # render and no untimed one, since each render there flattens and builds
-# for seconds.
+# for seconds.  scaling_whole: the details whose whole command is timed in
+# a fresh process (None: all).  Quick: the workshop at 80x60, where brute
+# force with soft shadows takes seconds, not tens of seconds, and one fresh
+# process per structure (the biggest size): each costs its start-up, not
+# the scene's.
 FULL = dict(width=640, height=480, budget_s=20.0, max_runs=5,
-            scaling_details=(4, 8, 16, 32, 43, 128, 256), scaling_runs=3, scaling_big=43)
-QUICK = dict(width=160, height=120, budget_s=1.5, max_runs=5,
-             scaling_details=(4, 8, 16), scaling_runs=3, scaling_big=43)
+            scaling_details=(4, 8, 16, 32, 43, 128, 256), scaling_runs=3, scaling_big=43,
+            scaling_size=(640, 480), scaling_whole=None)
+QUICK = dict(width=80, height=60, budget_s=1.5, max_runs=5,
+             scaling_details=(4, 8, 16), scaling_runs=3, scaling_big=43,
+             scaling_size=(160, 120), scaling_whole=(16,))
 
 ROWS = (
     ("teapot", "Teapot", dict(shadows="none")),
@@ -177,7 +183,8 @@ def workshop_markdown(res):
 def run_scaling(cfg):
     from raytrace.renderer.driver import render
     from raytrace.scene.builtin import teapot
-    w, h = cfg["width"], cfg["height"]
+    w, h = cfg.get("scaling_size", (cfg["width"], cfg["height"]))
+    whole = cfg.get("scaling_whole") or cfg["scaling_details"]
     structures = cfg.get("scaling_structures", HIERARCHICAL)
     for a in structures:
         warm_up(teapot(2), a, {}, w, h)
@@ -214,6 +221,10 @@ def run_scaling(cfg):
         del first, scene, once, once_logged   # the scene and structures: GBs at 4.2M triangles
         for a in structures:
             rec = row["cells"][a]
+            rec["whole_s"] = rec["peak_mb"] = rec["process"] = None
+            if detail not in whole:
+                log(f"  {a:6s} build {fmt_s(rec['build_s'])} s, render {fmt_s(rec['render_s'])} s")
+                continue
             rec["whole_s"], rec["peak_mb"], rec["process"] = whole_command(detail, a, w, h)
             log(f"  {a:6s} build {fmt_s(rec['build_s'])} s, render {fmt_s(rec['render_s'])} s; "
                 f"whole command {fmt_s(rec['whole_s'])} s, peak {fmt_g(rec['peak_mb'])} MB")
@@ -222,7 +233,7 @@ def run_scaling(cfg):
                                    f"{rec['process']['triangles']:,} triangles, not {row['triangles']:,}")
         rows.append(row)
     return {"width": w, "height": h, "shadows": "hard", "runs": cfg["scaling_runs"],
-            "big_above_detail": cfg["scaling_big"], "rows": rows}
+            "big_above_detail": cfg["scaling_big"], "whole_details": list(whole), "rows": rows}
 
 
 def whole_command(detail, accel, w, h):
@@ -258,8 +269,9 @@ def scaling_markdown(res):
                          fmt_s(c["render_s"]), fmt_g(c["mrays_per_s"]), fmt_g(c["prim_tests_per_ray"]),
                          fmt_g(visits), fmt_g(c["structure_bytes"] / 2**20),
                          f"{c['structure_bytes_per_triangle']:,.0f}",
-                         f"{c['peak_mb']:,.0f}" if c["peak_mb"] is not None else "n/a",
-                         fmt_s(c["whole_s"])])
+                         f"{c['peak_mb']:,.0f}" if c["peak_mb"] is not None else
+                         "n/a" if c["whole_s"] is not None else "-",
+                         fmt_s(c["whole_s"]) if c["whole_s"] is not None else "-"])
     out.append(markdown_table(header, body, align="rrl" + "r" * 9))
     big = [r["detail"] for r in res["rows"] if r["detail"] > res["big_above_detail"]]
     runs = (f"Build ms to Nodes or cells/ray: medians of {res['runs']} interleaved renders in this "
@@ -268,11 +280,14 @@ def scaling_markdown(res):
         runs += (f"; details above {res['big_above_detail']} ({', '.join(map(str, big))}) one "
                  f"render each and no untimed one, since there each render flattens and builds "
                  f"for seconds")
+    fresh = "per row"
+    if set(res["whole_details"]) != {r["detail"] for r in res["rows"]}:
+        fresh = f"per row at detail {', '.join(map(str, res['whole_details']))} only (- elsewhere)"
     out += ["", (f"{runs}. The build time is the driver's `time.build_s` of those renders (the "
                  f"builders are compiled before timing). Structure MB: bytes of the structure's "
                  f"arrays (`structure.memory_bytes` of the render's statistics); Structure "
                  f"B/triangle: those bytes over the triangles. Peak MB and Whole s: a fresh process "
-                 f"per row, `raytrace teapot --detail N --accel A --shadows hard --width "
+                 f"{fresh}, `raytrace teapot --detail N --accel A --shadows hard --width "
                  f"{res['width']} --height {res['height']} --json -o FILE`: its own peak resident "
                  f"memory (VmHWM: the scene, flattened arrays, structure and image, plus Python, "
                  f"NumPy and Numba), and its wall time, what a user waits: imports, making the "
@@ -313,53 +328,49 @@ def main(quick, json_path, plot_path, sections):
     print(f"Machine: {common.machine_line(info)}. Python {info['python']}, Numba {info['numba']}, "
           f"NumPy {info['numpy']}; commit {info['git_commit'] or 'unknown'}; {info['date']}.\n")
     sys.stdout.flush()
-    if "coldstart" in chosen:
-        import coldstart
-        rows, chain = coldstart.measure(quick)
-        report["coldstart"] = {"rows": rows, "chain": chain}
-        print(coldstart.markdown(rows, chain) + "\n", flush=True)
-    if "workshop" in chosen:
-        report["workshop"] = run_workshop(cfg)
-        print(workshop_markdown(report["workshop"]) + "\n", flush=True)
-    if "scaling" in chosen:
-        report["scaling"] = run_scaling(cfg)
-        print(scaling_markdown(report["scaling"]) + "\n", flush=True)
-    if "structures" in chosen:
-        import structures
-        report["structures"] = structures.run(quick)
-        print(structures.markdown(report["structures"]) + "\n", flush=True)
-    if "peer" in chosen:
-        import peer
-        report["peer"] = peer.run(quick)
-        print(peer.markdown(report["peer"]) + "\n", flush=True)
-    if "workload" in chosen:
-        import workload
-        report["workload"] = workload.run(quick)
-        print(workload.markdown(report["workload"]) + "\n", flush=True)
-    if "convergence" in chosen:
-        import convergence
-        report["convergence"] = convergence.run(quick, plot_path)
-        print(convergence.markdown(report["convergence"]) + "\n", flush=True)
-    if "turntable" in chosen:
-        import turntable
-        report["turntable"] = turntable.measure(repeat=1 if quick else 3)
-        print(turntable.markdown(report["turntable"]) + "\n", flush=True)
-    if "meshfiles" in chosen:
-        import meshfiles
-        report["meshfiles"] = meshfiles.run(quick)
-        print(meshfiles.markdown(report["meshfiles"]) + "\n", flush=True)
+    report["section_s"] = {}
+    for name in SECTIONS:
+        if name in chosen:
+            t = time.perf_counter()
+            report[name], text = _run_section(name, cfg, quick, plot_path)
+            print(text + "\n", flush=True)
+            report["section_s"][name] = time.perf_counter() - t
+            log(f"{name}: {report['section_s'][name]:.0f} s")
     try:
         load = [round(x, 2) for x in __import__("os").getloadavg()]
     except OSError:
         load = None
     report["wall_s"] = time.perf_counter() - t0
     report["load_avg_at_end"] = load
-    print(f"Total wall time {report['wall_s']:.0f} s"
+    each = ", ".join(f"{name} {t:.0f} s" for name, t in report["section_s"].items())
+    print(f"Total wall time {report['wall_s']:.0f} s ({each})"
           + (f"; load average {load[0]:.1f} at the end." if load else "."))
     if json_path:
         Path(json_path).parent.mkdir(parents=True, exist_ok=True)
         Path(json_path).write_text(json.dumps(report, indent=2, default=_json_default) + "\n")
         log(f"wrote {json_path}")
+
+
+def _run_section(name, cfg, quick, plot_path):
+    """(the section's numbers, its Markdown)."""
+    if name == "workshop":
+        res = run_workshop(cfg)
+        return res, workshop_markdown(res)
+    if name == "scaling":
+        res = run_scaling(cfg)
+        return res, scaling_markdown(res)
+    module = __import__(name)
+    if name == "coldstart":
+        rows, chain = module.measure(quick)
+        return {"rows": rows, "chain": chain}, module.markdown(rows, chain)
+    if name == "convergence":
+        res = module.run(quick, plot_path)
+    elif name == "turntable":
+        # Quick: a third of the frames; the cluster's start-up is the same.
+        res = module.measure(frames=12 if quick else 36, repeat=1 if quick else 3)
+    else:
+        res = module.run(quick)
+    return res, module.markdown(res)
 
 
 def _json_default(o):

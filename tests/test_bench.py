@@ -92,12 +92,13 @@ def test_baseline_file_matches_the_script():
 
 def test_scaling_table_reports_size_memory_and_whole_command():
     """bench.sh's scaling section on two tiny sizes, the second past the
-    one-run threshold: each cell has its structure's bytes per triangle and
-    a fresh process's peak memory and wall time, and the table shows them."""
+    one-run threshold: each cell has its structure's bytes per triangle, and
+    at the sizes asked (--quick: the biggest only) a fresh process's peak
+    memory and wall time, and the table shows them ("-" elsewhere)."""
     import bench
     # Two structures: the table's rows and cells are the same code for each.
-    cfg = dict(bench.QUICK, width=32, height=24, scaling_details=(2, 3), scaling_runs=2, scaling_big=2,
-               scaling_structures=("bvh", "grid"))
+    cfg = dict(bench.QUICK, scaling_size=(32, 24), scaling_details=(2, 3), scaling_runs=2,
+               scaling_big=2, scaling_whole=(3,), scaling_structures=("bvh", "grid"))
     res = bench.run_scaling(cfg)
     assert [(r["detail"], r["runs"]) for r in res["rows"]] == [(2, 2), (3, 1)]
     for row in res["rows"]:
@@ -107,6 +108,9 @@ def test_scaling_table_reports_size_memory_and_whole_command():
             assert len(c["times_s"]) == len(c["build_times_s"]) == row["runs"]
             assert c["structure_bytes"] > 0
             assert c["structure_bytes_per_triangle"] == pytest.approx(c["structure_bytes"] / row["triangles"])
+            if row["detail"] == 2:
+                assert c["whole_s"] is None and c["peak_mb"] is None
+                continue
             # The fresh process built the same structure for the same mesh.
             assert c["process"]["triangles"] == row["triangles"]
             assert c["process"]["structure_bytes"] == c["structure_bytes"]
@@ -121,6 +125,9 @@ def test_scaling_table_reports_size_memory_and_whole_command():
         assert col in header
     assert len(md.splitlines()) == 4 + 2 * 2 + 2
     assert "details above 2 (3) one render each" in md
+    assert "per row at detail 3 only" in md
+    first = [c.strip() for c in md.splitlines()[4].strip("|").split("|")]
+    assert first[0] == "2" and first[-2:] == ["-", "-"]
 
 
 def test_payload_is_what_a_worker_unpickles():

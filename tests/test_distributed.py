@@ -285,3 +285,42 @@ def test_a_worker_killed_mid_render_changes_nothing(scene, cluster):
                        tiles=2, progress=kill_one)
     assert killed and killed[0] not in cluster.run(os.getpid).values()
     assert all(np.array_equal(a, b) for a, b in zip(here, there))
+
+
+def _render_kernels():
+    """On a worker: the render kernel's specialisations loaded or compiled there."""
+    from raytrace.kernels.render import render_part
+    return sorted(str(s) for s in render_part.signatures)
+
+
+def test_workers_warm_up_the_kernel_their_tiles_use():
+    """`--workers`' warm-up (cli/warmup.py's worker_payload, sent by
+    DaskRunner.warm before the structure is built): each worker holds the
+    render kernel before its first tile, and it is the one the tiles use
+    (no specialisation is added by the frames), for a mirrored scene and a
+    plain one; each worker reports its warm-up."""
+    import logging
+
+    import distributed
+
+    from raytrace.cli.warmup import worker_payload
+    from raytrace.frames.distributed import DaskRunner
+    # A cluster of its own: the other tests' renders load kernels on theirs.
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None, silence_logs=logging.ERROR) as c, \
+            distributed.Client(c) as client:
+        before = client.run(_render_kernels)
+        assert len(before) == 2 and all(not k for k in before.values())
+        for name in ("whitted", "teapot"):
+            sc = raytrace.load_scene(name, width=32, height=24)
+            runner = DaskRunner(client, 1, warm_up=worker_payload)
+            runner.warm(sc, RenderOptions(**HARD))
+            distributed.wait([f for _, f in runner._warming])
+            warmed = client.run(_render_kernels)
+            assert all(len(warmed[w]) == len(before[w]) + 1 for w in before), (before, warmed)
+            _, stats = animate(sc, turntable(sc.camera, 4), RenderOptions(**HARD), runner=runner)
+            assert client.run(_render_kernels) == warmed
+            # Each worker asked is listed, with a tile or not (None: still warming at the end).
+            assert set(stats["workers"]) == set(warmed)
+            assert all(w["warmup_s"] is None or w["warmup_s"] > 0 for w in stats["workers"].values())
+            before = warmed

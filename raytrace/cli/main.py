@@ -137,8 +137,9 @@ def _runner(workers, scheduler):
     """Where the tasks run: a Dask cluster, or None (here)."""
     if workers is None and scheduler is None:
         return contextlib.nullcontext(None)
+    from raytrace.cli.warmup import worker_payload
     from raytrace.frames.distributed import connect
-    return connect(workers=workers, scheduler=scheduler)
+    return connect(workers=workers, scheduler=scheduler, warm_up=worker_payload)
 
 
 def _scene_kind(scene, scene_args):

@@ -48,25 +48,37 @@ def _render(accel, shadows, textures, mirrors):
 def _queries(accel):
     def run():
         from raytrace.cast.rayscene import RayScene
+        from raytrace.kernels.cast import PACKET_MIN
         v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
         f = np.array([[0, 1, 2], [0, 2, 3]])
         rays = RayScene(accel=accel)
         rays.add_mesh(v, f)
-        o, d = np.array([[0.5, 0.5, 1.0]]), np.array([[0.0, 0.0, -1.0]])
-        rays.cast_rays(o, d).normal                       # noqa: B018 -- computing it compiles
-        rays.occluded(o, d)
-        rays.count_intersections(o, d)
-        rays.list_intersections(o, d)
-        rays.contains(o)
-        rays.distance(o)
+        # One ray, and PACKET_MIN: from there closest and any hit take the
+        # rays in packets, kernels of their own.
+        for n in (1, PACKET_MIN):
+            o, d = np.tile([0.5, 0.5, 1.0], (n, 1)), np.tile([0.0, 0.0, -1.0], (n, 1))
+            rays.cast_rays(o, d).normal                   # noqa: B018 -- computing it compiles
+            rays.occluded(o, d)
+            rays.count_intersections(o, d)
+            rays.list_intersections(o, d)
+            rays.contains(o)
+            rays.distance(o)
     return run
 
 
 def _loading():
     from raytrace.scene.flatten import _kept_corners_parallel
+    from raytrace.scene.formats.polygons import polygon_lists
+    from raytrace.scene.normals import crease_split
     from raytrace.scene.teapot import load_kernels
     load_kernels(256)                      # a big teapot's tessellation
     _kept_corners_parallel(np.zeros((1, 3)), np.zeros((3, 1), np.int64), 1)
+    # Every mesh file: welding repeated positions and crease-angle normals
+    # (scene/normals.py), with the same types as a file's arrays.
+    crease_split(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float), np.array([[0, 1, 2]]))
+    # A binary PLY of mixed polygons: one triangle, a uchar count and int indices.
+    record = np.array([3, 0, 0, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0], np.uint8)
+    polygon_lists(record, 1, 1, 4, True, False, np.empty(1, np.int64), np.empty(3, np.int64))
 
 
 def _big_builders(accels):
@@ -78,6 +90,36 @@ def _big_builders(accels):
             name, _, build = accel.partition(":")
             get(name).load(tiny_geometry(), 10**8, bvh_build=build or "sah")   # big-scene paths too
     return run
+
+
+def scene_features(scene):
+    """(textures, mirrors) of a Scene, read from its description as flatten
+    and the driver's records will read it: textures where a mesh has vertex
+    colours or a textured material, mirrors where a material reflects or
+    transmits."""
+    from raytrace.scene.model import Mesh
+    objects = list(getattr(scene, "objects", None) or ())
+    textures = any(isinstance(o, Mesh) and (o.colors is not None
+                                            or getattr(o.material, "texture", None) is not None)
+                   for o in objects)
+    return textures, any(o.material.bounces() for o in objects if hasattr(o, "material"))
+
+
+def worker_payload(scene, opts):
+    """(Payload, camera buffer) of the tiny scene with the render kernel's
+    types that ``scene`` rendered with ``opts`` (RenderOptions) will have.
+    A Dask worker renders an empty band of it before its first tile
+    (frames/distributed.py): the kernel compiles or loads there while this
+    process flattens the scene and builds its structure.  Only the render
+    kernel: making the payload here loads the structure's builder, which
+    the scene's build loads next anyway."""
+    import dataclasses
+
+    from raytrace.renderer.driver import camera_buffer, prepare
+    tiny = _scene(*scene_features(scene))
+    setup = prepare(tiny, dataclasses.replace(opts, width=None, height=None, progress=None,
+                                              aov=False))
+    return setup.payload(), camera_buffer(tiny.camera, setup.width, setup.height)
 
 
 def plan(accels, shadows=("hard",), features=()):

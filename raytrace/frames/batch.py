@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from raytrace.renderer.driver import base_stats, camera_buffer, prepare, render_band, to_srgb8
+from raytrace.renderer.driver import base_stats, camera_buffer, prepare, render_band, to_srgb8, validate
 
 
 @dataclass
@@ -150,6 +150,9 @@ def render_frames(scene, cameras, opts, runner=None, tiles=1, skip=(), on_frame=
 
 
 def _render_frames(scene, cameras, opts, runner, tiles, skip, on_frame):
+    if getattr(runner, "warm", None) is not None:
+        validate(opts, scene)     # a bad option fails here, not on the workers
+        runner.warm(scene, opts)  # they compile or load while prepare flattens and builds
     setup = prepare(scene, opts)
     runner = runner or InProcess(setup.threads)
     w, h = setup.width, setup.height
@@ -169,6 +172,15 @@ def _render_frames(scene, cameras, opts, runner, tiles, skip, on_frame):
                 on_frame(tile.frame, image)
     stats = tally.stats(setup, scene.name, len(cameras), per_frame)
     stats["time"]["scatter_s"] = getattr(runner, "scatter_s", 0.0)
+    if getattr(runner, "warmed", None) is not None:
+        # Compile/load, summed over processes as the tasks' is: the warm-up's
+        # here (the builder) and on each worker (the render kernel).
+        stats["time"]["compile_s"] += runner.warm_here_s
+        # Every worker asked, a tile or not: one still warming at the end got none.
+        for address, seconds in runner.warmed().items():
+            stats["workers"].setdefault(address, {"tiles": 0, "compile_s": 0.0,
+                                                  "render_s": 0.0})["warmup_s"] = seconds
+            stats["time"]["compile_s"] += seconds or 0.0
     return stats
 
 

@@ -56,10 +56,10 @@ _QUIET_TRACKER = "ignore:resource_tracker:UserWarning"
 
 
 @contextlib.contextmanager
-def connect(workers=None, scheduler=None):
+def connect(workers=None, scheduler=None, warm_up=None):
     """A DaskRunner on a local cluster of ``workers`` processes (started
     here, closed on the way out, Ctrl-C included) or on the running
-    scheduler at ``scheduler``."""
+    scheduler at ``scheduler``; ``warm_up``: as for DaskRunner."""
     if workers is not None:
         distributed = _dask("--workers")
         import logging
@@ -84,7 +84,7 @@ def connect(workers=None, scheduler=None):
                                                silence_logs=logging.ERROR,
                                                preload=["raytrace.kernels.render"])
         with cluster, distributed.Client(cluster) as client:
-            yield DaskRunner(client, threads)
+            yield DaskRunner(client, threads, warm_up)
     else:
         from raytrace.frames.dask_address import check_scheduler_address
         scheduler = check_scheduler_address(scheduler)
@@ -95,7 +95,7 @@ def connect(workers=None, scheduler=None):
         except (OSError, TimeoutError) as exc:
             raise RaytraceError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
         with client:
-            yield DaskRunner(client, None)
+            yield DaskRunner(client, None, warm_up)
 
 
 def check_handshake(scheduler, timeout=None):
@@ -147,12 +147,48 @@ def _os_reason(exc):
 
 
 class DaskRunner:
-    """Runs tasks on a Dask client's workers; results come back in task order."""
+    """Runs tasks on a Dask client's workers; results come back in task order.
 
-    def __init__(self, client, threads):
+    ``warm_up(scene, opts)``: (payload, camera) of a tiny scene whose
+    render kernel is the one ``scene`` will use (cli/warmup.py's
+    worker_payload); with it, ``warm`` has each worker render an empty band
+    of it, compiling or loading that kernel, while this process flattens
+    the scene and builds its structure.  The tiles queue behind it."""
+
+    def __init__(self, client, threads, warm_up=None):
         self.client = client
         self.threads = threads       # None: each worker's Numba default (its cores)
         self.scatter_s = 0.0
+        self.warm_up = warm_up
+        self.warm_here_s = 0.0
+        self._warming = []
+
+    def warm(self, scene, opts):
+        """Send the warm-up to every worker now; it runs on each as its first task."""
+        if self.warm_up is None:
+            return
+        t0 = time.perf_counter()
+        payload, cam = self.warm_up(scene, opts)
+        # The builder's load (or compile) moves here from prepare's: still compile time.
+        self.warm_here_s = time.perf_counter() - t0
+        for address in self.client.scheduler_info()["workers"]:
+            self._warming.append((address, self.client.submit(
+                _warm_worker, payload, self.threads, cam, workers=[address],
+                allow_other_workers=False, pure=False)))
+
+    def warmed(self):
+        """{worker: seconds} of every warm-up sent, None for one that has not
+        finished (a worker still compiling when the others had rendered
+        every tile, or one that died), which is cancelled."""
+        out = {}
+        for address, f in self._warming:
+            if f.done() and f.status == "finished":
+                out[address] = f.result()[1]
+            else:
+                out[address] = None
+                f.cancel()
+        self._warming = []
+        return out
 
     @property
     def workers(self):
@@ -232,6 +268,17 @@ def _group_size(n_tasks, tallest, payload, workers):
     by_size = max(1, TASK_SAMPLES // samples)
     by_balance = max(1, n_tasks // (TASKS_PER_WORKER * workers))
     return min(by_size, by_balance)
+
+
+def _warm_worker(payload, threads, cam):
+    """One worker's warm-up task: an empty band through the tiles' own
+    function, so exactly their kernel loads or compiles: (the worker, its
+    seconds).  Quiet: the command has said what compiles."""
+    from raytrace.frames.batch import render_tile
+    from raytrace.renderer.firstrun import set_quiet
+    set_quiet(True)
+    tile = render_tile(payload, threads, cam, 0, 0, 0)
+    return tile.worker, tile.compile_s
 
 
 def _render_tiles(payload, threads, tasks):

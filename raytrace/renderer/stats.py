@@ -109,6 +109,9 @@ def _batch_rows(stats):
     if stats.get("frames_skipped"):
         rows.append(("Frames already written (skipped)", stats["frames_skipped"]))
     for k, w in enumerate(stats["workers"].values(), 1):
+        if "warmup_s" in w:        # a Dask worker's kernel load, while the scene was built
+            rows.append((f"Worker {k}: warm-up (s)", "unfinished" if w["warmup_s"] is None
+                         else w["warmup_s"]))
         rows.append((f"Worker {k}: tiles, compile/load, render (s)",
                      f"{w['tiles']:,}, {w['compile_s']:,.3f}, {w['render_s']:,.3f}"))
     rows += [("Wall time (s)", t["wall_s"]),
