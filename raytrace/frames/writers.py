@@ -19,7 +19,15 @@ from pathlib import Path
 import numpy as np
 
 from raytrace.errors import RaytraceError, warn
-from raytrace.renderer.output import IMAGE_FORMATS, NAME_MAX, Outputs, check_writable, temp_beside, write_png
+from raytrace.renderer.output import (
+    IMAGE_FORMATS,
+    NAME_MAX,
+    Outputs,
+    check_writable,
+    make_temp,
+    temp_name,
+    write_png,
+)
 from raytrace.scene.animation import check_frame_count
 
 FPS_RANGE = (1.0, 240.0)
@@ -317,8 +325,8 @@ class Mp4Frames(FrameSequence):
         return (OSError, self.av.FFmpegError)
 
     def _open(self, h, w):
-        fd, self.tmp = temp_beside(self.path)
-        os.close(fd)
+        self.tmp = temp_name(self.path)     # named before it exists: output.temp_name
+        os.close(make_temp(self.tmp))
         self.container = self.av.open(self.tmp, "w", format="mp4")
         self.stream = self.container.add_stream("libx264", rate=Fraction(self.fps).limit_denominator(1001))
         self.stream.width, self.stream.height = w + w % 2, h + h % 2

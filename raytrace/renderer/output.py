@@ -2,6 +2,7 @@
 its target and all are renamed into place together, so no run leaves half
 a file or half of its files, and nothing but a regular file is replaced."""
 import os
+import secrets
 import signal
 import stat
 import tempfile
@@ -67,12 +68,21 @@ def _umask():
     return mask
 
 
-def temp_beside(path):
-    """(fd, name) of a new private temporary file in the directory ``path``
-    is written to, so that the final rename stays on one file system."""
+def temp_name(path):
+    """A name for a new temporary file in the directory ``path`` is written
+    to, so that the final rename stays on one file system.  The caller keeps
+    it where its cleanup looks *before* make_temp creates the file: a
+    SIGTERM landing between the two then leaves no file behind that the
+    cleanup does not know of (blocking the signal cannot promise that: the
+    kernel hands it to another thread, whose flag Python then acts on)."""
     real = target(path)
-    return tempfile.mkstemp(prefix=f".{real.name[:200]}.", suffix=".tmp",
-                            dir=real.parent if str(real.parent) else ".")
+    folder = real.parent if str(real.parent) else Path(".")
+    return str(folder / f".{real.name[:200]}.{secrets.token_hex(8)}.tmp")
+
+
+def make_temp(name):
+    """Create temp_name's file, private (0600) as mkstemp's: its descriptor."""
+    return os.open(name, os.O_RDWR | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o600)
 
 
 def _give_mode(tmp, real):
@@ -99,8 +109,9 @@ class Outputs:
 
     def add(self, path, write):
         check_writable(path)
-        fd, tmp = temp_beside(path)
+        tmp = temp_name(path)
         self.pending.append((tmp, target(path)))
+        fd = make_temp(tmp)
         try:
             with os.fdopen(fd, "wb") as fh:
                 write(fh)
@@ -109,8 +120,8 @@ class Outputs:
             raise RaytraceError(f"{path}: cannot write ({exc.strerror or exc})") from None
 
     def adopt(self, path, tmp):
-        """Commit ``tmp``, a finished file from temp_beside(path) (written
-        as it went, like a video), as ``path`` together with the others."""
+        """Commit ``tmp``, a finished file made by make_temp(temp_name(path))
+        (written as it went, like a video), as ``path`` with the others."""
         self.pending.append((tmp, target(path)))
         try:
             _give_mode(tmp, target(path))
