@@ -208,7 +208,10 @@ PEER_CASES = [
     ("garbage bytes", lambda: _peer(_garbage), "answered with something other than Dask's handshake"),
     ("silent", lambda: _peer(_silent), f"no answer from {{}} in 1 s {UNLIKE}"),
     ("closes", lambda: _peer(_closes), "closed the connection before Dask's handshake"),
-    ("refused", _refused, "cannot reach the Dask scheduler at {}: Connection refused"),
+    # Dask retries a refused connection with backoff: on a loaded machine its
+    # deadline can pass before the refusal is seen again, and Dask says so.
+    ("refused", _refused, ("cannot reach the Dask scheduler at {}: Connection refused",
+                           "cannot reach the Dask scheduler at {}: Timed out trying to connect")),
 ]
 
 
@@ -222,7 +225,9 @@ def test_6_peer_not_speaking_dask_fails_in_time(name, address, words):
     with pytest.raises(RaytraceError) as info:
         check_handshake(address, timeout=1)
     assert time.monotonic() - t0 < 3
-    assert address in str(info.value) and words.format(address) in str(info.value), str(info.value)
+    said = str(info.value)
+    assert address in said and any(w.format(address) in said for w in
+                                   ((words,) if isinstance(words, str) else words)), said
 
 
 def test_6_cli_peer_not_speaking_dask_is_one_line(tmp_path):
