@@ -12,32 +12,15 @@ in the same order, so the same bits: the cross product of the edges
 it (a tiny or huge one first divided by its largest component).
 """
 import functools
-import math
 
 import numpy as np
 from numba import njit
 
-from raytrace.kernels.jit import BLOCK, JIT
+from raytrace.kernels.jit import BLOCK
 from raytrace.kernels.threads import run_on_threads, runs
+from raytrace.kernels.vector import unit3
 
 INVALID_ID = 2 ** 32 - 1
-
-
-@njit(**JIT)
-def _unit(x, y, z):
-    """(x, y, z) / its length, as flatten.unit_rows computes a row."""
-    sq = x * x
-    sq += y * y
-    sq += z * z
-    if sq > 1e-290 and sq < 1e290:
-        s = math.sqrt(sq)
-        return x / s, y / s, z / s
-    m = max(abs(x), abs(y), abs(z))
-    if not m > 0:
-        return 0.0, 0.0, 0.0
-    x, y, z = x / m, y / m, z / m
-    s = math.sqrt(x * x + y * y + z * z)
-    return x / s, y / s, z / s
 
 
 @njit(**BLOCK)
@@ -66,7 +49,7 @@ def _fields_block(hits, prim_object, prim_face, triangles, start, end, outs):
                          tri_v1[p, 2] - tri_v0[p, 2])
         e2x, e2y, e2z = (tri_v2[p, 0] - tri_v0[p, 0], tri_v2[p, 1] - tri_v0[p, 1],
                          tri_v2[p, 2] - tri_v0[p, 2])
-        nx, ny, nz = _unit(e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x)
+        nx, ny, nz = unit3(e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x)
         out_normal[i, 0] = nx
         out_normal[i, 1] = ny
         out_normal[i, 2] = nz

@@ -17,6 +17,7 @@ import numpy as np
 from numba import njit
 
 from raytrace.kernels.jit import BUILD, BUILD_STEP
+from raytrace.kernels.vector import unit3
 
 ENTRY = dict(BUILD, nogil=True)
 # A fan of more corners than this pairs its edges by sorting (a cone's
@@ -35,21 +36,6 @@ def corner_lists(corner_position, offsets, corners):
         p = corner_position[c]
         corners[fill[p]] = c
         fill[p] += 1
-
-
-@njit(**BUILD_STEP)
-def unit3(x, y, z):
-    """flatten.unit_rows for one row."""
-    sq = x * x + y * y + z * z
-    if 1e-290 < sq < 1e290:
-        s = np.sqrt(sq)
-        return x / s, y / s, z / s
-    big = max(abs(x), abs(y), abs(z))
-    if not big > 0.0:
-        return 0.0, 0.0, 0.0
-    x, y, z = x / big, y / big, z / big
-    s = np.sqrt(x * x + y * y + z * z)
-    return x / s, y / s, z / s
 
 
 @njit(**BUILD_STEP)

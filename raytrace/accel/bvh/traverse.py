@@ -417,16 +417,15 @@ CountJob = namedtuple("CountJob", ["geo", "acc", "origins", "dirs", "t_min", "t_
 
 @njit(**JIT)
 def _count_slot(job, i, ray, tm, br, s, t, stack, queue, after, end):
-    """A round of the ray in one of count_stream's slots (job: its
+    """A round of the ray in one of count_stream's slots (job: the stream's
     CountJob): ray i (below the number of rays), its t_max tm, BoxRay br
-    and state s; t the stream's tallies.  When its traversal is done its count is written, with the
-    hits no tree holds if the scene has them (``unbounded``: planes,
-    spheres' far roots), and the slot takes the next good ray from
-    ``after`` on (_next_good_ray).  Returns (i, ray, tm, br, s, t, after,
-    end) for the next round."""
-    geo, acc, origins, dirs, t_min, t_max = job.geo, job.acc, job.origins, job.dirs, job.t_min, \
-        job.t_max
-    cnt = job.cnt
+    and state s; t the stream's tallies.  When its traversal is done its
+    count is written, with the hits no tree holds if the scene has them
+    (``unbounded``: planes, spheres' far roots), and the slot takes the
+    next good ray from ``after`` on (_next_good_ray).  Returns (i, ray,
+    tm, br, s, t, after, end) for the next round."""
+    geo, acc, cnt = job.geo, job.acc, job.cnt
+    origins, dirs, t_min, t_max = job.origins, job.dirs, job.t_min, job.t_max
     if s.node >= 0:
         s, t = _count_round(geo, acc, ray, br, tm, stack, queue, s, t)
     if s.node < 0:
