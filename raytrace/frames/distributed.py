@@ -18,6 +18,7 @@ import numpy as np
 
 from raytrace.cast.results import RayHits, _Fields
 from raytrace.errors import RaytraceError
+from raytrace.renderer import interrupt
 
 EXTRA = "pip install 'raytrace[distributed]'"
 WAIT_FOR_WORKERS_S = 30      # a scheduler with no workers would wait for ever
@@ -81,10 +82,23 @@ def connect(workers=None, scheduler=None, warm_up=None):
             # when the scene first reaches them, inside the frames' time.
             cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1,
                                                processes=True, dashboard_address=None,
-                                               silence_logs=logging.ERROR,
+                                               # A worker's ERROR lines are tracebacks
+                                               # (a lost scheduler as the cluster closes
+                                               # on Ctrl-C); a task's failure reaches the
+                                               # command as its exception, one line.
+                                               silence_logs=logging.CRITICAL,
                                                preload=["raytrace.kernels.render"])
         with cluster, distributed.Client(cluster) as client:
-            yield DaskRunner(client, threads, warm_up)
+            try:
+                yield DaskRunner(client, threads, warm_up)
+            finally:
+                if interrupt.interrupted():
+                    # Stopping (Ctrl-C, SIGTERM): what the scheduler logs as the
+                    # cluster closes under its tasks (a worker it no longer
+                    # knows, with a traceback; itself, or through asyncio's
+                    # "Task exception was never retrieved") is not news to the user.
+                    for name in ("distributed", "asyncio"):
+                        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
     else:
         from raytrace.frames.dask_address import check_scheduler_address
         scheduler = check_scheduler_address(scheduler)
