@@ -39,8 +39,8 @@ from raytrace.accel.bvh.collapse import collapse_bvh4_kernel
 
 from raytrace.accel.bvh.sah import build_bvh_kernel
 from raytrace.kernels import cast
-from raytrace.kernels.render import render_part
-kernels = dict(render_part=render_part, closest=cast._closest_single,
+from raytrace.kernels.wavefront import run_stage
+kernels = dict(run_stage=run_stage, closest=cast._closest_single,
                occluded=cast._occluded_single, build_bvh_kernel=build_bvh_kernel,
                collapse_bvh4_kernel=collapse_bvh4_kernel,
                packets=cast._closest_block, occluded_packets=cast._occluded_block)
@@ -52,8 +52,9 @@ def test_one_signature_per_structure_and_mode():
     p = subprocess.run([sys.executable, "-c", SCRIPT], capture_output=True, text=True)
     assert p.returncode == 0, p.stderr[-2000:]
     sigs = json.loads(p.stdout.strip().splitlines()[-1])
-    # render_part: BVH + hard shadows, one kernel with and without AOVs.
-    assert len(sigs["render_part"]) == 1, sigs["render_part"]
+    # The shading stages: one kernel with and without AOVs (and for every
+    # structure: their types hold none).
+    assert len(sigs["run_stage"]) == 1, sigs["run_stage"]
     for name in ("closest", "occluded", "build_bvh_kernel", "collapse_bvh4_kernel"):
         assert len(sigs[name]) == 1, (name, sigs[name])
     # Calls of a few rays (kernels/cast.py's PACKET_MIN) compile no packet code.

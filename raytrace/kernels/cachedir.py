@@ -40,11 +40,13 @@ def cache_dir(numba_version):
 
 
 def render_kernel_cached():
-    """Whether any version of the render kernel is in the cache: if not,
-    this is a first run and a compile is certain."""
+    """Whether any version of the render kernels (the shading stages, or
+    the mirror-and-glass kernel) is in the cache: if not, this is a first
+    run and a compile is certain."""
     from importlib.metadata import PackageNotFoundError, version
     try:
         where = cache_dir(version("numba"))
     except (PackageNotFoundError, OSError):
         return True                  # unknown: leave it to Numba's compile event
-    return any(where.glob("*/render.render_part-*.nbi"))
+    return any(where.glob("*/wavefront.run_stage-*.nbi")) or any(
+        where.glob("*/render.render_part-*.nbi"))

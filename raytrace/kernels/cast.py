@@ -33,6 +33,8 @@ a call.
 
 Each kernel is compiled once per structure (query.py), on first use.
 """
+import functools
+
 import numpy as np
 from numba import njit
 
@@ -48,7 +50,7 @@ from raytrace.kernels.query import (
     occluded_packet,
 )
 from raytrace.kernels.ray import make_listing_ray, make_ray, no_hit, ray_ok
-from raytrace.kernels.threads import run_rows
+from raytrace.kernels.threads import run_on_threads, run_rows
 
 CHUNK = 1024
 COLUMNS = N_COUNTERS + 1   # BAD_RAYS last
@@ -64,23 +66,26 @@ def _closest_kernel(packets):
     """A thread's share of cast_closest, tracing packets where the rays
     can go as one (``packets``) or every ray alone."""
     @njit(**BLOCK)
-    def block(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v, cnt, clock):
+    def block(geo, acc, origins, dirs, t_min, t_max, outs, cnt, rows, clock):
+        out_t, out_prim, out_u, out_v = outs
         n = origins.shape[0]
+        per_ray = rows.shape[0] > 0
         n_chunks = (n + CHUNK - 1) // CHUNK
         c = take_ticket(clock)
         while c < n_chunks:
             end = min(n, (c + 1) * CHUNK)
             for i0 in range(c * CHUNK, end, PACKET):
                 m = min(PACKET, end - i0)
-                if packets:
-                    if closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m,
-                                      (out_t, out_prim, out_u, out_v), cnt):
+                if packets and not per_ray:
+                    if closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs,
+                                      cnt[0]):
                         continue
                 for i in range(i0, i0 + m):
+                    row = cnt[rows[i]] if per_ray else cnt[0]
                     if ray_ok(origins, dirs, t_min, t_max, i):
-                        hit = closest_hit(geo, acc, _ray(origins, dirs, t_min, i), t_max[i], cnt)
+                        hit = closest_hit(geo, acc, _ray(origins, dirs, t_min, i), t_max[i], row)
                     else:
-                        cnt[BAD_RAYS] += 1
+                        row[BAD_RAYS] += 1
                         hit = no_hit()
                     out_t[i] = hit.t
                     out_prim[i] = hit.prim
@@ -93,24 +98,26 @@ def _closest_kernel(packets):
 def _occluded_kernel(packets):
     """A thread's share of cast_occluded, as _closest_kernel's."""
     @njit(**BLOCK)
-    def block(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt, clock):
+    def block(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt, rows, clock):
         n = origins.shape[0]
+        per_ray = rows.shape[0] > 0
         n_chunks = (n + CHUNK - 1) // CHUNK
         c = take_ticket(clock)
         while c < n_chunks:
             end = min(n, (c + 1) * CHUNK)
             for i0 in range(c * CHUNK, end, PACKET):
                 m = min(PACKET, end - i0)
-                if packets:
+                if packets and not per_ray:
                     if occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit,
-                                       cnt):
+                                       cnt[0]):
                         continue
                 for i in range(i0, i0 + m):
+                    row = cnt[rows[i]] if per_ray else cnt[0]
                     if ray_ok(origins, dirs, t_min, t_max, i):
                         out_hit[i] = occluded(geo, acc, _ray(origins, dirs, t_min, i), t_max[i],
-                                              cnt)
+                                              row)
                     else:
-                        cnt[BAD_RAYS] += 1
+                        row[BAD_RAYS] += 1
                         out_hit[i] = False
             c = take_ticket(clock)
     return block
@@ -126,18 +133,43 @@ _closest_single = _closest_kernel(False)
 _occluded_single = _occluded_kernel(False)
 
 
+def _run_blocks(block, args, cnt_rows, clock):
+    """run_rows for the closest and any-hit blocks: a thread's rays all
+    count into its row of cnt_rows (no per-ray rows)."""
+    run_on_threads([functools.partial(block, *args, cnt_rows[b:b + 1], _ONE_ROW, clock)
+                    for b in range(cnt_rows.shape[0])])
+
+
+_ONE_ROW = np.empty(0, np.int64)
+
+
 def cast_closest(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v,
                  cnt_rows, clock):
     """Closest hit of ray i = (origins[i], dirs[i]) with t_min[i] < t < t_max[i]."""
     block = _closest_block if origins.shape[0] >= PACKET_MIN else _closest_single
-    run_rows(block, (geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v),
-             cnt_rows, clock)
+    _run_blocks(block, (geo, acc, origins, dirs, t_min, t_max, (out_t, out_prim, out_u, out_v)),
+                cnt_rows, clock)
 
 
 def cast_occluded(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows, clock):
     """Whether anything is hit with t_min[i] < t < t_max[i] (stops at the first)."""
     block = _occluded_block if origins.shape[0] >= PACKET_MIN else _occluded_single
-    run_rows(block, (geo, acc, origins, dirs, t_min, t_max, out_hit), cnt_rows, clock)
+    _run_blocks(block, (geo, acc, origins, dirs, t_min, t_max, out_hit), cnt_rows, clock)
+
+
+# The renderer's calls (kernels/wavefront.py): one thread's rays, ray i
+# counting into row rows[i] of cnt (its image row's, or its pixel's), one
+# ray at a time through the same compiled kernels as a small cast_closest
+# or cast_occluded call.
+def closest_rays(geo, acc, rays, outs, cnt, rows):
+    """Closest hits of rays = (origins, dirs, t_min, t_max) into outs =
+    (t, prim, u, v), in the calling thread."""
+    _closest_single(geo, acc, *rays, outs, cnt, rows, np.zeros(1, np.int64))
+
+
+def occluded_rays(geo, acc, rays, out_hit, cnt, rows):
+    """cast_occluded of rays = (origins, dirs, t_min, t_max), as closest_rays."""
+    _occluded_single(geo, acc, *rays, out_hit, cnt, rows, np.zeros(1, np.int64))
 
 
 # Shell sort's gaps (Ciura 2001, "Best Increments for the Average Case of

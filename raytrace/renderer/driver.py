@@ -370,7 +370,8 @@ def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows
     a tile of a poster costs its own rows, not the poster's).  ``load``:
     first compile or load the kernel, timed apart (compile_s; 0 without)."""
     from raytrace.kernels.counters import N_COUNTERS
-    from raytrace.kernels.render import Band, Lighting, Render, render_rows
+    from raytrace.kernels.render import Band, Lighting, Render
+    from raytrace.kernels.wavefront import render_rows
     p = payload
     width = p.width
     if image is None:

@@ -133,8 +133,8 @@ def has_cache_entries(dispatcher):
 
 def render_estimate(accel, bounces, textures):
     """Seconds a cold render compile takes, about."""
-    from raytrace.kernels.render import render_part
-    if has_cache_entries(render_part):
+    from raytrace.kernels.wavefront import run_stage
+    if has_cache_entries(run_stage):
         return VARIANT_S
     base = RENDER_S.get(str(accel).split(":")[0], 12)
     return base + BOUNCES_S * bool(bounces) + TEXTURES_S * bool(textures)
