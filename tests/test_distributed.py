@@ -290,9 +290,9 @@ def test_a_worker_killed_mid_render_changes_nothing(scene, cluster):
 def _render_kernels():
     """On a worker: the render kernels' specialisations loaded or compiled
     there (the shading stages' entry, and the mirror-and-glass kernel)."""
-    from raytrace.kernels.render import render_part
+    from raytrace.kernels.bounces import run_bounce_stage
     from raytrace.kernels.wavefront import run_stage
-    return sorted(str(s) for s in (*render_part.signatures, *run_stage.signatures))
+    return sorted(str(s) for s in (*run_bounce_stage.signatures, *run_stage.signatures))
 
 
 def test_workers_warm_up_the_kernel_their_tiles_use():

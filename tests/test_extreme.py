@@ -72,8 +72,8 @@ def test_kernels_use_numpy_errors_and_no_fastmath():
     or NaN, and the slab test and the watertight test use both."""
     found = dict(dispatchers(package_modules("raytrace.kernels")))
     assert {"raytrace.kernels.intersect.ray_triangle", "raytrace.kernels.intersect.ray_aabb",
-            "raytrace.kernels.cast._closest_block", "raytrace.kernels.render.render_part",
-            "raytrace.kernels.wavefront.run_stage"} <= set(found)
+            "raytrace.kernels.cast._closest_block", "raytrace.kernels.wavefront.run_stage",
+            "raytrace.kernels.bounces.run_bounce_stage"} <= set(found)
     for name, disp in found.items():
         opts = disp.targetoptions
         assert not opts.get("fastmath"), name
@@ -83,7 +83,7 @@ def test_kernels_use_numpy_errors_and_no_fastmath():
     # A thread's share of a batch kernel: without the reference-counting
     # runtime, releasing the GIL (kernels/threads.py runs it on each thread).
     for name in ("raytrace.kernels.cast._closest_block", "raytrace.kernels.cast._occluded_block",
-                 "raytrace.kernels.render.render_part", "raytrace.kernels.wavefront.run_stage"):
+                 "raytrace.kernels.wavefront.run_stage", "raytrace.kernels.bounces.run_bounce_stage"):
         assert found[name].targetoptions.get("_nrt") is False, name
         assert found[name].targetoptions.get("nogil") is True, name
 

@@ -109,7 +109,7 @@ def test_cache_dir_is_found_without_numba_and_tells_a_first_run(tmp_path, monkey
     firstrun.announce_if_cold("teapot: bvh, hard shadows", 14)
     firstrun.announce_if_cold("again", 1)                       # once per process
     assert err.getvalue() == "compiling kernels for teapot: bvh, hard shadows (first run only, about 14 s)\n"
-    index = cachedir.cache_dir(numba.__version__) / "kernels_x" / "render.render_part-481.py311.nbi"
+    index = cachedir.cache_dir(numba.__version__) / "kernels_x" / "wavefront.run_stage-481.py311.nbi"
     index.parent.mkdir(parents=True)
     index.touch()
     assert cachedir.render_kernel_cached()

@@ -87,7 +87,7 @@ def connect(workers=None, scheduler=None, warm_up=None):
                                                # on Ctrl-C); a task's failure reaches the
                                                # command as its exception, one line.
                                                silence_logs=logging.CRITICAL,
-                                               preload=["raytrace.kernels.render"])
+                                               preload=["raytrace.kernels.waves"])
         with cluster, distributed.Client(cluster) as client:
             try:
                 yield DaskRunner(client, threads, warm_up)

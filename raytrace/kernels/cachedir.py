@@ -49,4 +49,4 @@ def render_kernel_cached():
     except (PackageNotFoundError, OSError):
         return True                  # unknown: leave it to Numba's compile event
     return any(where.glob("*/wavefront.run_stage-*.nbi")) or any(
-        where.glob("*/render.render_part-*.nbi"))
+        where.glob("*/bounces.run_bounce_stage-*.nbi"))

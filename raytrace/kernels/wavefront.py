@@ -1,4 +1,4 @@
-"""The renderer as stages over waves of rays (Laine, Karras & Aila 2013,
+"""The renderer's stages over waves of rays (Laine, Karras & Aila 2013,
 "Megakernels Considered Harmful"; pbrt-v4's wavefront integrator).
 
 A wave is a run of the image's TILE x TILE squares (render.py's order: a
@@ -26,15 +26,13 @@ pixel's image row, as the megakernel counted them.
 
 Mirror and glass rays (``Bounces``) still go through render.py's kernel.
 """
-import functools
-import threading
 from collections import namedtuple
 
 import numpy as np
 from numba import njit
 
 from raytrace.kernels.buffers import MAT_AMBIENT, MAT_DIFFUSE, MAT_SHININESS, MAT_SPECULAR
-from raytrace.kernels.cast import COLUMNS, closest_rays, occluded_rays
+from raytrace.kernels.cast import COLUMNS
 from raytrace.kernels.counters import (
     BOX_TESTS,
     N_COUNTERS,
@@ -47,19 +45,9 @@ from raytrace.kernels.counters import (
 )
 from raytrace.kernels.jit import BLOCK, JIT
 from raytrace.kernels.ray import Hit
-from raytrace.kernels.render import (
-    TILE,
-    NoBounces,
-    SoftShadows,
-    _camera_ray,
-    _frame,
-    _sky,
-    surface_albedo,
-)
-from raytrace.kernels.render import render_rows as megakernel_rows
+from raytrace.kernels.render import camera_ray, hit_frame, sky, surface_albedo
 from raytrace.kernels.sampling import hash_key, rand01, square_sample
 from raytrace.kernels.shade import smooth_point
-from raytrace.kernels.threads import run_on_threads
 
 # What the shading stages read: a Render's fields without the structure,
 # and the shadow mode as a number (NO_SHADOWS, HARD_SHADOWS, or soft
@@ -81,6 +69,11 @@ Wave = namedtuple("Wave", ["x", "y", "sample", "film", "row", "origins", "dirs",
 ShadowRays = namedtuple("ShadowRays", ["origins", "dirs", "t_min", "t_max", "row", "blocked",
                                        "light", "term", "first", "count"])
 
+# Pixels go in TILE x TILE squares, a strip of TILE rows at a time: the
+# rays of a square meet the same BVH nodes while they are in cache, which
+# a 640-pixel row's do not.  8 was faster than 4 and 16 (docs/benchmarks.md,
+# "Renderer").
+TILE = 8
 # Camera rays a wave holds at most, and shadow rays (and light entries)
 # traced at once: enough that a call's fixed cost is a small share of it,
 # few enough that the buffers stay in the caches.  A strip whose rays need
@@ -104,7 +97,7 @@ def camera_wave(shading, wave, strip_top, y_end, cols, counters, row0, own_rows)
             for x in range(x0, min(x0 + TILE, width)):
                 for s in range(spp):
                     fx, fy = _film_point(shading, x, y, s)
-                    ray, _, _ = _camera_ray(cam, fx, fy)
+                    ray, _, _ = camera_ray(cam, fx, fy)
                     wave.x[k], wave.y[k], wave.sample[k] = x, y, s
                     wave.film[k, 0], wave.film[k, 1] = fx, fy
                     wave.origins[k, 0], wave.origins[k, 1], wave.origins[k, 2] = ray.ox, ray.oy, ray.oz
@@ -178,98 +171,124 @@ def shade_wave(shading, wave, k0, n, rays, counters):
     entries of one more hit fit in rays; returns (the first ray not
     shaded, shadow rays written).  A sample's colour starts as its ambient
     term (or the sky); light_wave adds the lights."""
-    geo, lights = shading.geo, shading.lights
-    n_lights = lights.pos.shape[0]
-    most_rays = 0
-    for li in range(n_lights):
-        most_rays += max(lights.samples[li], 1)
+    geo = shading.geo
     e = m = 0
     k = k0
-    while k < n and e + n_lights <= rays.light.shape[0] and m + most_rays <= rays.origins.shape[0]:
+    while k < n and room_for_hit(shading.lights, rays, e, m):
         wave.entries[k, 0] = e
         wave.entries[k, 1] = e
         prim = wave.hit_prim[k]
         if prim < 0:
-            wave.rgb[k, 0], wave.rgb[k, 1], wave.rgb[k, 2] = _sky(shading.background,
+            wave.rgb[k, 0], wave.rgb[k, 1], wave.rgb[k, 2] = sky(shading.background,
                                                                   wave.dirs[k, 1])
             k += 1
             continue
-        pixel, s = wave.y[k] * shading.width + wave.x[k], wave.sample[k]
-        ray, sxn, syn = _camera_ray(shading.cam, wave.film[k, 0], wave.film[k, 1])
+        ray, sxn, syn = camera_ray(shading.cam, wave.film[k, 0], wave.film[k, 1])
         hit = Hit(wave.hit_t[k], prim, wave.hit_u[k], wave.hit_v[k])
-        cnt = counters[wave.row[k]]
-        cnt[SHADING_POINTS] += 1
-        f = _frame(geo, ray, hit)
-        ar, ag, ab = surface_albedo(shading.textures, geo, shading.cam, hit, f.mat, f.px, f.py,
-                                    f.pz, sxn, syn)
+        counters[wave.row[k], SHADING_POINTS] += 1
+        f = hit_frame(geo, ray, hit)
+        rgb = surface_albedo(shading.textures, geo, shading.cam, hit, f.mat, f.px, f.py, f.pz,
+                             sxn, syn)
         wave.normal[k, 0], wave.normal[k, 1], wave.normal[k, 2] = f.nx, f.ny, f.nz
-        # render._direct up to each light's visibility, term for term.
-        mat = f.mat
-        ka = geo.mat_param[mat, MAT_AMBIENT]
-        kd = geo.mat_param[mat, MAT_DIFFUSE]
-        ks = geo.mat_param[mat, MAT_SPECULAR]
-        shin = geo.mat_param[mat, MAT_SHININESS]
-        wave.rgb[k, 0], wave.rgb[k, 1], wave.rgb[k, 2] = ka * ar, ka * ag, ka * ab
-        px, py, pz, gx, gy, gz = f.px, f.py, f.pz, f.gx, f.gy, f.gz
-        nx, ny, nz, eps = f.nx, f.ny, f.nz, f.eps
-        sx, sy, sz = smooth_point(geo, hit, px, py, pz, f.side)
-        lifted = (sx - px) * gx + (sy - py) * gy + (sz - pz) * gz > eps
-        origin = (sx + eps * gx, sy + eps * gy, sz + eps * gz)
-        for li in range(n_lights):
-            lx = lights.pos[li, 0] - px
-            ly = lights.pos[li, 1] - py
-            lz = lights.pos[li, 2] - pz
-            dist = np.sqrt(lx * lx + ly * ly + lz * lz)
-            lx, ly, lz = lx / dist, ly / dist, lz / dist
-            ndl = nx * lx + ny * ly + nz * lz
-            if ndl <= 0.0 or (gx * lx + gy * ly + gz * lz <= 0.0 and not lifted):
-                continue
-            hx, hy, hz = lx - ray.dx, ly - ray.dy, lz - ray.dz
-            hl = np.sqrt(hx * hx + hy * hy + hz * hz)
-            spec = 0.0
-            if hl > 0.0:
-                spec = ks * max(0.0, (nx * hx + ny * hy + nz * hz) / hl) ** shin
-            rays.light[e] = li
-            rays.term[e, 0] = kd * ar * ndl + spec
-            rays.term[e, 1] = kd * ag * ndl + spec
-            rays.term[e, 2] = kd * ab * ndl + spec
-            rays.first[e] = m
-            c = _emit_shadow_rays(shading, li, origin, pixel, s, rays, m)
-            rays.count[e] = c
-            if c:
-                cnt[SHADOW_POINTS] += 1
-                cnt[SHADOW_RAYS] += c
-                for j in range(m, m + c):
-                    rays.row[j] = wave.row[k]
-            m += c
-            e += 1
+        pixel = wave.y[k] * shading.width + wave.x[k]
+        r, g, b, e, m = light_entries(shading, hit, f, rgb, ray, (pixel, wave.sample[k]), rays,
+                                      (e, m), counters, wave.row[k])
+        wave.rgb[k, 0], wave.rgb[k, 1], wave.rgb[k, 2] = r, g, b
         wave.entries[k, 1] = e
         k += 1
     return k, m
 
 
 @njit(**JIT)
-def light_wave(shading, wave, k0, k1, rays, counters):
-    """Add each light's share times its visibility (the fraction of its
-    shadow rays not blocked) to the colours of camera rays k0 .. k1 - 1,
-    in render._direct's order."""
+def room_for_hit(lights, rays, e, m):
+    """Whether the light entries and shadow rays of one more hit fit in
+    rays, from entry e and shadow ray m on."""
+    most_rays = 0
+    for li in range(lights.pos.shape[0]):
+        most_rays += max(lights.samples[li], 1)
+    return e + lights.pos.shape[0] <= rays.light.shape[0] and m + most_rays <= rays.origins.shape[0]
+
+
+@njit(**JIT)
+def light_entries(shading, hit, f, rgb, ray, key, rays, em, counters, row):
+    """render._direct up to each light's visibility, term for term, at frame
+    f of ray's hit with the material's colour rgb, for the camera sample
+    key = (pixel, sample): returns the ambient term (r, g, b) and, after
+    the entries and shadow rays written from em = (entry, shadow ray) on,
+    the next entry and shadow ray.  The rays count into counters[row]."""
+    geo, lights = shading.geo, shading.lights
+    e, m = em
+    mat, ar, ag, ab = f.mat, rgb[0], rgb[1], rgb[2]
+    kd = geo.mat_param[mat, MAT_DIFFUSE]
+    ks = geo.mat_param[mat, MAT_SPECULAR]
+    shin = geo.mat_param[mat, MAT_SHININESS]
+    ka = geo.mat_param[mat, MAT_AMBIENT]
+    px, py, pz, gx, gy, gz = f.px, f.py, f.pz, f.gx, f.gy, f.gz
+    nx, ny, nz, eps = f.nx, f.ny, f.nz, f.eps
+    sx, sy, sz = smooth_point(geo, hit, px, py, pz, f.side)
+    lifted = (sx - px) * gx + (sy - py) * gy + (sz - pz) * gz > eps
+    origin = (sx + eps * gx, sy + eps * gy, sz + eps * gz)
+    for li in range(lights.pos.shape[0]):
+        lx = lights.pos[li, 0] - px
+        ly = lights.pos[li, 1] - py
+        lz = lights.pos[li, 2] - pz
+        dist = np.sqrt(lx * lx + ly * ly + lz * lz)
+        lx, ly, lz = lx / dist, ly / dist, lz / dist
+        ndl = nx * lx + ny * ly + nz * lz
+        if ndl <= 0.0 or (gx * lx + gy * ly + gz * lz <= 0.0 and not lifted):
+            continue
+        hx, hy, hz = lx - ray.dx, ly - ray.dy, lz - ray.dz
+        hl = np.sqrt(hx * hx + hy * hy + hz * hz)
+        spec = 0.0
+        if hl > 0.0:
+            spec = ks * max(0.0, (nx * hx + ny * hy + nz * hz) / hl) ** shin
+        rays.light[e] = li
+        rays.term[e, 0] = kd * ar * ndl + spec
+        rays.term[e, 1] = kd * ag * ndl + spec
+        rays.term[e, 2] = kd * ab * ndl + spec
+        rays.first[e] = m
+        c = _emit_shadow_rays(shading, li, origin, key[0], key[1], rays, m)
+        rays.count[e] = c
+        if c:
+            counters[row, SHADOW_POINTS] += 1
+            counters[row, SHADOW_RAYS] += c
+            for j in range(m, m + c):
+                rays.row[j] = row
+        m += c
+        e += 1
+    return ka * ar, ka * ag, ka * ab, e, m
+
+
+@njit(**JIT)
+def lit(shading, rays, entries, rgb, counters, row):
+    """rgb (a 3-tuple: the ambient term) plus each light's share of
+    entries = (first, end) times its visibility (the fraction of its shadow
+    rays not blocked), in render._direct's order."""
     lights = shading.lights
+    r, g, b = rgb
+    for e in range(entries[0], entries[1]):
+        li, c = rays.light[e], rays.count[e]
+        vis = 1.0
+        if c:
+            free = 0
+            for j in range(rays.first[e], rays.first[e] + c):
+                free += not rays.blocked[j]
+            counters[row, OCCLUDED_RAYS] += c - free
+            vis = free / c
+        lr, lg, lb = lights.color[li, 0], lights.color[li, 1], lights.color[li, 2]
+        r += vis * lr * rays.term[e, 0]
+        g += vis * lg * rays.term[e, 1]
+        b += vis * lb * rays.term[e, 2]
+    return r, g, b
+
+
+@njit(**JIT)
+def light_wave(shading, wave, k0, k1, rays, counters):
+    """Add the lights to the colours of camera rays k0 .. k1 - 1 (lit)."""
     for k in range(k0, k1):
-        r, g, b = wave.rgb[k, 0], wave.rgb[k, 1], wave.rgb[k, 2]
-        for e in range(wave.entries[k, 0], wave.entries[k, 1]):
-            li, c = rays.light[e], rays.count[e]
-            vis = 1.0
-            if c:
-                free = 0
-                for j in range(rays.first[e], rays.first[e] + c):
-                    free += not rays.blocked[j]
-                counters[wave.row[k], OCCLUDED_RAYS] += c - free
-                vis = free / c
-            lr, lg, lb = lights.color[li, 0], lights.color[li, 1], lights.color[li, 2]
-            r += vis * lr * rays.term[e, 0]
-            g += vis * lg * rays.term[e, 1]
-            b += vis * lb * rays.term[e, 2]
-        wave.rgb[k, 0], wave.rgb[k, 1], wave.rgb[k, 2] = r, g, b
+        wave.rgb[k, 0], wave.rgb[k, 1], wave.rgb[k, 2] = lit(
+            shading, rays, (wave.entries[k, 0], wave.entries[k, 1]),
+            (wave.rgb[k, 0], wave.rgb[k, 1], wave.rgb[k, 2]), counters, wave.row[k])
 
 
 @njit(**JIT)
@@ -345,7 +364,7 @@ def run_stage(step, shading, wave, rays, counters, band, args):
     return 0, 0
 
 
-def _wave_buffers(rays):
+def wave_buffers(rays):
     f8, i8 = np.float64, np.int64
     return Wave(x=np.empty(rays, i8), y=np.empty(rays, i8), sample=np.empty(rays, i8),
                 film=np.empty((rays, 2), f8), row=np.empty(rays, i8),
@@ -356,111 +375,10 @@ def _wave_buffers(rays):
                 normal=np.empty((rays, 3), f8), entries=np.empty((rays, 2), i8))
 
 
-def _shadow_buffers(rays, entries):
+def shadow_buffers(rays, entries):
     f8, i8 = np.float64, np.int64
     return ShadowRays(origins=np.empty((rays, 3), f8), dirs=np.empty((rays, 3), f8),
                       t_min=np.empty(rays, f8), t_max=np.empty(rays, f8),
                       row=np.empty(rays, i8), blocked=np.empty(rays, np.bool_),
                       light=np.empty(entries, i8), term=np.empty((entries, 3), f8),
                       first=np.empty(entries, i8), count=np.empty(entries, i8))
-
-
-class _Stages:
-    """A thread's buffers and the stage calls of one wave."""
-
-    def __init__(self, shading, acc, band):
-        self.shading, self.acc, self.band = shading, acc, band
-        spp = shading.spp
-        self.squares = max(1, WAVE_RAYS // (TILE * TILE * spp))
-        self.wave = _wave_buffers(self.squares * TILE * TILE * spp)
-        samples = shading.lights.samples
-        most = int(np.maximum(samples, 1).sum()) if len(samples) else 0
-        self.rays = _shadow_buffers(max(SHADOW_BATCH, most), max(SHADOW_BATCH, len(samples)))
-        # With AOVs each camera ray counts into a row of its own, summed
-        # per pixel for the cost AOV; otherwise straight into its image row.
-        self.counters = self.wave.cnt if len(band.aovs.cost) else band.stats_rows
-        self.views = {}
-
-    def strip(self, top, y_end):
-        """The strip of TILE rows from ``top``, a wave of squares at a time."""
-        n_cols = -(-self.shading.width // TILE)
-        for q0 in range(0, n_cols, self.squares):
-            self.trace(top, y_end, q0, min(q0 + self.squares, n_cols))
-
-    def trace(self, top, y_end, q0, q1):
-        shading, acc, wave, rays, counters = (self.shading, self.acc, self.wave, self.rays,
-                                              self.counters)
-        band, geo = self.band, shading.geo
-        own = int(counters is wave.cnt)
-        n, _ = run_stage(CAMERA, shading, wave, rays, counters, band, (top, y_end, q0, q1, own))
-        camera_rays, hits = self._rays(n)
-        closest_rays(geo, acc, camera_rays, hits, counters, wave.row[:n])
-        k = 0
-        while k < n:
-            k1, m = run_stage(SHADE, shading, wave, rays, counters, band, (k, n, 0, 0, 0))
-            if m:
-                shadow_rays, blocked, rows = self._shadow_rays(m)
-                occluded_rays(geo, acc, shadow_rays, blocked, counters, rows)
-            run_stage(FINISH, shading, wave, rays, counters, band, (k, k1, n, 0, 0))
-            k = k1
-
-    def _rays(self, n):
-        """The first n camera rays and hit rows, as the ray kernels take them
-        (views made once for each length: most waves have the same)."""
-        if n not in self.views:
-            w = self.wave
-            self.views[n] = ((w.origins[:n], w.dirs[:n], w.t_min[:n], w.t_max[:n]),
-                             (w.hit_t[:n], w.hit_prim[:n], w.hit_u[:n], w.hit_v[:n]))
-        return self.views[n]
-
-    def _shadow_rays(self, m):
-        r = self.rays
-        return ((r.origins[:m], r.dirs[:m], r.t_min[:m], r.t_max[:m]), r.blocked[:m], r.row[:m])
-
-
-def _strips(stages, y0, y_end, clock, lock):
-    """One thread's share: strips of TILE rows taken by ticket until none is
-    left, so a thread's counter rows are its own."""
-    while True:
-        with lock:
-            ticket = int(clock[0])
-            clock[0] += 1
-        top = y0 + ticket * TILE
-        if top >= y_end:
-            return
-        stages.strip(top, y_end)
-
-
-def _load_stages(shading, acc, band):
-    """Compile (or load) every stage, with empty buffers."""
-    wave = _wave_buffers(0)
-    rays = _shadow_buffers(0, 0)
-    counters = band.stats_rows
-    run_stage(CAMERA, shading, wave, rays, counters, band, (0, 0, 0, 0, 0))
-    closest_rays(shading.geo, acc, (wave.origins, wave.dirs, wave.t_min, wave.t_max),
-                 (wave.hit_t, wave.hit_prim, wave.hit_u, wave.hit_v), counters, wave.row)
-    occluded_rays(shading.geo, acc, (rays.origins, rays.dirs, rays.t_min, rays.t_max),
-                  rays.blocked, counters, rays.row)
-
-
-def render_rows(render, band, y0, y1, n_threads, clock):
-    """Render rows y0 .. y1-1 of a Render into a Band, as render.py's
-    render_rows (which still renders mirrors and glass); y0 == y1 compiles
-    or loads the kernels without rendering.  clock: a one-element int64
-    array, 0 at the call: the strips' tickets."""
-    if not isinstance(render.bounces, NoBounces):
-        megakernel_rows(render, band, y0, y1, n_threads, clock)
-        return
-    lighting = render.lighting
-    shadows = lighting.shadows
-    mode = (shadows.pattern if isinstance(shadows, SoftShadows) else
-            HARD_SHADOWS if shadows.cast else NO_SHADOWS)
-    shading = Shading(lighting.geo, lighting.lights, mode, lighting.seed, render.cam,
-                      render.textures, render.background, render.width, render.height, render.spp)
-    if y1 <= y0:
-        _load_stages(shading, lighting.acc, band)
-        return
-    n_parts = max(1, min(n_threads, -(-(y1 - y0) // TILE)))
-    lock = threading.Lock()
-    run_on_threads([functools.partial(_strips, _Stages(shading, lighting.acc, band), y0, y1,
-                                      clock, lock) for _ in range(n_parts)])

@@ -371,7 +371,7 @@ def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows
     first compile or load the kernel, timed apart (compile_s; 0 without)."""
     from raytrace.kernels.counters import N_COUNTERS
     from raytrace.kernels.render import Band, Lighting, Render
-    from raytrace.kernels.wavefront import render_rows
+    from raytrace.kernels.waves import render_rows
     p = payload
     width = p.width
     if image is None:
@@ -386,7 +386,7 @@ def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows
                     textures=p.textures, bounces=p.bounces, background=p.background,
                     width=int(width), height=int(p.height), spp=int(p.spp))
     band = Band(image=image, aovs=aovs, stats_rows=stats_rows, row0=int(row0))
-    clock = np.zeros(1, np.int64)    # the kernel's band tickets (kernels/render.py)
+    clock = np.zeros(1, np.int64)    # the strips' tickets (kernels/waves.py)
     # An empty band compiles the kernel (or loads it from Numba's cache)
     # without rendering anything, so that time is reported apart.
     t_compile = 0.0
@@ -430,7 +430,7 @@ def _render(scene, opts, drop_meshes):
     # thread (docs/benchmarks.md, "Renderer").
     band = height
     if opts.progress:
-        from raytrace.kernels.render import TILE
+        from raytrace.kernels.wavefront import TILE
         band = max(4 * TILE * setup.threads, -(-height // (32 * TILE)) * TILE)
     t_compile = t_render = 0.0
     for y0 in range(0, height, band):

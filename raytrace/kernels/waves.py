@@ -1,0 +1,191 @@
+"""The renderer's Python side: threads take strips of TILE rows by ticket
+(render.py's bands, so a thread's image rows and counter rows are its
+own), and each strip goes through the stages a wave at a time: the shading
+stages' compiled entry (wavefront.py, or bounces.py for mirrors and glass)
+and the structure's ray kernels (cast.py's, shared with the ray-casting
+API), called in turn."""
+import functools
+import threading
+
+import numpy as np
+
+from raytrace.kernels import bounces
+from raytrace.kernels.cast import closest_rays, occluded_rays
+from raytrace.kernels.render import NoBounces, SoftShadows
+from raytrace.kernels.threads import run_on_threads
+from raytrace.kernels.wavefront import (
+    CAMERA,
+    FINISH,
+    HARD_SHADOWS,
+    NO_SHADOWS,
+    SHADE,
+    SHADOW_BATCH,
+    TILE,
+    WAVE_RAYS,
+    Shading,
+    run_stage,
+    shadow_buffers,
+    wave_buffers,
+)
+
+
+class _Stages:
+    """A thread's buffers and the stage calls of one wave (direct light)."""
+
+    def __init__(self, shading, acc, band):
+        self.shading, self.acc, self.band = shading, acc, band
+        spp = shading.spp
+        self.squares = max(1, WAVE_RAYS // (TILE * TILE * spp))
+        self.wave = wave_buffers(self.squares * TILE * TILE * spp)
+        samples = shading.lights.samples
+        most = int(np.maximum(samples, 1).sum()) if len(samples) else 0
+        self.shadow = shadow_buffers(max(SHADOW_BATCH, most), max(SHADOW_BATCH, len(samples)))
+        # With AOVs each camera ray counts into a row of its own, summed
+        # per pixel for the cost AOV; otherwise straight into its image row.
+        self.counters = self.wave.cnt if len(band.aovs.cost) else band.stats_rows
+        self.views = {}
+
+    def strip(self, top, y_end):
+        """The strip of TILE rows from ``top``, a wave of squares at a time."""
+        n_cols = -(-self.shading.width // TILE)
+        for q0 in range(0, n_cols, self.squares):
+            self.trace(top, y_end, q0, min(q0 + self.squares, n_cols))
+
+    def camera(self, top, y_end, q0, q1):
+        """The wave's camera rays and their closest hits; returns how many."""
+        wave = self.wave
+        n, _ = run_stage(CAMERA, self.shading, wave, self.shadow, self.counters, self.band,
+                         (top, y_end, q0, q1, int(self.counters is wave.cnt)))
+        if n not in self.views:
+            self.views[n] = ((wave.origins[:n], wave.dirs[:n], wave.t_min[:n], wave.t_max[:n]),
+                             (wave.hit_t[:n], wave.hit_prim[:n], wave.hit_u[:n], wave.hit_v[:n]),
+                             wave.row[:n])
+        rays, hits, rows = self.views[n]
+        closest_rays(self.shading.geo, self.acc, rays, hits, self.counters, rows)
+        return n
+
+    def occlude(self, m):
+        """Trace the first m shadow rays."""
+        s = self.shadow
+        occluded_rays(self.shading.geo, self.acc, (s.origins[:m], s.dirs[:m], s.t_min[:m],
+                                                   s.t_max[:m]), s.blocked[:m], self.counters,
+                      s.row[:m])
+
+    def trace(self, top, y_end, q0, q1):
+        args = self.shading, self.wave, self.shadow, self.counters, self.band
+        n = self.camera(top, y_end, q0, q1)
+        k = 0
+        while k < n:
+            k1, m = run_stage(SHADE, *args, (k, n, 0, 0, 0))
+            if m:
+                self.occlude(m)
+            run_stage(FINISH, *args, (k, k1, n, 0, 0))
+            k = k1
+
+
+class _Generations(_Stages):
+    """_Stages for a render with mirror and glass rays: each wave's rays
+    generation by generation (bounces.py)."""
+
+    def __init__(self, shading, acc, band, max_depth):
+        super().__init__(shading, acc, band)
+        self.max_depth = max_depth
+        size = len(self.wave.x)
+        self.gens = [bounces.generation_buffers(size), bounces.generation_buffers(2 * size)]
+        self.light = bounces.light_buffers(2 * size, size)
+
+    def trace(self, top, y_end, q0, q1):
+        shading, wave, counters, band = self.shading, self.wave, self.counters, self.band
+        gen, nxt = self.gens
+        n, _, _, _ = bounces.run_bounce_stage(CAMERA, shading, wave, (gen, nxt, self.shadow, self.light),
+                                      counters, band, (top, y_end, q0, q1,
+                                                       int(counters is wave.cnt)))
+        p, c = n, 0
+        while p:
+            # Each ray spawns at most two and adds at most one contribution.
+            if len(nxt.key) < 2 * p:
+                nxt = bounces.generation_buffers(2 * p)
+            if len(self.light.key) < c + p:
+                self.light = _grown(self.light, 2 * (c + p))
+            closest_rays(shading.geo, self.acc, (gen.origins[:p], gen.dirs[:p], gen.t_min[:p],
+                                                 gen.t_max[:p]),
+                         (gen.hit_t[:p], gen.hit_prim[:p], gen.hit_u[:p], gen.hit_v[:p]),
+                         counters, gen.row[:p])
+            bufs = (gen, nxt, self.shadow, self.light)
+            i = q = 0
+            while i < p:
+                i1, m, q, c = bounces.run_bounce_stage(bounces.SHADE, shading, wave, bufs,
+                                                       counters, band,
+                                                       (i, p, q, c, self.max_depth))
+                if m:
+                    self.occlude(m)
+                c, _, _, _ = bounces.run_bounce_stage(bounces.FINISH, shading, wave, bufs,
+                                                      counters, band, (i, i1, c, 0, 0))
+                i = i1
+            gen, nxt, p = nxt, gen, q
+        self.gens = [gen, nxt]
+        bounces.run_bounce_stage(bounces.STORE, shading, wave, (gen, nxt, self.shadow, self.light), counters,
+                         band, (n, c, 0, 0, 0))
+
+
+def _grown(light, rows):
+    """light with room for rows contributions (those made so far kept)."""
+    bigger = bounces.light_buffers(rows, len(light.start) - 1)
+    for old, new in zip(light[:3], bigger[:3]):
+        new[:len(old)] = old
+    return bigger
+
+
+def _strips(stages, y0, y_end, clock, lock):
+    """One thread's share: strips of TILE rows taken by ticket until none is
+    left."""
+    while True:
+        with lock:
+            ticket = int(clock[0])
+            clock[0] += 1
+        top = y0 + ticket * TILE
+        if top >= y_end:
+            return
+        stages.strip(top, y_end)
+
+
+def _load(stages):
+    """Compile (or load) every kernel a render uses, on empty buffers."""
+    band = stages.band
+    stages.wave, stages.shadow = wave_buffers(0), shadow_buffers(0, 0)
+    stages.counters = band.stats_rows
+    if isinstance(stages, _Generations):
+        gen = bounces.generation_buffers(0)
+        stages.gens, stages.light = [gen, gen], bounces.light_buffers(0, 0)
+        closest_rays(stages.shading.geo, stages.acc, (gen.origins, gen.dirs, gen.t_min,
+                                                      gen.t_max),
+                     (gen.hit_t, gen.hit_prim, gen.hit_u, gen.hit_v), band.stats_rows, gen.row)
+    stages.trace(0, 0, 0, 0)
+    stages.occlude(0)
+
+
+def render_rows(render, band, y0, y1, n_threads, clock):
+    """Render rows y0 .. y1-1 of a Render (render.py's record) into a Band:
+    image row y is band.image[y - band.row0] (row0 = 0 for a whole-image
+    buffer; a tile's own buffer starts at its first row), likewise its
+    counter rows and AOVs.  y0 == y1 compiles or loads the kernels without
+    rendering.  clock: a one-element int64 array, 0 at the call: the
+    strips' tickets."""
+    lighting = render.lighting
+    shadows = lighting.shadows
+    mode = (shadows.pattern if isinstance(shadows, SoftShadows) else
+            HARD_SHADOWS if shadows.cast else NO_SHADOWS)
+    shading = Shading(lighting.geo, lighting.lights, mode, lighting.seed, render.cam,
+                      render.textures, render.background, render.width, render.height, render.spp)
+
+    def stages():
+        if isinstance(render.bounces, NoBounces):
+            return _Stages(shading, lighting.acc, band)
+        return _Generations(shading, lighting.acc, band, int(render.bounces.max_depth))
+    if y1 <= y0:
+        _load(stages())
+        return
+    n_parts = max(1, min(n_threads, -(-(y1 - y0) // TILE)))
+    lock = threading.Lock()
+    run_on_threads([functools.partial(_strips, stages(), y0, y1, clock, lock)
+                    for _ in range(n_parts)])
