@@ -1,12 +1,12 @@
 """Compile kernels into the cache ahead of time (``raytrace warmup``): for
 container images, CI, and machines that share one cache.
 
-A render kernel is compiled per combination of record types: the
-structure's layout, the shadow mode (none and hard share one; soft is its
-own), textures (vertex colours or an image) and mirrors or glass.  Each
-step renders a tiny scene with exactly that combination, so the kernels a
-real scene of that kind uses are the ones compiled (the types, not the
-sizes, pick them).
+A render compiles the structure's ray kernels (its layout's type), and
+the shading stages once per combination of textures (vertex colours or an
+image) and mirrors or glass; every shadow mode shares them.  Each step
+renders a tiny scene with exactly that combination, so the kernels a real
+scene of that kind uses are the ones compiled (the types, not the sizes,
+pick them).
 """
 import itertools
 import time
@@ -124,14 +124,14 @@ def worker_payload(scene, opts):
 
 def plan(accels, shadows=("hard",), features=()):
     """The steps that compile ``accels`` (names as --accel, or
-    "bvh:median", "bvh:lbvh") with the shadow modes and FEATURES asked for."""
-    modes = sorted({"soft" if s == "soft" else "hard" for s in shadows})
+    "bvh:median", "bvh:lbvh") with the FEATURES asked for.  Every shadow
+    mode in ``shadows`` shares the kernels: the first is rendered."""
+    mode = "soft" if tuple(shadows) == ("soft",) else "hard"
     steps = []
-    for accel, mode, tex, mir in itertools.product(
-            accels, modes, (False, True) if "textures" in features else (False,),
+    for accel, tex, mir in itertools.product(
+            accels, (False, True) if "textures" in features else (False,),
             (False, True) if "mirrors" in features else (False,)):
-        words = [accel, f"{'soft' if mode == 'soft' else 'none/hard'} shadows"]
-        words += ["textures"] * tex + ["mirrors and glass"] * mir
+        words = [accel] + ["textures"] * tex + ["mirrors and glass"] * mir
         steps.append(Step(f"render: {', '.join(words)}", _render(accel, mode, tex, mir)))
     steps.append(Step("builders for big scenes", _big_builders(accels)))
     if "queries" in features:

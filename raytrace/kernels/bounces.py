@@ -25,7 +25,7 @@ from raytrace.kernels.counters import (
     REFRACTION_RAYS,
     SHADING_POINTS,
 )
-from raytrace.kernels.jit import BLOCK, JIT
+from raytrace.kernels.jit import BLOCK, JIT, STAGE
 from raytrace.kernels.limits import MAX_BOUNCES
 from raytrace.kernels.optics import bounce_weights, reflect, refract
 from raytrace.kernels.ray import Hit, make_ray
@@ -57,12 +57,13 @@ Light = namedtuple("Light", ["sample", "key", "rgb", "order", "start", "fill"])
 DIGIT = np.array([3 ** (MAX_BOUNCES - d) if d >= 1 else 0 for d in range(MAX_BOUNCES + 1)],
                  np.int64)
 _REFLECTED, _REFRACTED = 1, 2
+_KINDS = np.array([_REFLECTED, _REFRACTED], np.int64)
 
 # run_bounce_stage's steps, after wavefront.CAMERA.
 SHADE, FINISH, STORE = 1, 2, 3
 
 
-@njit(**JIT)
+@njit(**STAGE)
 def _first_generation(wave, n, gen, counters):
     """The wave's n camera rays as generation 0 (key 0, weight 1)."""
     for k in range(n):
@@ -88,8 +89,10 @@ def _add_light(light, c, sample, key, rgb):
 
 
 @njit(**JIT)
-def _spawn(nxt, p, parent, origin, direction, weight, digit, gen):
-    """Row p of the next generation: a child of gen's ray ``parent``."""
+def _spawn(nxt, p, parent, origin, direction, weight, kind, gen):
+    """Row p of the next generation: gen's ray ``parent``'s child of
+    ``kind`` (_REFLECTED or _REFRACTED; an array element, so not a literal
+    that a call would be compiled for)."""
     for a in range(3):
         nxt.origins[p, a] = origin[a]
         nxt.dirs[p, a] = direction[a]
@@ -98,12 +101,12 @@ def _spawn(nxt, p, parent, origin, direction, weight, digit, gen):
     nxt.t_max[p] = np.inf
     nxt.sample[p] = gen.sample[parent]
     nxt.row[p] = gen.row[parent]
-    nxt.key[p] = gen.key[parent] + digit * DIGIT[gen.depth[parent] + 1]
+    nxt.key[p] = gen.key[parent] + kind * DIGIT[gen.depth[parent] + 1]
     nxt.depth[p] = gen.depth[parent] + 1
     return p + 1
 
 
-@njit(**JIT)
+@njit(**STAGE)
 def shade_generation(shading, wave, gen, ij, nxt, p, shadow, light, c, counters, max_depth):
     """Shade rays ij = (first, end) of generation gen while one more hit's
     shadow rays fit: a miss adds its sky to light (from row c); a hit gets
@@ -112,7 +115,7 @@ def shade_generation(shading, wave, gen, ij, nxt, p, shadow, light, c, counters,
     ray not shaded, shadow rays written, nxt's rows, light's rows).
     render._whitted_sample's arithmetic, step for step."""
     geo = shading.geo
-    e = m = 0
+    e = m = np.int64(0)     # not literal 0s (wavefront.shade_wave)
     i, end = ij
     while i < end and room_for_hit(shading.lights, shadow, e, m):
         gen.entries[i, 0] = e
@@ -174,7 +177,7 @@ def shade_generation(shading, wave, gen, ij, nxt, p, shadow, light, c, counters,
             if ok:
                 p = _spawn(nxt, p, i, (f.px - eps * gx, f.py - eps * gy, f.pz - eps * gz),
                            (tx, ty, tz), (wr * w_refr * ar, wg * w_refr * ag, wb * w_refr * ab),
-                           _REFRACTED, gen)
+                           _KINDS[1], gen)
             else:
                 w_refl += w_refr
         if w_refl > 0.0:
@@ -183,12 +186,12 @@ def shade_generation(shading, wave, gen, ij, nxt, p, shadow, light, c, counters,
                 qx, qy, qz = reflect(dx, dy, dz, gx, gy, gz)
             p = _spawn(nxt, p, i, (f.px + eps * gx, f.py + eps * gy, f.pz + eps * gz),
                        (qx, qy, qz), (wr * w_refl * ar, wg * w_refl * ag, wb * w_refl * ab),
-                       _REFLECTED, gen)
+                       _KINDS[0], gen)
         i += 1
     return i, m, p, c
 
 
-@njit(**JIT)
+@njit(**STAGE)
 def finish_generation(shading, gen, ij, shadow, light, c, counters):
     """The light of rays ij = (first, end) of gen that have their own
     shading (their ambient term plus the lights they see, lit) times that
@@ -203,7 +206,7 @@ def finish_generation(shading, gen, ij, shadow, light, c, counters):
     return c
 
 
-@njit(**JIT)
+@njit(**STAGE)
 def gather(wave, n, light, c):
     """Each of the wave's n samples' colour: its contributions (light's c
     rows) summed in order of their keys, from 0."""

@@ -35,6 +35,11 @@ JIT = dict(cache=CACHING, error_model="numpy", _nrt=False, forceinline=True,
 # (threads.py), so it has its wrapper and releases the GIL, and stays a
 # call, not inlined.
 BLOCK = dict(JIT, forceinline=False, no_cpython_wrapper=False, nogil=True)
+# A stage with one or two callers (the renderer's stage entries,
+# kernels/wavefront.py and bounces.py): inlined by Numba into each, so it
+# has no library of its own that LLVM optimises and emits, only for the
+# entry to link in and optimise again (docs/design.md, "Compile time").
+STAGE = dict(JIT, inline="always")
 # Implementations of @overload'ed dispatch functions: one-line wrappers,
 # not cached (their closures hold dispatchers, which pickle differently in
 # every process, so a cached entry would never be found again).

@@ -43,7 +43,7 @@ from raytrace.kernels.counters import (
     SHADOW_POINTS,
     SHADOW_RAYS,
 )
-from raytrace.kernels.jit import BLOCK, JIT
+from raytrace.kernels.jit import BLOCK, JIT, STAGE
 from raytrace.kernels.ray import Hit
 from raytrace.kernels.render import camera_ray, hit_frame, sky, surface_albedo
 from raytrace.kernels.sampling import hash_key, rand01, square_sample
@@ -82,7 +82,7 @@ WAVE_RAYS = 8192
 SHADOW_BATCH = 8192
 
 
-@njit(**JIT)
+@njit(**STAGE)
 def camera_wave(shading, wave, strip_top, y_end, cols, counters, row0, own_rows):
     """Camera rays of squares cols = (first, end) of the strip of TILE
     rows from strip_top (not past y_end), into wave; returns how many.
@@ -165,14 +165,16 @@ def _shadow_ray(lights, li, su, sv, origin, rays, m):
     rays.t_max[m] = 1.0
 
 
-@njit(**JIT)
+@njit(**STAGE)
 def shade_wave(shading, wave, k0, n, rays, counters):
     """Shade the hits of camera rays k0 .. while the shadow rays and light
     entries of one more hit fit in rays; returns (the first ray not
     shaded, shadow rays written).  A sample's colour starts as its ambient
     term (or the sky); light_wave adds the lights."""
     geo = shading.geo
-    e = m = 0
+    # int64, not the literal 0: a call with literal arguments is typed,
+    # and compiled, as a variant of its own.
+    e = m = np.int64(0)
     k = k0
     while k < n and room_for_hit(shading.lights, rays, e, m):
         wave.entries[k, 0] = e
@@ -282,7 +284,7 @@ def lit(shading, rays, entries, rgb, counters, row):
     return r, g, b
 
 
-@njit(**JIT)
+@njit(**STAGE)
 def light_wave(shading, wave, k0, k1, rays, counters):
     """Add the lights to the colours of camera rays k0 .. k1 - 1 (lit)."""
     for k in range(k0, k1):
@@ -291,7 +293,7 @@ def light_wave(shading, wave, k0, k1, rays, counters):
             (wave.rgb[k, 0], wave.rgb[k, 1], wave.rgb[k, 2]), counters, wave.row[k])
 
 
-@njit(**JIT)
+@njit(**STAGE)
 def store_wave(shading, wave, n, band):
     """Each pixel's samples (consecutive camera rays) averaged into
     band.image and its first sample into the AOVs; with AOVs, each ray's

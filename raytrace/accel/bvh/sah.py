@@ -41,6 +41,10 @@ from raytrace.accel.bvh.layout import (
 from raytrace.kernels.jit import BUILD, BUILD_STEP
 from raytrace.kernels.threads import run_on_threads
 
+# Row numbers of the builder's scratch rows as array elements: a literal
+# argument would compile _corners and _row_area once for each.
+_ROW = np.arange(3)
+
 
 @njit(**BUILD_STEP)
 def _corners(rows, i):
@@ -130,8 +134,8 @@ def build_bvh_kernel(boxes, prim_ids, start, end, depth, max_leaf, traversal_cos
                 p = prim_ids[k]
                 grow_box(grown, 0, boxes, p)
                 grow_centroids(grown, 1, boxes, p)
-            bx0, by0, bz0, bx1, by1, bz1 = _corners(grown, 0)
-            cx0, cy0, cz0, cx1, cy1, cz1 = _corners(grown, 1)
+            bx0, by0, bz0, bx1, by1, bz1 = _corners(grown, _ROW[0])
+            cx0, cy0, cz0, cx1, cy1, cz1 = _corners(grown, _ROW[1])
             cx0, cy0, cz0, cx1, cy1, cz1 = (0.5 * cx0, 0.5 * cy0, 0.5 * cz0, 0.5 * cx1,
                                             0.5 * cy1, 0.5 * cz1)
             # A parent's largest magnitude is at least its children's, so padded
@@ -193,7 +197,7 @@ def build_bvh_kernel(boxes, prim_ids, start, end, depth, max_leaf, traversal_cos
                             if c:
                                 m += c
                                 grow_box(grown, 2, bin_box, a * N_BINS + b)
-                                cost_right = m * _row_area(grown, 2)
+                                cost_right = m * _row_area(grown, _ROW[2])
                             right_cost[b] = cost_right
                         grown[2, :] = np.inf
                         m = 0
@@ -206,7 +210,7 @@ def build_bvh_kernel(boxes, prim_ids, start, end, depth, max_leaf, traversal_cos
                             grow_box(grown, 2, bin_box, a * N_BINS + b - 1)
                             if m == count:
                                 continue
-                            cost = m * _row_area(grown, 2) + right_cost[b]
+                            cost = m * _row_area(grown, _ROW[2]) + right_cost[b]
                             if cost < best_cost:
                                 best_cost = cost
                                 best_axis = a

@@ -181,8 +181,10 @@ def _traversal(mode):
         n_leaves = 0
         n_tests = 0
         n_hits = 0
-        entry = 0
-        sp = 0
+        # int64s, not literal 0s: a call given a literal is compiled again
+        # for it (_push_children and _leaf_range were, twice each).
+        entry = np.int64(0)
+        sp = np.int64(0)
         while entry != _DONE:
             if entry >= 0:
                 n_inner += 1
