@@ -174,3 +174,36 @@ def test_bad_mirror_and_glass_keys(tmp_path, key, value, message):
     r = CliRunner().invoke(main, [str(f), "-o", str(tmp_path / "s.png")])
     assert r.exit_code == 1 and message in r.output and len(r.output.strip().splitlines()) == 1
     assert not (tmp_path / "s.png").exists()
+
+
+def test_a_samples_light_is_summed_in_depth_first_order():
+    """The wavefront makes a sample's rays generation by generation, but
+    sums their light in the order a depth-first tracer adds it (a ray, then
+    its reflected subtree, then its refracted one): bounces.gather sorts by
+    each ray's key.  The values are chosen so that the order changes the
+    float sum: the breadth-first order gives 5.5 where depth first gives
+    4.5."""
+    from raytrace.kernels.bounces import DIGIT, gather, light_buffers
+    from raytrace.kernels.wavefront import wave_buffers
+    d1, d2 = int(DIGIT[1]), int(DIGIT[2])
+    key = {"root": 0, "R": d1, "RR": d1 + d2, "RT": d1 + 2 * d2, "T": 2 * d1, "TR": 2 * d1 + d2}
+    value = {"root": 1e16, "R": 1.0, "RR": -1e16, "RT": 1.0, "T": 3.0, "TR": 0.5}
+    depth_first = ["root", "R", "RR", "RT", "T", "TR"]
+    breadth_first = ["root", "R", "T", "RR", "RT", "TR"]
+
+    def summed(order):
+        total = 0.0
+        for name in order:
+            total += value[name]
+        return total
+    assert summed(depth_first) == 4.5 and summed(breadth_first) == 5.5
+    # Two samples' contributions interleaved, in generation order.
+    rows = [(k, name) for name in breadth_first for k in (0, 1)]
+    light = light_buffers(len(rows), 2)
+    for j, (k, name) in enumerate(rows):
+        light.sample[j], light.key[j] = k, key[name]
+        light.rgb[j] = (value[name] * (k + 1), value[name], 0.0)
+    wave = wave_buffers(2)
+    python_callable(gather)(wave, 2, light, len(rows))
+    assert wave.rgb[0].tolist() == [4.5, 4.5, 0.0]
+    assert wave.rgb[1].tolist() == [9.0, 4.5, 0.0]
