@@ -8,8 +8,9 @@ from click.testing import CliRunner
 
 import raytrace
 from raytrace.cli.main import main
-from raytrace.cli.warmup import _scene, plan
+from raytrace.cli.warmup import plan
 from raytrace.renderer.driver import RenderOptions, prepare
+from raytrace.scene.kinds import tiny_scene as _scene
 
 
 def _types(scene, **opts):

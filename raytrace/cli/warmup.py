@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from raytrace.scene.kinds import scene_kind, tiny_scene
+
 FEATURES = ("textures", "mirrors", "queries", "loading")
 
 
@@ -23,24 +25,9 @@ class Step:
     run: object            # a function of no arguments
 
 
-def _scene(textures, mirrors):
-    from raytrace.scene.model import Camera, Light, Material, Mesh, Plane, Scene, Sphere
-    quad = Mesh(np.array([[-1, 0, -1], [1, 0, -1], [1, 0, 1], [-1, 0, 1]], float) + [0, 0.5, 0],
-                np.array([[0, 2, 1], [0, 3, 2]]), Material(),
-                normals=np.tile([0.0, 1.0, 0.0], (4, 1)))
-    if textures:
-        quad.colors = np.full((4, 3), 0.5)
-        quad.uv = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
-        quad.material.texture = np.full((2, 2, 3), 0.5)
-    ball = Sphere((0.0, 1.5, 0.0), 0.5, Material(reflect=0.5, transmit=0.2) if mirrors else Material())
-    return Scene("warmup", Camera((0.0, 2.0, 5.0), (0.0, 0.5, 0.0), width=4, height=3),
-                 [quad, ball, Plane((0, 0, 0), (0, 1, 0), Material(checker=1.0))],
-                 [Light((2.0, 5.0, 2.0), size=1.0)])
-
-
 def _render(accel, shadows, textures, mirrors):
     from raytrace.renderer.driver import render
-    return lambda: render(_scene(textures, mirrors), accel=accel.split(":")[0],
+    return lambda: render(tiny_scene(textures, mirrors), accel=accel.split(":")[0],
                           bvh_build=accel.split(":")[1] if ":" in accel else "sah",
                           shadows=shadows, light_samples=4, pattern="stratified")
 
@@ -92,19 +79,6 @@ def _big_builders(accels):
     return run
 
 
-def scene_features(scene):
-    """(textures, mirrors) of a Scene, read from its description as flatten
-    and the driver's records will read it: textures where a mesh has vertex
-    colours or a textured material, mirrors where a material reflects or
-    transmits."""
-    from raytrace.scene.model import Mesh
-    objects = list(getattr(scene, "objects", None) or ())
-    textures = any(isinstance(o, Mesh) and (o.colors is not None
-                                            or getattr(o.material, "texture", None) is not None)
-                   for o in objects)
-    return textures, any(o.material.bounces() for o in objects if hasattr(o, "material"))
-
-
 def worker_payload(scene, opts):
     """(Payload, camera buffer) of the tiny scene with the render kernel's
     types that ``scene`` rendered with ``opts`` (RenderOptions) will have.
@@ -116,7 +90,7 @@ def worker_payload(scene, opts):
     import dataclasses
 
     from raytrace.renderer.driver import camera_buffer, prepare
-    tiny = _scene(*scene_features(scene))
+    tiny = tiny_scene(*scene_kind(scene))
     setup = prepare(tiny, dataclasses.replace(opts, width=None, height=None, progress=None,
                                               aov=False))
     return setup.payload(), camera_buffer(tiny.camera, setup.width, setup.height)

@@ -149,19 +149,46 @@ def _strips(stages, y0, y_end, clock, lock):
         stages.strip(top, y_end)
 
 
-def _load(stages):
-    """Compile (or load) every kernel a render uses, on empty buffers."""
-    band = stages.band
+def load_rays(render, band):
+    """Compile (or load) the structure's two ray kernels a render uses, on
+    empty buffers."""
+    wave, shadow = wave_buffers(0), shadow_buffers(0, 0)
+    geo, acc = render.lighting.geo, render.lighting.acc
+    closest_rays(geo, acc, (wave.origins, wave.dirs, wave.t_min, wave.t_max),
+                 (wave.hit_t, wave.hit_prim, wave.hit_u, wave.hit_v), band.stats_rows, wave.row)
+    occluded_rays(geo, acc, (shadow.origins, shadow.dirs, shadow.t_min, shadow.t_max),
+                  shadow.blocked, band.stats_rows, shadow.row)
+
+
+def load_shading(render, band):
+    """Compile (or load) the shading stages' entry a render uses, on empty
+    buffers; render.lighting.acc is not read (renderer/ahead.py compiles it
+    in a process of its own, structure or none)."""
+    stages = _stages(render, band)
     stages.wave, stages.shadow = wave_buffers(0), shadow_buffers(0, 0)
     stages.counters = band.stats_rows
     if isinstance(stages, _Generations):
         gen = bounces.generation_buffers(0)
-        stages.gens, stages.light = [gen, gen], bounces.light_buffers(0, 0)
-        closest_rays(stages.shading.geo, stages.acc, (gen.origins, gen.dirs, gen.t_min,
-                                                      gen.t_max),
-                     (gen.hit_t, gen.hit_prim, gen.hit_u, gen.hit_v), band.stats_rows, gen.row)
-    stages.trace(0, 0, 0, 0)
-    stages.occlude(0)
+        bounces.run_bounce_stage(CAMERA, stages.shading, stages.wave,
+                                 (gen, gen, stages.shadow, bounces.light_buffers(0, 0)),
+                                 stages.counters, band, (0, 0, 0, 0, 0))
+    else:
+        run_stage(CAMERA, stages.shading, stages.wave, stages.shadow, stages.counters, band,
+                  (0, 0, 0, 0, 0))
+
+
+def _stages(render, band):
+    """The stages (and their buffers) of a Render: _Generations for mirrors
+    and glass, else _Stages."""
+    lighting = render.lighting
+    shadows = lighting.shadows
+    mode = (shadows.pattern if isinstance(shadows, SoftShadows) else
+            HARD_SHADOWS if shadows.cast else NO_SHADOWS)
+    shading = Shading(lighting.geo, lighting.lights, mode, lighting.seed, render.cam,
+                      render.textures, render.background, render.width, render.height, render.spp)
+    if isinstance(render.bounces, NoBounces):
+        return _Stages(shading, lighting.acc, band)
+    return _Generations(shading, lighting.acc, band, int(render.bounces.max_depth))
 
 
 def render_rows(render, band, y0, y1, n_threads, clock):
@@ -171,21 +198,11 @@ def render_rows(render, band, y0, y1, n_threads, clock):
     counter rows and AOVs.  y0 == y1 compiles or loads the kernels without
     rendering.  clock: a one-element int64 array, 0 at the call: the
     strips' tickets."""
-    lighting = render.lighting
-    shadows = lighting.shadows
-    mode = (shadows.pattern if isinstance(shadows, SoftShadows) else
-            HARD_SHADOWS if shadows.cast else NO_SHADOWS)
-    shading = Shading(lighting.geo, lighting.lights, mode, lighting.seed, render.cam,
-                      render.textures, render.background, render.width, render.height, render.spp)
-
-    def stages():
-        if isinstance(render.bounces, NoBounces):
-            return _Stages(shading, lighting.acc, band)
-        return _Generations(shading, lighting.acc, band, int(render.bounces.max_depth))
     if y1 <= y0:
-        _load(stages())
+        load_rays(render, band)
+        load_shading(render, band)
         return
     n_parts = max(1, min(n_threads, -(-(y1 - y0) // TILE)))
     lock = threading.Lock()
-    run_on_threads([functools.partial(_strips, stages(), y0, y1, clock, lock)
+    run_on_threads([functools.partial(_strips, _stages(render, band), y0, y1, clock, lock)
                     for _ in range(n_parts)])
