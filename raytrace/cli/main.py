@@ -241,13 +241,14 @@ def render_cmd(scene, bvol, scene_args, output, aov, heatmap, show_depth, work, 
             _load_threads(options)
             from raytrace.renderer.firstrun import RENDER_S, expecting
             accel, shadows = options.get("accel", "bvh"), options.get("shadows", "hard")
+            t_load = time.perf_counter()
             with expecting(f"{scene}: {accel}, {shadows} shadows", RENDER_S.get(accel, 12) + 2,
                            load=False):
                 t_kernels = load_kernels(scene, scene_args.detail)   # compile time, not loading's
-            t_load = time.perf_counter()
             with _warnings_once():
                 sc = load_scene(scene, width=width, height=height, **scene_kwargs(scene_args))
-            t_load = time.perf_counter() - t_load
+            # The imports load_kernels needed (Numba's) are loading's.
+            t_load = time.perf_counter() - t_load - t_kernels
             raise_if_interrupted()
             if not named and kind == "toml":      # a scene file's name names its image
                 output = f"{sc.name}.png"
