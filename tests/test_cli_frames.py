@@ -191,6 +191,36 @@ def test_a_local_cluster_starts_while_the_scene_loads(tmp_path, monkeypatch, fra
                           pixels(tmp_path / "still.png"))
 
 
+def test_ctrl_c_while_the_scene_loads_closes_the_cluster_starting_meanwhile(tmp_path,
+                                                                            monkeypatch):
+    """--workers: a Ctrl-C while the scene loads (the cluster still starting
+    on its thread) is the command's one line and exit 130, and the cluster's
+    worker is gone when the command returns."""
+    import os
+
+    import psutil  # distributed's own dependency
+
+    import raytrace.frames.distributed as distributed_module
+    import raytrace.scene.load as load_module
+    pids = []
+    real_cluster = distributed_module._local_cluster
+
+    def cluster(*args):
+        c, client = real_cluster(*args)
+        pids.extend(client.run(os.getpid).values())
+        return c, client
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(distributed_module, "_local_cluster", cluster)
+    monkeypatch.setattr(load_module, "load_scene", interrupted)
+    r = run("teapot", *SIZE, "--turntable", 2, "--workers", 1, "-o", tmp_path / "spin.gif")
+    assert r.exit_code == 130 and "interrupted: no animation written" in r.output
+    assert len(pids) == 1
+    assert not psutil.pid_exists(pids[0]) or psutil.Process(pids[0]).status() == "zombie"
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_scene_that_fails_to_load_with_workers_is_one_line_and_leaves_no_process(tmp_path):
     """The cluster was starting while the scene failed to load: the error is
     the command's one line, and every process it started is gone."""
