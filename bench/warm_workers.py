@@ -3,12 +3,14 @@ against another tree (an earlier commit's files), turn by turn, each run a
 fresh `raytrace teapot --turntable N --workers W` process.
 
     python bench/warm_workers.py OLD_TREE [--pairs 3] [--cold-pairs 2] [--frames 12]
+                                          [--detail N]
 
 Cold: each run gets an empty Numba cache of its own (NUMBA_CACHE_DIR), so
 every process compiles; warm: one cache per tree, filled by an untimed run
 first.  Reported per run: the whole command's wall time, the frame phase
 (time.wall_s), and each worker's warm-up and first-task compile/load.
-Markdown on stdout.
+``--detail``: a bigger teapot, whose loading is long enough to overlap the
+cluster's start (issue 46).  Markdown on stdout.
 """
 import json
 import os
@@ -24,9 +26,10 @@ import click
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def run(tree, cache, frames, workers, out):
+def run(tree, cache, frames, workers, out, detail=None):
     cmd = [sys.executable, "-m", "raytrace", "teapot", "--width", "320", "--height", "240",
-           "--turntable", str(frames), "--workers", str(workers), "--json", "-q", "-o", out]
+           "--turntable", str(frames), "--workers", str(workers), "--json", "-q", "-o", out,
+           *(["--detail", str(detail)] if detail else [])]
     env = dict(os.environ, PYTHONPATH=str(tree), NUMBA_CACHE_DIR=str(cache))
     t0 = time.perf_counter()
     p = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=Path(out).parent)
@@ -45,7 +48,8 @@ def run(tree, cache, frames, workers, out):
 @click.option("--cold-pairs", default=2, show_default=True)
 @click.option("--frames", default=12, show_default=True)
 @click.option("--workers", default=2, show_default=True)
-def main(old, pairs, cold_pairs, frames, workers):
+@click.option("--detail", type=int, default=None, help="The teapot's --detail [default: its own].")
+def main(old, pairs, cold_pairs, frames, workers, detail):
     trees = {"old": Path(old).resolve(), "new": ROOT}
     rows = []
     with tempfile.TemporaryDirectory(prefix="warm-workers-") as tmp:
@@ -53,20 +57,21 @@ def main(old, pairs, cold_pairs, frames, workers):
         out = str(tmp / "spin.gif")
         for k in range(cold_pairs):
             for side in (("old", "new") if k % 2 == 0 else ("new", "old")):
-                r = run(trees[side], tmp / f"cold-{side}-{k}", frames, workers, out)
+                r = run(trees[side], tmp / f"cold-{side}-{k}", frames, workers, out, detail)
                 rows.append(("cold", side, r))
                 print(f"cold {side}: {r['whole_s']:.1f} s", file=sys.stderr, flush=True)
         for side in trees:
-            run(trees[side], tmp / f"warm-{side}", 2, workers, out)     # fill the cache
+            run(trees[side], tmp / f"warm-{side}", 2, workers, out, detail)     # fill the cache
         for k in range(pairs):
             for side in (("old", "new") if k % 2 == 0 else ("new", "old")):
-                r = run(trees[side], tmp / f"warm-{side}", frames, workers, out)
+                r = run(trees[side], tmp / f"warm-{side}", frames, workers, out, detail)
                 rows.append(("warm", side, r))
                 print(f"warm {side}: {r['whole_s']:.1f} s", file=sys.stderr, flush=True)
 
     def fmt(xs):
         return ", ".join("-" if x is None else f"{x:.2f}" for x in xs)
-    print(f"### teapot, {frames} frames at 320x240, --workers {workers}: old {trees['old']} "
+    print(f"### teapot{f' --detail {detail}' if detail else ''}, {frames} frames at 320x240, "
+          f"--workers {workers}: old {trees['old']} "
           f"against new {trees['new']}\n")
     print("| cache | tree | whole command s | frame phase s | warm-up per worker s "
           "| first-task compile/load per worker s |")

@@ -157,3 +157,106 @@ def test_ctrl_c_with_workers_stops_writes_nothing_and_closes_the_cluster(tmp_pat
     assert list(tmp_path.iterdir()) == []
     _, alive = psutil.wait_procs(cluster, timeout=30)
     assert not alive, alive
+
+
+@pytest.mark.parametrize("frames", [["--turntable", "2"], []])
+def test_a_local_cluster_starts_while_the_scene_loads(tmp_path, monkeypatch, frames):
+    """--workers: the cluster's start is under way (on its thread) when the
+    scene loads, for frames and for a still, not begun after it; the render
+    is the same."""
+    import threading
+
+    import raytrace.frames.distributed as distributed_module
+    import raytrace.scene.load as load_module
+    starting = threading.Event()
+    real_cluster, real_load = distributed_module._local_cluster, load_module.load_scene
+
+    def cluster(*args):
+        starting.set()
+        return real_cluster(*args)
+
+    seen = []
+
+    def load_scene(*args, **kwargs):
+        seen.append(starting.wait(timeout=30))
+        return real_load(*args, **kwargs)
+    monkeypatch.setattr(distributed_module, "_local_cluster", cluster)
+    monkeypatch.setattr(load_module, "load_scene", load_scene)
+    out = tmp_path / ("d_%d.png" if frames else "d.png")
+    r = run("teapot", *SIZE, *frames, "--workers", 1, "-o", out, "-q")
+    assert r.exit_code == 0, r.output
+    assert seen == [True]
+    r = run("teapot", *SIZE, "-o", tmp_path / "still.png", "-q")
+    assert np.array_equal(pixels(tmp_path / ("d_0.png" if frames else "d.png")),
+                          pixels(tmp_path / "still.png"))
+
+
+def test_ctrl_c_while_the_scene_loads_closes_the_cluster_starting_meanwhile(tmp_path,
+                                                                            monkeypatch):
+    """--workers: a Ctrl-C while the scene loads (the cluster still starting
+    on its thread) is the command's one line and exit 130, and the cluster's
+    worker is gone when the command returns."""
+    import os
+
+    import psutil  # distributed's own dependency
+
+    import raytrace.frames.distributed as distributed_module
+    import raytrace.scene.load as load_module
+    pids = []
+    real_cluster = distributed_module._local_cluster
+
+    def cluster(*args):
+        c, client = real_cluster(*args)
+        pids.extend(client.run(os.getpid).values())
+        return c, client
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(distributed_module, "_local_cluster", cluster)
+    monkeypatch.setattr(load_module, "load_scene", interrupted)
+    r = run("teapot", *SIZE, "--turntable", 2, "--workers", 1, "-o", tmp_path / "spin.gif")
+    assert r.exit_code == 130 and "interrupted: no animation written" in r.output
+    assert len(pids) == 1
+    assert not psutil.pid_exists(pids[0]) or psutil.Process(pids[0]).status() == "zombie"
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_scene_that_fails_to_load_with_workers_is_one_line_and_leaves_no_process(tmp_path):
+    """The cluster was starting while the scene failed to load: the error is
+    the command's one line, and every process it started is gone."""
+    import subprocess
+    import sys
+    import time
+
+    import psutil  # distributed's own dependency
+    (tmp_path / "bad.toml").write_text("[camera]\nposition = [0, 2]\n")
+    p = subprocess.Popen([sys.executable, "-m", "raytrace", "bad.toml", "--turntable", "2",
+                          "--workers", "2", "-o", "spin.gif", "-q"], cwd=tmp_path,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    me = psutil.Process(p.pid)
+    seen, workers = {}, set()
+    while p.poll() is None:
+        try:
+            for c in me.children(recursive=True):
+                seen[c.pid] = c
+                if "spawn_main" in " ".join(_cmdline(c)):
+                    workers.add(c.pid)
+        except psutil.NoSuchProcess:
+            break
+        time.sleep(0.05)
+    out, err = p.communicate(timeout=120)
+    assert p.returncode == 1, err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert "position" in err
+    assert workers, "no worker started"
+    _, alive = psutil.wait_procs(list(seen.values()), timeout=30)
+    assert not alive, alive
+    assert list(tmp_path.iterdir()) == [tmp_path / "bad.toml"]
+
+
+def _cmdline(process):
+    import psutil
+    try:
+        return process.cmdline()
+    except psutil.Error:          # gone already
+        return []

@@ -116,3 +116,32 @@ def test_cache_dir_is_found_without_numba_and_tells_a_first_run(tmp_path, monkey
     monkeypatch.setitem(firstrun._state, "shown", False)
     firstrun.announce_if_cold("warm", 1)
     assert "warm" not in err.getvalue()
+
+
+def test_a_warm_render_never_works_out_a_compile_estimate(monkeypatch):
+    """The estimate reads the render kernel's cache index, as the kernel's
+    load does: a render that compiles nothing does not read it a second time."""
+    import raytrace
+    from raytrace.renderer import firstrun
+    raytrace.render("spheres", width=8, height=6)      # its kernels loaded (or compiled) here
+    calls = []
+    monkeypatch.setattr(firstrun, "has_cache_entries", lambda d: calls.append(d) or True)
+    raytrace.render("spheres", width=8, height=6)
+    assert calls == []
+
+
+def test_an_estimate_worked_out_when_the_compile_starts_is_in_the_notice(monkeypatch):
+    import io
+
+    from raytrace.renderer import firstrun
+    monkeypatch.setitem(firstrun._state, "shown", False)
+    monkeypatch.setitem(firstrun._state, "quiet", False)
+    monkeypatch.delenv("RAYTRACE_QUIET", raising=False)
+    err = io.StringIO()
+    monkeypatch.setattr("sys.stderr", err)
+    asked = []
+    with firstrun.expecting("a toy", lambda: asked.append(1) or 7):
+        assert asked == []
+        firstrun._compile_started(None)
+    assert asked == [1]
+    assert err.getvalue() == "compiling kernels for a toy (first run only, about 7 s)\n"

@@ -90,6 +90,18 @@ def test_1_warnings_once_shows_each_line_once_and_ends(capsys):
                    "warning: ours"], err
 
 
+def test_1_a_warning_shown_as_warnings_once_ends_is_no_error():
+    """--workers' cluster starts on another thread while the scene loads:
+    a warning it raises as the loading's warnings_once ends reaches the
+    handler it took from warnings.showwarning, which still shows it."""
+    import io
+    out = io.StringIO()
+    with warnings_once(out):
+        show = warnings.showwarning         # what the other thread holds
+    show(UserWarning("late"), UserWarning, "f.py", 1)
+    assert out.getvalue() == "warning: late (UserWarning)\n"
+
+
 # --- 12: newlines in names split the one-line error -------------------------
 
 @pytest.mark.parametrize("text, want", [

@@ -100,3 +100,20 @@ def test_the_command_counts_the_tessellation_kernels_as_compile_time():
     assert load_kernels("teapot", 124) == 0.0
     assert load_kernels("teapot", None) == load_kernels("spheres", 200) == 0.0
     assert load_kernels("teapot", True) == load_kernels("teapot", 10**9) == 0.0   # load_scene's errors
+
+
+def test_importing_numba_is_not_counted_as_the_tessellation_kernels_load():
+    """In a new process Numba is first imported for the tessellation (0.3-0.6 s):
+    load_kernels imports it before its clock starts, so a warm `--detail 128`
+    reports loading, not compiling (the kernel call itself stubbed here)."""
+    import subprocess
+    import sys
+    code = ("import sys, raytrace.scene.teapot as t\n"
+            "assert 'numba' not in sys.modules\n"
+            "seen = []\n"
+            "t._tessellate_parallel = lambda *a: seen.append('numba' in sys.modules)\n"
+            "t.load_kernels(125)\n"
+            "print(seen)\n")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.split() == ["[True]"]

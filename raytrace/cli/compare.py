@@ -73,7 +73,7 @@ def compare(scene, entries, opts, repeat=1, progress=None):
     from raytrace.renderer.firstrun import expecting, scene_estimate
     names = [e.accel for e in entries]
     with expecting(f"{scene.name}: {', '.join(dict.fromkeys(names))}",
-                   sum(scene_estimate(scene, a) for a in dict.fromkeys(names))):
+                   lambda: sum(scene_estimate(scene, a) for a in dict.fromkeys(names))):
         return _compare(scene, entries, opts, repeat, progress)
 
 

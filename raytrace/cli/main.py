@@ -142,6 +142,14 @@ def _runner(workers, scheduler):
     return connect(workers=workers, scheduler=scheduler, warm_up=worker_payload)
 
 
+def _local_runner(stack, work):
+    """A local cluster's runner (--workers), entered on ``stack`` (an
+    ExitStack) before the scene loads: its processes start meanwhile, in
+    the background (frames/distributed.py's connect).  None otherwise: a
+    scheduler's is entered once the scene has loaded."""
+    return None if work.workers is None else stack.enter_context(_runner(work.workers, None))
+
+
 def _scene_kind(scene, scene_args):
     """The scene's kind (load.scene_kind); UsageError for a scene option
     (params.SceneArgs) that does not apply to it."""
@@ -230,7 +238,8 @@ def render_cmd(scene, bvol, scene_args, output, aov, heatmap, show_depth, work, 
         raise click.UsageError("--heatmap must differ from the output image and its .aov.npz")
     outputs = None
     try:
-        with _one_line_errors():
+        with _one_line_errors(), contextlib.ExitStack() as stack:
+            runner = _local_runner(stack, work)    # starting while the scene loads
             from raytrace.renderer.driver import RenderOptions, render
             from raytrace.renderer.output import check_writable
             from raytrace.scene.load import load_kernels, load_scene
@@ -241,13 +250,14 @@ def render_cmd(scene, bvol, scene_args, output, aov, heatmap, show_depth, work, 
             _load_threads(options)
             from raytrace.renderer.firstrun import RENDER_S, expecting
             accel, shadows = options.get("accel", "bvh"), options.get("shadows", "hard")
+            t_load = time.perf_counter()
             with expecting(f"{scene}: {accel}, {shadows} shadows", RENDER_S.get(accel, 12) + 2,
                            load=False):
                 t_kernels = load_kernels(scene, scene_args.detail)   # compile time, not loading's
-            t_load = time.perf_counter()
             with _warnings_once():
                 sc = load_scene(scene, width=width, height=height, **scene_kwargs(scene_args))
-            t_load = time.perf_counter() - t_load
+            # The imports load_kernels needed (Numba's) are loading's.
+            t_load = time.perf_counter() - t_load - t_kernels
             raise_if_interrupted()
             if not named and kind == "toml":      # a scene file's name names its image
                 output = f"{sc.name}.png"
@@ -262,9 +272,10 @@ def render_cmd(scene, bvol, scene_args, output, aov, heatmap, show_depth, work, 
                     result = render(sc, opts, drop_meshes=True)
                 else:
                     from raytrace.frames.batch import render_tiled
-                    with _runner(work.workers, work.scheduler) as runner:
-                        n = work.tiles or (4 * runner.workers if runner is not None else 1)
-                        result = render_tiled(sc, opts, runner, n)
+                    if runner is None:
+                        runner = stack.enter_context(_runner(None, work.scheduler))
+                    n = work.tiles or (4 * runner.workers if runner is not None else 1)
+                    result = render_tiled(sc, opts, runner, n)
             finally:
                 progress.close()
             result.stats["time"]["load_s"] = t_load
@@ -313,7 +324,8 @@ def _render_animation(scene, kind, output, work, as_json, quiet, options, width,
         except RaytraceError as exc:
             raise click.UsageError(f"-o/--output: {exc}") from None
     try:
-        with _one_line_errors():
+        with _one_line_errors(), contextlib.ExitStack() as stack:
+            runner = _local_runner(stack, work)    # starting while the scene loads
             from raytrace.frames.batch import animate
             from raytrace.renderer.driver import RenderOptions
             from raytrace.scene.animation import camera_path
@@ -329,10 +341,11 @@ def _render_animation(scene, kind, output, work, as_json, quiet, options, width,
             progress = _Progress(enabled=not quiet, label="frames")
             opts = RenderOptions(**options)
             try:
-                with _runner(work.workers, work.scheduler) as runner:
-                    _, stats = animate(sc, cameras, opts, output=output, fps=work.fps or 24,
-                                       resume=resume, runner=runner, tiles=work.tiles or 1,
-                                       progress=progress)
+                if runner is None:
+                    runner = stack.enter_context(_runner(None, work.scheduler))
+                _, stats = animate(sc, cameras, opts, output=output, fps=work.fps or 24,
+                                   resume=resume, runner=runner, tiles=work.tiles or 1,
+                                   progress=progress)
             finally:
                 progress.close()
             stats["output"] = str(output)

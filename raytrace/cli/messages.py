@@ -41,10 +41,12 @@ def warnings_once(stream=None):
         yield
         return
 
+    seen = set()   # its own reference: a cluster starting on another thread may warn as this ends
+
     def show(message, category, filename, lineno, file=None, line=None):
         text = warning_line(message, category)
-        if text not in _shown:
-            _shown.add(text)
+        if text not in seen:
+            seen.add(text)
             try:
                 print(text, file=stream or sys.stderr, flush=True)
             except (OSError, ValueError):   # stderr closed: the warning is not worth a failure
@@ -53,7 +55,7 @@ def warnings_once(stream=None):
     with warnings.catch_warnings():
         warnings.simplefilter("always", RaytraceWarning)   # each message once, by its text
         warnings.showwarning = show
-        _shown = set()
+        _shown = seen
         try:
             yield
         finally:

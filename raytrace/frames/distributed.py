@@ -11,8 +11,9 @@ import contextlib
 import itertools
 import os
 import sys
+import threading
 import time
-from concurrent.futures import CancelledError
+from concurrent.futures import CancelledError, Future
 
 import numpy as np
 
@@ -60,10 +61,12 @@ _QUIET_TRACKER = "ignore:resource_tracker:UserWarning"
 def connect(workers=None, scheduler=None, warm_up=None):
     """A DaskRunner on a local cluster of ``workers`` processes (started
     here, closed on the way out, Ctrl-C included) or on the running
-    scheduler at ``scheduler``; ``warm_up``: as for DaskRunner."""
+    scheduler at ``scheduler``; ``warm_up``: as for DaskRunner.  A local
+    cluster starts on a thread of its own: entered before the scene loads,
+    its start overlaps loading, flattening and building, and the runner
+    waits for it where it first needs its client."""
     if workers is not None:
         distributed = _dask("--workers")
-        import logging
         # One Dask thread a worker; the kernel's own threads share the cores.
         threads = max(1, (os.cpu_count() or 1) // workers)
         import warnings
@@ -73,32 +76,16 @@ def connect(workers=None, scheduler=None, warm_up=None):
         # under "interrupted: no animation written", now and then.
         if _QUIET_TRACKER not in sys.warnoptions:
             sys.warnoptions.append(_QUIET_TRACKER)
-        with warnings.catch_warnings():
-            # Its scheduler's HTTP server moves off a busy port 8787 (another
-            # Dask's) and says so; nothing for a renderer's user to do.
-            warnings.filterwarnings("ignore", message="Port .* is already in use")
-            # The workers import Numba and the render kernel's modules as they
-            # start, while this process loads and builds the scene, instead of
-            # when the scene first reaches them, inside the frames' time.
-            cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1,
-                                               processes=True, dashboard_address=None,
-                                               # A worker's ERROR lines are tracebacks
-                                               # (a lost scheduler as the cluster closes
-                                               # on Ctrl-C); a task's failure reaches the
-                                               # command as its exception, one line.
-                                               silence_logs=logging.CRITICAL,
-                                               preload=["raytrace.kernels.waves"])
-        with cluster, distributed.Client(cluster) as client:
-            try:
-                yield DaskRunner(client, threads, warm_up)
-            finally:
-                if interrupt.interrupted():
-                    # Stopping (Ctrl-C, SIGTERM): what the scheduler logs as the
-                    # cluster closes under its tasks (a worker it no longer
-                    # knows, with a traceback; itself, or through asyncio's
-                    # "Task exception was never retrieved") is not news to the user.
-                    for name in ("distributed", "asyncio"):
-                        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+        # Its scheduler's HTTP server moves off a busy port 8787 (another
+        # Dask's) and says so; nothing for a renderer's user to do.  For the
+        # whole process (only the command starts a cluster): catch_warnings,
+        # not thread-safe, would race the loading thread's.
+        warnings.filterwarnings("ignore", message="Port .* is already in use")
+        started = _in_background(lambda: _local_cluster(distributed, workers))
+        try:
+            yield DaskRunner(started, threads, warm_up)
+        finally:
+            _close_local(started)
     else:
         from raytrace.frames.dask_address import check_scheduler_address
         scheduler = check_scheduler_address(scheduler)
@@ -110,6 +97,70 @@ def connect(workers=None, scheduler=None, warm_up=None):
             raise RaytraceError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
         with client:
             yield DaskRunner(client, None, warm_up)
+
+
+def _local_cluster(distributed, workers):
+    """(cluster, client) of ``workers`` local processes, started."""
+    import logging
+    # The workers import Numba and the render kernel's modules as they
+    # start, while this process loads and builds the scene, instead of
+    # when the scene first reaches them, inside the frames' time.
+    cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1,
+                                       processes=True, dashboard_address=None,
+                                       # A worker's ERROR lines are tracebacks
+                                       # (a lost scheduler as the cluster closes
+                                       # on Ctrl-C); a task's failure reaches the
+                                       # command as its exception, one line.
+                                       silence_logs=logging.CRITICAL,
+                                       preload=["raytrace.kernels.waves"])
+    try:
+        return cluster, distributed.Client(cluster)
+    except BaseException:
+        cluster.close()
+        raise
+
+
+def _in_background(start):
+    """A Future of ``start()``, run on a daemon thread (one that never
+    holds up the interpreter's exit)."""
+    future = Future()
+    future.set_running_or_notify_cancel()
+
+    def run():
+        try:
+            future.set_result(start())
+        except BaseException as exc:  # noqa: BLE001 -- raised where the result is asked for
+            future.set_exception(exc)
+    threading.Thread(target=run, daemon=True, name="raytrace-cluster-start").start()
+    return future
+
+
+def _close_local(started):
+    """Close a local cluster from _in_background once its start is over: a
+    Ctrl-C or an error while the scene loaded waits for it, so that none of
+    its processes is left behind.  A start that failed has nothing to close
+    (its error reached the command where the client was first needed, or
+    gives way to the error that ended the command first)."""
+    if interrupt.interrupted():
+        _quiet_closing()
+    try:
+        cluster, client = started.result()
+    except Exception:  # noqa: BLE001 -- see above
+        return
+    try:
+        client.close()
+    finally:
+        cluster.close()
+
+
+def _quiet_closing():
+    """Stopping (Ctrl-C, SIGTERM): what the scheduler logs as the cluster
+    closes under its tasks (a worker it no longer knows, with a traceback;
+    itself, or through asyncio's "Task exception was never retrieved") is
+    not news to the user."""
+    import logging
+    for name in ("distributed", "asyncio"):
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
 def check_handshake(scheduler, timeout=None):
@@ -170,12 +221,19 @@ class DaskRunner:
     the scene and builds its structure.  The tiles queue behind it."""
 
     def __init__(self, client, threads, warm_up=None):
-        self.client = client
+        # A Client, or a Future of (cluster, client) still starting (connect's).
+        self._client = client
         self.threads = threads       # None: each worker's Numba default (its cores)
         self.scatter_s = 0.0
         self.warm_up = warm_up
         self.warm_here_s = 0.0
         self._warming = []
+
+    @property
+    def client(self):
+        if isinstance(self._client, Future):
+            self._client = self._client.result()[1]
+        return self._client
 
     def warm(self, scene, opts):
         """Send the warm-up to every worker now; it runs on each as its first task."""

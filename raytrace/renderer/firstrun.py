@@ -8,6 +8,7 @@ printed exactly when a wait starts, once per process, and never on a warm
 run.  ``RAYTRACE_QUIET=1`` (or the command's ``-q``) silences it.
 """
 import contextlib
+import functools
 import os
 import sys
 import threading
@@ -59,6 +60,8 @@ def _listen(load=True):
 
 
 def _label(what, seconds):
+    if callable(seconds):        # worked out only when a compile starts (expecting_render's)
+        seconds = seconds()
     about = f", about {seconds:.0f} s" if seconds else ""
     return f"compiling kernels for {what} (first run only{about})"
 
@@ -77,6 +80,8 @@ def _compile_started(dispatcher):
             return
         _state["shown"] = True
     try:
+        if callable(line):
+            line = line()
         sys.stderr.write(line + "\n")
         sys.stderr.flush()
     except (OSError, ValueError):      # a closed stderr is no reason to fail a render
@@ -86,13 +91,14 @@ def _compile_started(dispatcher):
 @contextlib.contextmanager
 def expecting(what, seconds=None, load=True):
     """Inside, a compile that starts is announced as ``what`` (``seconds``: its
-    estimate).  An enclosing ``expecting`` (the command's) keeps its own words.
-    ``load``: as for _listen."""
+    estimate, or a function of none giving it then).  An enclosing
+    ``expecting`` (the command's) keeps its own words.  ``load``: as for
+    _listen."""
     _listen(load)
     if getattr(_active, "line", None) is not None:
         yield
         return
-    _active.line = _label(what, seconds)
+    _active.line = functools.partial(_label, what, seconds)
     try:
         yield
     finally:
@@ -155,6 +161,8 @@ def scene_estimate(scene, accel):
 
 
 def expecting_render(scene, opts):
-    """The block that flattens, builds and renders ``scene`` with ``opts``."""
+    """The block that flattens, builds and renders ``scene`` with ``opts``.
+    The estimate reads the render kernel's cache index (has_cache_entries),
+    which a warm render's load reads anyway: only when a compile starts."""
     return expecting(render_what(getattr(scene, "name", "the scene"), opts),
-                     scene_estimate(scene, opts.accel))
+                     lambda: scene_estimate(scene, opts.accel))

@@ -62,6 +62,9 @@ def load_kernels(detail):
     if not _takes_kernels(len(patches), detail):
         return 0.0
     import time
+
+    # Importing the kernels' module imports Numba (0.3-0.6 s): loading's time, not compiling's.
+    import raytrace.scene.tessellate  # noqa: F401
     t0 = time.perf_counter()
     _tessellate_parallel(_bernstein(np.linspace(0.0, 1.0, 3)), cps[patches].reshape(-1, 4, 4, 3),
                          2, 1)
