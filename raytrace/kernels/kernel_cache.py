@@ -142,3 +142,18 @@ def install(cache_dir):
 
     __init__._raytrace_root = root
     caching.Cache.__init__ = __init__
+    # Numba checks a cache directory is writable by creating a file in it
+    # for every cached function it meets (over a hundred at import): here
+    # once a directory and process, then only that it is still there.
+    writable = set()
+    ensure = caching._CacheLocator.ensure_cache_path
+
+    def ensure_cache_path(self):
+        path = self.get_cache_path()
+        if path in writable and os.path.isdir(path):
+            return
+        ensure(self)
+        if path == root or path.startswith(root + os.sep):
+            writable.add(path)
+
+    caching._CacheLocator.ensure_cache_path = ensure_cache_path
