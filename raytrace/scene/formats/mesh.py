@@ -222,7 +222,8 @@ def read_mesh_parts(path, warn=None, base=None):
         raise RaytraceError(f"{path}: file is empty")
     try:
         simple = (read_simple_ply(path) if ext == ".ply"
-                  else _binary_stl(path) if ext == ".stl" else None)
+                  else _binary_stl(path) if ext == ".stl"
+                  else _fast_obj(path, warn) if ext == ".obj" else None)
     except MemoryError:
         raise RaytraceError(f"{path}: out of memory reading the mesh") from None
     if simple is not None:
@@ -255,6 +256,11 @@ def read_mesh_parts(path, warn=None, base=None):
             p.normals = None
         _check_surface_arrays(path, p, warn)
     return parts
+
+
+def _fast_obj(path, warn):
+    from raytrace.scene.formats.obj import read_obj
+    return read_obj(path, warn)
 
 
 def _binary_stl(path):
