@@ -26,8 +26,6 @@ from raytrace.scene.formats import objtext as T
 
 CHUNK = 1 << 24     # bytes of file read at a time: lines are cut at the last newline
 _BOM = b"\xef\xbb\xbf"
-# Materials (anywhere, as trimesh looks for them) and continued lines.
-_LEFT_TO_TRIMESH = (b"mtllib", b"usemtl", b"\\\n", b"\\\r\n")
 
 _PROBLEMS = {
     T.BAD_INDEX: "{token!r} is not a face corner (a, a/b, a//c or a/b/c of whole numbers)",
@@ -41,22 +39,45 @@ _PROBLEMS = {
 }
 
 
+def _arrays(size):
+    """A fresh state and every array at its bound for a file of ``size``
+    bytes (a "v" or "f" line takes 8 bytes at least, a corner 2): pages
+    never written take no memory."""
+    rows = size // 8 + 1
+    state = np.zeros(T.STATE_SIZE, np.int64)
+    state[T.ALLN], state[T.MAXV], state[T.MAXN] = 1, -1, -1
+    index = size // 2 + 1
+    return state, (np.empty((rows, 3)), np.empty((rows, 3)), np.empty(index, np.int32),
+                   np.empty(index, np.int32), np.empty(rows, np.int32))
+
+
+def ascii_stl_corners(path):
+    """The (3m, 3) float64 corners of an ASCII STL's triangles, read as an
+    OBJ's "v" lines, or None for a file left to trimesh: not text starting
+    "solid", several solids (trimesh makes each a mesh), or no "vertex"
+    line in lower case."""
+    with open(path, "rb") as fh:
+        head = fh.read(CHUNK)
+    if not head.lstrip().startswith(b"solid") or b"\0" in head:
+        return None
+    state, out = _arrays(os.path.getsize(path))
+    state[T.STL] = 1
+    if _parse(path, state, out, "STL") is None or state[T.SOLIDS] > 1 or not state[T.NV]:
+        return None
+    nv = int(state[T.NV])
+    if nv % 3:
+        raise RaytraceError(f"{path}: not a readable STL mesh ({nv} vertices, not 3 a facet)")
+    return out[0][:nv]
+
+
 def read_obj(path, warn=None):
     """A dict of MeshPart fields (vertices (n, 3) float64, faces (m, 3)
     int64, normals (n, 3) or None) of an OBJ file, or None for a file left
     to trimesh (see the module's docstring).  Vertices no face uses are
     dropped and polygons fanned, as trimesh does."""
     warn = warn or (lambda message: None)
-    size = os.path.getsize(path)
-    # Every array at its bound (a "v" or "f" line takes 8 bytes at least,
-    # a corner 2): pages never written take no memory.
-    rows = size // 8 + 1
-    state = np.zeros(T.STATE_SIZE, np.int64)
-    state[T.ALLN], state[T.MAXV], state[T.MAXN] = 1, -1, -1
-    v, vn = np.empty((rows, 3)), np.empty((rows, 3))
-    cv, cn = np.empty(size // 2 + 1, np.int32), np.empty(size // 2 + 1, np.int32)
-    fc = np.empty(rows, np.int32)
-    if _parse(path, state, (v, vn, cv, cn, fc)) is None:
+    state, (v, vn, cv, cn, fc) = _arrays(os.path.getsize(path))
+    if _parse(path, state, (v, vn, cv, cn, fc), "OBJ") is None:
         return None
     nv, nn, nc, nf = (int(state[k]) for k in (T.NV, T.NN, T.NC, T.NF))
     if state[T.VMAX] > 5:
@@ -84,7 +105,7 @@ def warm_kernel():
                   np.empty(1, np.int64), T.POW10)
 
 
-def _parse(path, state, out):
+def _parse(path, state, out, fmt):
     """Run the kernel over the file a chunk at a time; None if the file is
     left to trimesh."""
     v, vn, cv, cn, fc = out
@@ -108,15 +129,15 @@ def _parse(path, state, out):
                 slots = np.empty(len(buf) // 2 + 1, np.int64)
                 kept = n
                 continue
-            if any(buf.find(word, 0, cut) >= 0 for word in _LEFT_TO_TRIMESH):
-                return None
             data = np.frombuffer(buf, np.uint8)
             state[T.NFB] = state[T.FBLEN] = 0
             first_line = int(state[T.LINE]) + 1
             code = T.parse_lines(data, cut, state, v, vn, cv, cn, fc, fb, slots, T.POW10)
-            _exact_fallback(path, state, (fb, slots), (v, vn), (data[:cut], first_line))
+            if code < 0:
+                return None
+            _exact_fallback(path, fmt, state, (fb, slots, v, vn), (data[:cut], first_line))
             if code:
-                raise RaytraceError(_problem(path, state, data))
+                raise RaytraceError(_problem(path, fmt, state, data))
             del data
             if at_end:
                 return state
@@ -124,11 +145,11 @@ def _parse(path, state, out):
             buf[:kept] = buf[cut:n]
 
 
-def _exact_fallback(path, state, fallback, out, chunk):
+def _exact_fallback(path, fmt, state, fallback, chunk):
     """Parse the numbers the kernel left (see objtext.py) with NumPy's
     parser and put them in place; a token that is not a number is refused
     naming its line."""
-    fb, slots = fallback
+    fb, slots, v, vn = fallback
     k = int(state[T.NFB])
     if not k:
         return
@@ -140,9 +161,8 @@ def _exact_fallback(path, state, fallback, out, chunk):
     if values is None or len(values) != k:
         bad = next(t for t in text.split() if not _is_number(t))
         line = _line_of_token(*chunk, bad)
-        raise RaytraceError(f"{path}: not a readable OBJ mesh (line {line}: "
+        raise RaytraceError(f"{path}: not a readable {fmt} mesh (line {line}: "
                             f"{bad.decode('utf-8', 'replace')!r} is not a number)")
-    v, vn = out
     s = slots[:k]
     pos = s >= 0
     v.reshape(-1)[s[pos]] = values[pos]
@@ -165,7 +185,7 @@ def _line_of_token(data, first_line, token):
     return first_line
 
 
-def _problem(path, state, data):
+def _problem(path, fmt, state, data):
     code = int(state[T.ERR])
     token = data[state[T.ERR_AT]:state[T.ERR_END]].tobytes().decode("utf-8", "replace").strip()
     line = int(state[T.ERR_LINE])
@@ -173,7 +193,7 @@ def _problem(path, state, data):
         return (f"{path}: line {line}: face uses vertex index 0, out of range "
                 "(OBJ indices start at 1)")
     text = _PROBLEMS[code].format(token=token, nv=int(state[T.NV]))
-    return f"{path}: not a readable OBJ mesh (line {line}: {text})"
+    return f"{path}: not a readable {fmt} mesh (line {line}: {text})"
 
 
 def _triangle_corners(counts, n_corners):

@@ -21,7 +21,10 @@ from raytrace.kernels.jit import BUILD
 # state[]: counts carried from chunk to chunk, and what the caller reads.
 NV, NN, NC, NF, LINE, MAXV, MAXV_LINE, MAXN, ALLN, VMAX, NFB, FBLEN = range(12)
 ERR, ERR_LINE, ERR_AT, ERR_END = range(12, 16)
-STATE_SIZE = 16
+# STL (input): read an ASCII STL's "vertex" lines as "v" lines, and count
+# its solids in SOLIDS.
+STL, SOLIDS = 16, 17
+STATE_SIZE = 18
 # ERR: the first problem found.
 BAD_INDEX, ZERO_INDEX, ZERO_NORMAL, BEFORE_FIRST, SHORT_VERTEX, SHORT_NORMAL, SHORT_FACE, \
     INDEX_TOO_LARGE = range(1, 9)
@@ -36,8 +39,9 @@ _KERNEL = dict(BUILD, _nrt=False)
 @njit(**_KERNEL)
 def parse_lines(buf, n, state, v, vn, cv, cn, fc, fb, slots, pow10):
     """Read the whole lines in buf[:n] (bytes up to 32 but a newline are
-    blanks); the counts and the first problem go to ``state``.  Returns 0
-    or an error code.  A coordinate off the exact path is copied to ``fb`` and its
+    blanks); the counts and the first problem go to ``state``.  Returns 0,
+    an error code, or -1 for a file left to trimesh (materials, a line
+    continued by a backslash).  A coordinate off the exact path is copied to ``fb`` and its
     place noted in ``slots`` (its flat index in v, or minus one minus its
     flat index in vn)."""
     # The counts in locals while the kernel runs (state[0:12]).
@@ -56,10 +60,9 @@ def parse_lines(buf, n, state, v, vn, cv, cn, fc, fb, slots, pow10):
         stop = end
         while stop > i and buf[stop - 1] <= 32:
             stop -= 1
-        h = i
-        while h < stop and buf[h] != 35:          # a comment ends the line
-            h += 1
-        stop = h
+        if stop > i and buf[stop - 1] == 92:      # a backslash continues the line
+            err = -1
+            break
         while i < stop and buf[i] <= 32:
             i += 1
         j = i
@@ -72,6 +75,14 @@ def parse_lines(buf, n, state, v, vn, cv, cn, fc, fb, slots, pow10):
             kind = 2
         elif j - i == 1 and buf[i] == 102:
             kind = 3
+        elif state[STL] and j - i == 6 and buf[i] == 118:         # vertex
+            kind = 1
+        elif state[STL] and j - i == 8 and buf[i] == 101 and buf[i + 3] == 115:    # endsolid
+            state[SOLIDS] += 1
+        elif j - i == 6 and ((buf[i + 3] == 108 and buf[i + 4] == 105 and buf[i + 5] == 98)
+                             or (buf[i + 3] == 109 and buf[i + 4] == 116 and buf[i + 5] == 108)):
+            err = -1             # mtllib, usemtl (no other keyword ends so)
+            break
         at, to = j, stop
         row = nv_ if kind == 1 else nn_
         count = 0
@@ -79,7 +90,7 @@ def parse_lines(buf, n, state, v, vn, cv, cn, fc, fb, slots, pow10):
         while kind and err == 0:
             while i < stop and buf[i] <= 32:
                 i += 1
-            if i >= stop:
+            if i >= stop or buf[i] == 35:      # a comment ends the line
                 break
             j = i
             while j < stop and buf[j] > 32:
@@ -222,7 +233,7 @@ def parse_lines(buf, n, state, v, vn, cv, cn, fc, fb, slots, pow10):
     for k, value in enumerate((nv_, nn_, nc_, nf_, line_, maxv_, maxv_line_, maxn_, alln_, vmax_, nfb_,
                                fblen_)):
         state[k] = value
-    if err:
+    if err > 0:
         state[ERR] = err
         state[ERR_LINE] = line_
         state[ERR_AT] = at
