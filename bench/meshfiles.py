@@ -19,8 +19,8 @@ from pathlib import Path
 
 import common
 from common import fmt_s, interleaved, log, markdown_table, median
+from make_layouts import NAMES as LAYOUTS
 
-LAYOUTS = ("ply-plain.ply", "ply-rich.ply", "obj.obj", "stl.stl")
 FULL_DETAILS = (128, 256)         # 1.05M and 4.19M triangles
 QUICK_DETAILS = (32,)             # 65,536 triangles
 OUT = common.ROOT / "bench-out" / "meshes"
