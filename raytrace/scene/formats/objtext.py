@@ -41,9 +41,9 @@ def parse_lines(buf, n, state, v, vn, cv, cn, fc, fb, slots, pow10):
     """Read the whole lines in buf[:n] (bytes up to 32 but a newline are
     blanks); the counts and the first problem go to ``state``.  Returns 0,
     an error code, or -1 for a file left to trimesh (materials, a line
-    continued by a backslash).  A coordinate off the exact path is copied to ``fb`` and its
-    place noted in ``slots`` (its flat index in v, or minus one minus its
-    flat index in vn)."""
+    continued by a backslash).  A coordinate off the exact path is copied
+    to ``fb`` and its place noted in ``slots`` (its flat index in v, or
+    minus one minus its flat index in vn)."""
     # The counts in locals while the kernel runs (state[0:12]).
     nv_, nn_, nc_, nf_, line_, maxv_, maxv_line_, maxn_, alln_, vmax_, nfb_, fblen_ = (
         state[0], state[1], state[2], state[3], state[4], state[5], state[6], state[7], state[8],
@@ -134,7 +134,9 @@ def parse_lines(buf, n, state, v, vn, cv, cn, fc, fb, slots, pow10):
                     e = -e if eneg else e
                 e -= frac
                 exact = exact and p == j and (m == 0 or (m <= _EXACT and -22 <= e <= 22))
-                value = 0.0 if m == 0 else m * pow10[e] if e >= 0 else m / pow10[-e]
+                value = 0.0           # pow10 is indexed only on the exact path
+                if exact and m != 0:
+                    value = m * pow10[e] if e >= 0 else m / pow10[-e]
                 if neg:
                     value = -value
                 if kind == 1:
