@@ -123,5 +123,5 @@ def markdown(res):
                "whole") == "first" else "") + ". Layouts (bench/make_layouts.py): ply-plain float "
            "x y z, triangles, no normals; ply-rich big-endian doubles, normals, colours, "
            "texture coordinates, int counts, quads; obj v/vt/vn with "
-           "f a/b/c; stl binary."]
+           "f a/b/c; obj-plain v with f a (no normals); stl binary; stl-ascii %e coordinates."]
     return "\n".join(out)
