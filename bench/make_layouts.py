@@ -11,7 +11,9 @@ Writes, each named teapot-DETAIL-LAYOUT.EXT:
               blue, float s t, int count and uint indices, quads (and triangles
               where a pair is not one)
   obj         OBJ with v, vt, vn and f a/b/c corners (trimesh's export)
+  obj-plain   OBJ of v lines and f a corners only (a scan's: shading is smoothed)
   stl         binary STL (a triangle soup: the reader welds it)
+  stl-ascii   ASCII STL, coordinates as %e writes them
 Deterministic: the same DETAIL writes the same bytes.
 """
 import sys
@@ -90,11 +92,32 @@ def write_obj(path, v, f, n):
         np.savetxt(fh, np.repeat(g, 3, axis=1), fmt="f %d/%d/%d %d/%d/%d %d/%d/%d")
 
 
-def write_stl(path, v, f):
-    tri = v[f].astype("<f4")
+def write_plain_obj(path, v, f):
+    with open(path, "w") as fh:
+        np.savetxt(fh, v, fmt="v %.8g %.8g %.8g")
+        np.savetxt(fh, f + 1, fmt="f %d %d %d")
+
+
+def facet_normals(tri):
     normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     length = np.linalg.norm(normal, axis=1, keepdims=True)
-    normal = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
+    return np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
+
+
+def write_ascii_stl(path, v, f):
+    tri = v[f]
+    rows = np.concatenate([facet_normals(tri), tri.reshape(-1, 9)], axis=1)
+    facet = ("facet normal %e %e %e\n  outer loop\n" + "    vertex %e %e %e\n" * 3
+             + "  endloop\nendfacet")
+    with open(path, "w") as fh:
+        fh.write("solid teapot\n")
+        np.savetxt(fh, rows, fmt=facet)
+        fh.write("endsolid teapot\n")
+
+
+def write_stl(path, v, f):
+    tri = v[f].astype("<f4")
+    normal = facet_normals(tri)
     rec = np.zeros(len(f), dtype=[("n", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")])
     rec["n"], rec["v"] = normal, tri
     with open(path, "wb") as fh:
@@ -103,7 +126,7 @@ def write_stl(path, v, f):
         fh.write(rec.tobytes())
 
 
-NAMES = ("ply-plain.ply", "ply-rich.ply", "obj.obj", "stl.stl")
+NAMES = ("ply-plain.ply", "ply-rich.ply", "obj.obj", "obj-plain.obj", "stl.stl", "stl-ascii.stl")
 
 
 def main():
@@ -114,7 +137,9 @@ def main():
     for name, write in (("ply-plain.ply", lambda p: write_plain_ply(p, v, f)),
                         ("ply-rich.ply", lambda p: write_rich_ply(p, v, f, n)),
                         ("obj.obj", lambda p: write_obj(p, v, f, n)),
-                        ("stl.stl", lambda p: write_stl(p, v, f))):
+                        ("obj-plain.obj", lambda p: write_plain_obj(p, v, f)),
+                        ("stl.stl", lambda p: write_stl(p, v, f)),
+                        ("stl-ascii.stl", lambda p: write_ascii_stl(p, v, f))):
         if only and name not in only:
             continue
         t0 = time.perf_counter()

@@ -19,8 +19,8 @@ from pathlib import Path
 
 import common
 from common import fmt_s, interleaved, log, markdown_table, median
+from make_layouts import NAMES as LAYOUTS
 
-LAYOUTS = ("ply-plain.ply", "ply-rich.ply", "obj.obj", "stl.stl")
 FULL_DETAILS = (128, 256)         # 1.05M and 4.19M triangles
 QUICK_DETAILS = (32,)             # 65,536 triangles
 OUT = common.ROOT / "bench-out" / "meshes"
@@ -123,5 +123,5 @@ def markdown(res):
                "whole") == "first" else "") + ". Layouts (bench/make_layouts.py): ply-plain float "
            "x y z, triangles, no normals; ply-rich big-endian doubles, normals, colours, "
            "texture coordinates, int counts, quads; obj v/vt/vn with "
-           "f a/b/c; stl binary."]
+           "f a/b/c; obj-plain v with f a (no normals); stl binary; stl-ascii %e coordinates."]
     return "\n".join(out)

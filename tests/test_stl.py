@@ -1,12 +1,13 @@
-"""STL files: binary ones read here, ASCII ones by trimesh, both welded;
-the triangles are trimesh's, bit for bit."""
+"""STL files: binary and ASCII ones read here (ASCII of several solids or
+in capitals by trimesh), all welded; the triangles are trimesh's, bit for
+bit."""
 import numpy as np
 import pytest
 import trimesh
 
 from raytrace.errors import RaytraceError
 from raytrace.scene.formats.mesh import _read_with_trimesh, read_mesh_parts
-from raytrace.scene.formats.stl import read_binary_stl, weld
+from raytrace.scene.formats.stl import read_ascii_stl, read_binary_stl, weld
 
 
 def sphere():
@@ -22,6 +23,7 @@ def test_stl_reads_as_trimesh_reads_it_and_is_welded(tmp_path, kind):
     path.write_bytes(trimesh.exchange.stl.export_stl(s) if kind == "binary"
                      else trimesh.exchange.stl.export_stl_ascii(s).encode())
     assert (read_binary_stl(path) is None) == (kind == "ascii")
+    assert (read_ascii_stl(path) is None) == (kind == "binary")
     (part,) = read_mesh_parts(path)
     (ref,) = _read_with_trimesh(path, ".stl", None, lambda m: None, None)
     assert len(ref.vertices) == 3 * len(s.faces)          # trimesh's soup
@@ -46,3 +48,63 @@ def test_truncated_binary_stl_is_an_error(tmp_path):
     assert read_binary_stl(path) is None
     with pytest.raises(RaytraceError, match="cut.stl"):
         read_mesh_parts(path)
+
+
+def ascii_stl(corners, crlf=False, name="ball", normals="0 0 1"):
+    """An ASCII STL of (m, 3, 3) corners, as exporters lay it out."""
+    out = [f"solid {name}"]
+    for tri in corners:
+        out += [f"  facet normal {normals}", "    outer loop"]
+        out += ["      vertex %r %r %r" % tuple(c) for c in tri.tolist()]
+        out += ["    endloop", "  endfacet"]
+    out.append(f"endsolid {name}")
+    return (("\r\n" if crlf else "\n").join(out) + "\n").encode()
+
+
+@pytest.mark.parametrize("crlf", [False, True])
+def test_ascii_layouts_read_as_trimesh_reads_them(tmp_path, crlf):
+    """Tabs, blank lines, CRLF ends, numbers of every form: our reading and
+    trimesh's (then welded) give the same corners, bit for bit."""
+    s = sphere()
+    rng = np.random.default_rng(2)
+    corners = s.vertices[s.faces] * rng.choice([1.0, 1e-7, 3e12], s.faces.shape)[..., None]
+    text = ascii_stl(corners, crlf).replace(b"      vertex", b"\tvertex ").replace(b"endloop", b"\nendloop")
+    path = tmp_path / "a.stl"
+    path.write_bytes(text)
+    fast = read_ascii_stl(path)
+    (part,) = read_mesh_parts(path)
+    (ref,) = _read_with_trimesh(path, ".stl", None, lambda m: None, None)
+    assert np.array_equal(fast[0][fast[1]], np.asarray(ref.vertices)[ref.faces])
+    assert np.array_equal(part.vertices, fast[0]) and np.array_equal(part.faces, fast[1])
+    assert np.array_equal(fast[0][fast[1]], corners)
+    assert len(np.unique(fast[1])) == len(fast[0]) < 3 * len(corners)     # welded
+
+
+def test_ascii_files_trimesh_reads_otherwise_are_left_to_it(tmp_path):
+    """Several solids (trimesh makes each a mesh) and capitals: still read,
+    by trimesh."""
+    tri = np.array([[[0, 0, 0], [1, 0, 0], [0, 1, 0]]], float)
+    two = tmp_path / "two.stl"
+    two.write_bytes(ascii_stl(tri, name="a") + ascii_stl(tri + 2, name="b"))
+    caps = tmp_path / "caps.stl"
+    caps.write_bytes(ascii_stl(tri).upper())
+    for path, parts in ((two, 2), (caps, 1)):
+        assert read_ascii_stl(path) is None
+        assert len(read_mesh_parts(path)) == parts
+
+
+@pytest.mark.parametrize("text, words", [
+    (b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nendloop\nendfacet\n"
+     b"endsolid x\n", "not a readable STL mesh (2 vertices, not 3 a facet)"),
+    (b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 q\n",
+     "not a readable STL mesh (line 6: 'q' is not a number)"),
+    (b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1\n",
+     "not a readable STL mesh (line 6: a vertex of fewer than 3 coordinates"),
+])
+def test_damaged_ascii_stl_is_refused_in_one_line(tmp_path, text, words):
+    path = tmp_path / "bad.stl"
+    path.write_bytes(text)
+    with pytest.raises(RaytraceError) as info:
+        read_mesh_parts(path)
+    msg = str(info.value)
+    assert msg.startswith(f"{path}: ") and words in msg and "\n" not in msg, msg

@@ -55,6 +55,7 @@ def _queries(accel):
 
 def _loading():
     from raytrace.scene.flatten import _kept_corners_parallel
+    from raytrace.scene.formats.obj import warm_kernel
     from raytrace.scene.formats.polygons import polygon_lists
     from raytrace.scene.normals import crease_split
     from raytrace.scene.teapot import load_kernels
@@ -66,6 +67,7 @@ def _loading():
     # A binary PLY of mixed polygons: one triangle, a uchar count and int indices.
     record = np.array([3, 0, 0, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0], np.uint8)
     polygon_lists(record, 1, 1, 4, True, False, np.empty(1, np.int64), np.empty(3, np.int64))
+    warm_kernel()                          # an OBJ's lines
 
 
 def _big_builders(accels):

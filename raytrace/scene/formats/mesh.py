@@ -222,7 +222,8 @@ def read_mesh_parts(path, warn=None, base=None):
         raise RaytraceError(f"{path}: file is empty")
     try:
         simple = (read_simple_ply(path) if ext == ".ply"
-                  else _binary_stl(path) if ext == ".stl" else None)
+                  else _stl(path) if ext == ".stl"
+                  else _fast_obj(path, warn) if ext == ".obj" else None)
     except MemoryError:
         raise RaytraceError(f"{path}: out of memory reading the mesh") from None
     if simple is not None:
@@ -238,7 +239,7 @@ def read_mesh_parts(path, warn=None, base=None):
         elif ext == ".ply":
             check_counts(path)
         parts = _read_with_trimesh(path, ext, library, warn, base, data)
-        if ext == ".stl":      # an ASCII STL's triangle soup
+        if ext == ".stl":      # an ASCII STL's triangle soup (several solids, capitals)
             from raytrace.scene.formats.stl import weld
             for p in parts:
                 if p is not None:
@@ -257,9 +258,15 @@ def read_mesh_parts(path, warn=None, base=None):
     return parts
 
 
-def _binary_stl(path):
-    from raytrace.scene.formats.stl import read_binary_stl
+def _fast_obj(path, warn):
+    from raytrace.scene.formats.obj import read_obj
+    return read_obj(path, warn)
+
+
+def _stl(path):
+    from raytrace.scene.formats.stl import read_ascii_stl, read_binary_stl
     read = read_binary_stl(path)
+    read = read_ascii_stl(path) if read is None else read
     return None if read is None else dict(vertices=read[0], faces=read[1])
 
 

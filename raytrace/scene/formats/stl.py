@@ -1,9 +1,11 @@
-"""Binary STL read straight into arrays, and any STL's triangle soup
-welded: an STL repeats each vertex for every face (3 vertices a triangle,
-72 bytes of float64 positions), and vertices with the same coordinates, bit
-for bit, become one.  The facet normals are not read: they are the faces'
-own, often zero or stale, and shading computes its own (normals.py).
-ASCII files are trimesh's to read (scene/formats/mesh.py), then welded here too.
+"""Binary STL read straight into arrays, ASCII STL read by the OBJ
+reader's kernel (its "vertex" lines as an OBJ's "v" lines), and any STL's
+triangle soup welded: an STL repeats each vertex for every face (3 vertices
+a triangle, 72 bytes of float64 positions), and vertices with the same
+coordinates, bit for bit, become one.  The facet normals are not read: they
+are the faces' own, often zero or stale, and shading computes its own
+(normals.py).  An ASCII file of several solids, or in capitals, is
+trimesh's to read (scene/formats/mesh.py), then welded here too.
 
 The format: an 80-byte header, a uint32 triangle count, then 50 bytes a
 triangle (normal, three vertices, float32 little-endian; a uint16).
@@ -32,6 +34,17 @@ def read_binary_stl(path):
     # Welded as float32, before the float64 copy: a third of the rows.
     ids, first, _ = equal_rows(corners)
     return corners[first].astype(np.float64), ids.reshape(-1, 3)
+
+
+def read_ascii_stl(path):
+    """(vertices (n, 3) float64, faces (m, 3) int64) of an ASCII STL,
+    welded, or None for a file left to trimesh (scene/formats/obj.py)."""
+    from raytrace.scene.formats.obj import ascii_stl_corners
+    corners = ascii_stl_corners(path)
+    if corners is None:
+        return None
+    ids, first, _ = equal_rows(corners)
+    return corners[first], ids.reshape(-1, 3)
 
 
 def weld(vertices, faces):

@@ -1,0 +1,241 @@
+"""Wavefront OBJ files read into arrays a chunk of lines at a time
+(scene/formats/objtext.py does the reading): ``v`` positions (a fourth
+value, w, is ignored), ``vn`` normals, ``f`` faces of any number of
+corners in the forms ``a``, ``a/b``, ``a//c`` and ``a/b/c``, negative
+indices counting back from the last vertex read so far, comments, blank
+lines, CRLF line ends and tabs; ``vt``, ``o``, ``g``, ``s`` and any other
+line are skipped.
+
+What trimesh reads differently is left to it (read_obj returns None): a
+file that names materials (``mtllib``, ``usemtl``: its parts, textures and
+texture coordinates are trimesh's), vertex colours (``v x y z r g b``), and
+lines continued with a backslash.  Otherwise the triangles, their corners'
+positions and normals are trimesh's, and tests read each layout both ways
+(tests/test_obj.py).  Unlike trimesh, a negative index counts back from
+the vertices read before its line (the format's rule; trimesh counts from
+the file's last vertex), and a damaged file is refused naming its line.
+
+The format: http://paulbourke.net/dataformats/obj/ (Wavefront, 1992).
+"""
+import os
+
+import numpy as np
+
+from raytrace.errors import RaytraceError
+from raytrace.scene.formats import objtext as T
+
+CHUNK = 1 << 24     # bytes of file read at a time: lines are cut at the last newline
+_BOM = b"\xef\xbb\xbf"
+
+_PROBLEMS = {
+    T.BAD_INDEX: "{token!r} is not a face corner (a, a/b, a//c or a/b/c of whole numbers)",
+    T.BEFORE_FIRST: "face index {token} is out of bounds (before the first of the {nv} vertices "
+                    "read so far)",
+    T.ZERO_NORMAL: "face uses normal index 0, out of range (OBJ indices start at 1)",
+    T.SHORT_VERTEX: "a vertex of fewer than 3 coordinates ({token!r})",
+    T.SHORT_NORMAL: "a normal of other than 3 coordinates ({token!r})",
+    T.SHORT_FACE: "a face of fewer than 3 corners ({token!r})",
+    T.INDEX_TOO_LARGE: "face index {token} is out of bounds (too large)",
+}
+
+
+def _arrays(size):
+    """A fresh state and every array at its bound for a file of ``size``
+    bytes (a "v" or "f" line takes 8 bytes at least, a corner 2): pages
+    never written take no memory."""
+    rows = size // 8 + 1
+    state = np.zeros(T.STATE_SIZE, np.int64)
+    state[T.ALLN], state[T.MAXV], state[T.MAXN] = 1, -1, -1
+    index = size // 2 + 1
+    return state, (np.empty((rows, 3)), np.empty((rows, 3)), np.empty(index, np.int32),
+                   np.empty(index, np.int32), np.empty(rows, np.int32))
+
+
+def ascii_stl_corners(path):
+    """The (3m, 3) float64 corners of an ASCII STL's triangles, read as an
+    OBJ's "v" lines, or None for a file left to trimesh: not text starting
+    "solid", several solids (trimesh makes each a mesh), or no "vertex"
+    line in lower case."""
+    with open(path, "rb") as fh:
+        head = fh.read(CHUNK)
+    if not head.lstrip().startswith(b"solid") or b"\0" in head:
+        return None
+    state, out = _arrays(os.path.getsize(path))
+    state[T.STL] = 1
+    if _parse(path, state, out, "STL") is None or state[T.SOLIDS] > 1 or not state[T.NV]:
+        return None
+    nv = int(state[T.NV])
+    if nv % 3:
+        raise RaytraceError(f"{path}: not a readable STL mesh ({nv} vertices, not 3 a facet)")
+    return out[0][:nv]
+
+
+def read_obj(path, warn=None):
+    """A dict of MeshPart fields (vertices (n, 3) float64, faces (m, 3)
+    int64, normals (n, 3) or None) of an OBJ file, or None for a file left
+    to trimesh (see the module's docstring).  Vertices no face uses are
+    dropped and polygons fanned, as trimesh does."""
+    warn = warn or (lambda message: None)
+    state, (v, vn, cv, cn, fc) = _arrays(os.path.getsize(path))
+    if _parse(path, state, (v, vn, cv, cn, fc), "OBJ") is None:
+        return None
+    nv, nn, nc, nf = (int(state[k]) for k in (T.NV, T.NN, T.NC, T.NF))
+    if state[T.VMAX] > 5:
+        return None          # vertex colours: trimesh's reading
+    if nf and state[T.MAXV] >= nv:
+        raise RaytraceError(f"{path}: not a readable OBJ mesh (line {state[T.MAXV_LINE]}: face index "
+                            f"{state[T.MAXV] + 1} is out of bounds: the file has {nv} vertices)")
+    cv, fc = cv[:nc], fc[:nf]
+    cn = cn[:nc] if state[T.ALLN] and nf else None
+    if cn is not None and state[T.MAXN] >= nn:
+        warn(f"{os.path.basename(path)}: a face's normal index is out of bounds (the file has "
+             f"{nn} normals); the normals are ignored")
+        cn = None
+    corners = _triangle_corners(fc, nc)
+    return _indexed(v[:nv], vn[:nn], cv, cn, corners)
+
+
+def warm_kernel():
+    """Run the kernel on one line, with the argument types a file gives it
+    (the command's warmup)."""
+    data = np.frombuffer(bytearray(b"v 0 0 0\n"), np.uint8)
+    state = np.zeros(T.STATE_SIZE, np.int64)
+    rows, index = np.empty((1, 3)), np.empty(1, np.int32)
+    T.parse_lines(data, len(data), state, rows, rows, index, index, index, np.empty(4, np.uint8),
+                  np.empty(1, np.int64), T.POW10)
+
+
+def _parse(path, state, out, fmt):
+    """Run the kernel over the file a chunk at a time; None if the file is
+    left to trimesh."""
+    v, vn, cv, cn, fc = out
+    buf = bytearray(CHUNK)
+    fb = np.empty(2 * CHUNK + 2, np.uint8)
+    slots = np.empty(CHUNK // 2 + 1, np.int64)
+    kept = 0             # bytes of an unfinished line carried to the next chunk
+    first = True
+    with open(path, "rb") as fh:
+        while True:
+            got = fh.readinto(memoryview(buf)[kept:])
+            n = kept + got
+            at_end = got == 0 or n < len(buf)
+            if first and buf.startswith(_BOM):
+                buf[:3] = b"   "       # a byte-order mark (some Windows editors)
+            first = False
+            cut = n if at_end else buf.rfind(b"\n", 0, n) + 1
+            if cut == 0:         # one line longer than the buffer: grow it
+                buf.extend(bytes(len(buf)))
+                fb = np.empty(2 * len(buf) + 2, np.uint8)
+                slots = np.empty(len(buf) // 2 + 1, np.int64)
+                kept = n
+                continue
+            data = np.frombuffer(buf, np.uint8)
+            state[T.NFB] = state[T.FBLEN] = 0
+            first_line = int(state[T.LINE]) + 1
+            code = T.parse_lines(data, cut, state, v, vn, cv, cn, fc, fb, slots, T.POW10)
+            if code < 0:
+                return None
+            _exact_fallback(path, fmt, state, (fb, slots, v, vn), (data[:cut], first_line))
+            if code:
+                raise RaytraceError(_problem(path, fmt, state, data))
+            del data
+            if at_end:
+                return state
+            kept = n - cut
+            buf[:kept] = buf[cut:n]
+
+
+def _exact_fallback(path, fmt, state, fallback, chunk):
+    """Parse the numbers the kernel left (see objtext.py) with NumPy's
+    parser and put them in place; a token that is not a number is refused
+    naming its line."""
+    fb, slots, v, vn = fallback
+    k = int(state[T.NFB])
+    if not k:
+        return
+    text = fb[:state[T.FBLEN]].tobytes()
+    try:
+        values = np.fromstring(text, sep=" ")
+    except ValueError:
+        values = None
+    if values is None or len(values) != k:
+        bad = next(t for t in text.split() if not _is_number(t))
+        line = _line_of_token(*chunk, bad)
+        raise RaytraceError(f"{path}: not a readable {fmt} mesh (line {line}: "
+                            f"{bad.decode('utf-8', 'replace')!r} is not a number)")
+    s = slots[:k]
+    pos = s >= 0
+    v.reshape(-1)[s[pos]] = values[pos]
+    vn.reshape(-1)[-s[~pos] - 1] = values[~pos]
+
+
+def _is_number(token):
+    try:
+        return len(np.fromstring(token, sep=" ")) == 1
+    except ValueError:
+        return False
+
+
+def _line_of_token(data, first_line, token):
+    """The number of the first line of a chunk, starting at line
+    ``first_line``, that holds ``token`` as a word (for a message only)."""
+    for k, line in enumerate(data.tobytes().split(b"\n")):
+        if token in line.split():
+            return first_line + k
+    return first_line
+
+
+def _problem(path, fmt, state, data):
+    code = int(state[T.ERR])
+    token = data[state[T.ERR_AT]:state[T.ERR_END]].tobytes().decode("utf-8", "replace").strip()
+    line = int(state[T.ERR_LINE])
+    if code == T.ZERO_INDEX:      # the words of the check trimesh's path runs (mesh.py)
+        return (f"{path}: line {line}: face uses vertex index 0, out of range "
+                "(OBJ indices start at 1)")
+    text = _PROBLEMS[code].format(token=token, nv=int(state[T.NV]))
+    return f"{path}: not a readable {fmt} mesh (line {line}: {text})"
+
+
+def _triangle_corners(counts, n_corners):
+    """(m, 3) positions in the corner list of each triangle of the faces,
+    or None when every face is a triangle (the corners in order).  Quads
+    give (a, b, c) and (c, d, a), all first triangles before any second
+    when every face is a quad, and larger polygons fans from their first
+    corner, in the file's order: trimesh's triangulation of an OBJ."""
+    if not len(counts) or (counts == 3).all():
+        return None
+    from raytrace.scene.formats.ply import triangulate
+    if (counts == 4).all():
+        return triangulate(np.arange(n_corners).reshape(-1, 4))
+    fans = counts.astype(np.int64) - 2
+    starts = np.cumsum(counts, dtype=np.int64) - counts
+    first = np.repeat(starts, fans)
+    t = np.arange(len(first)) - np.repeat(np.cumsum(fans) - fans, fans)
+    tri = np.stack([first, first + t + 1, first + t + 2], axis=1)
+    quad = np.repeat(counts == 4, fans)
+    second = quad & (t == 1)        # a quad's second triangle is (c, d, a), not a fan's (a, c, d)
+    tri[second] = first[second, None] + [2, 3, 0]
+    return tri
+
+
+def _indexed(v, vn, cv, cn, corners):
+    """vertices, faces and normals: one vertex for each (position, normal)
+    pair the corners use, numbered in order of first use when the pairs
+    differ, else the file's vertices with those no face uses dropped."""
+    if cn is not None and (len(vn) < len(v) or not np.array_equal(cv, cn)):
+        from raytrace.scene.normals import equal_rows
+        pairs = np.stack([cv, cn], axis=1)
+        ids, first, _ = equal_rows(pairs)
+        del pairs
+        faces = ids.reshape(-1, 3) if corners is None else ids[corners]
+        return dict(vertices=v[cv[first]], faces=faces, normals=vn[cn[first]])
+    faces = cv.reshape(-1, 3).astype(np.int64) if corners is None else cv[corners].astype(np.int64)
+    normals = vn[:len(v)] if cn is not None else None
+    used = np.zeros(len(v), bool)
+    used[cv] = True
+    if not used.all():
+        index = np.cumsum(used) - 1
+        faces = index[faces]
+        v = v[used]
+        normals = normals[used] if normals is not None else None
+    return dict(vertices=v, faces=faces, normals=normals)
