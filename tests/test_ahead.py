@@ -59,7 +59,7 @@ def test_no_second_process_when_switched_off_or_the_stages_are_cached(monkeypatc
     # The control: a first run with two cores starts one, for the scene's kind.
     monkeypatch.setattr(ahead.os, "cpu_count", lambda: 2)
     ahead.start(None)
-    assert len(started) == 1 and started[0][-3:] == ["raytrace.renderer.ahead", "0", "0"]
+    assert len(started) == 1 and started[0][-3:] == ["raytrace.renderer.precompile", "0", "0"]
     ahead.start(None)                   # once a process
     assert len(started) == 1
     ahead._stop(ahead._ahead["process"])

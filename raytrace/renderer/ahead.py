@@ -47,7 +47,7 @@ def start(scene):
         cache = tempfile.mkdtemp(prefix="raytrace-ahead-")
         env = dict(os.environ, RAYTRACE_QUIET="1", NUMBA_CACHE_DIR=cache)
         process = subprocess.Popen(
-            [sys.executable, "-m", "raytrace.renderer.ahead", str(int(textures)),
+            [sys.executable, "-m", "raytrace.renderer.precompile", str(int(textures)),
              str(int(mirrors))], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL, env=env)
     except OSError:
@@ -97,14 +97,3 @@ def _stop(process):
     if _ahead["process"] is process:
         _ahead["process"] = False        # started once: never again in this process
         shutil.rmtree(_ahead["cache"], ignore_errors=True)
-
-
-def main(textures, mirrors):
-    """The second process: compile the stages for a tiny scene of the kind."""
-    from raytrace.renderer.driver import load_stages
-    from raytrace.scene.kinds import tiny_scene
-    load_stages(tiny_scene(textures, mirrors))
-
-
-if __name__ == "__main__":
-    main(*(bool(int(a)) for a in sys.argv[1:3]))

@@ -362,27 +362,6 @@ def prepare(scene, opts, drop_meshes=False):
                  peaks=peaks)
 
 
-def load_stages(scene, opts=None):
-    """Compile (or load) the shading stages a render of ``scene`` uses, and
-    nothing else: no structure is built (renderer/ahead.py)."""
-    from raytrace.kernels.counters import N_COUNTERS
-    from raytrace.kernels.render import Band, Lighting, Render
-    from raytrace.kernels.waves import load_shading
-    from raytrace.scene.flatten import flatten
-    opts = opts or RenderOptions()
-    width, height = (int(n) for n in validate(opts, scene))
-    geo, _, _ = flatten(scene)
-    lighting = Lighting(geo, None, light_buffers(scene, opts.shadows, opts.light_samples),
-                        shadow_record(opts.shadows, opts.pattern), int(opts.seed))
-    render = Render(lighting=lighting, cam=camera_buffer(scene.camera, width, height),
-                    textures=texture_record(opts.texture_filter, width, height, int(opts.spp), geo),
-                    bounces=bounce_record(scene, opts.max_depth), background=f64(scene.background),
-                    width=width, height=height, spp=int(opts.spp))
-    band = Band(image=np.empty((0, width, 3), np.float32), aovs=aov_buffers(width, height, False),
-                stats_rows=np.zeros((0, N_COUNTERS), np.int64), row0=0)
-    load_shading(render, band)
-
-
 def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows=None, row0=None,
                 load=True):
     """Rows y0 .. y1 of the frame seen from ``cam`` (camera_buffer), from a
