@@ -107,7 +107,8 @@ def _spawn(nxt, p, parent, origin, direction, weight, kind, gen):
 
 
 @njit(**STAGE)
-def shade_generation(shading, wave, gen, ij, nxt, p, shadow, light, c, counters, max_depth):
+def shade_generation(shading, textures, wave, gen, ij, nxt, p, shadow, light, c, counters,
+                     max_depth):
     """Shade rays ij = (first, end) of generation gen while one more hit's
     shadow rays fit: a miss adds its sky to light (from row c); a hit gets
     its ambient term and light entries (and shadow rays), and spawns its
@@ -145,10 +146,10 @@ def shade_generation(shading, wave, gen, ij, nxt, p, shadow, light, c, counters,
             counters[row, SHADING_POINTS] += 1
             wave.normal[k, 0], wave.normal[k, 1], wave.normal[k, 2] = f.nx, f.ny, f.nz
             _, sxn, syn = camera_ray(shading.cam, wave.film[k, 0], wave.film[k, 1])
-            rgb = surface_albedo(shading.textures, geo, shading.cam, hit, f.mat, f.px, f.py,
-                                 f.pz, sxn, syn)
+            rgb = surface_albedo(textures, geo, shading.cam, hit, f.mat, f.px, f.py, f.pz, sxn,
+                                 syn)
         else:
-            rgb = point_albedo(shading.textures, geo, hit, f.mat, f.px, f.py, f.pz)
+            rgb = point_albedo(textures, geo, hit, f.mat, f.px, f.py, f.pz)
         ar, ag, ab = rgb
         kr = geo.mat_param[f.mat, MAT_REFLECT]
         kt = geo.mat_param[f.mat, MAT_TRANSMIT]
@@ -240,7 +241,7 @@ def gather(wave, n, light, c):
 
 
 @njit(**BLOCK)
-def run_bounce_stage(step, shading, wave, bufs, counters, band, args):
+def run_bounce_stage(step, shading, textures, wave, bufs, counters, band, args):
     """One stage of a wave with mirror and glass rays (the Python side:
     _Generations); bufs = (this generation, the next, shadow rays, light),
     args five ints, the result four.  CAMERA: camera_wave (args as
@@ -257,7 +258,8 @@ def run_bounce_stage(step, shading, wave, bufs, counters, band, args):
         n = camera_wave(shading, wave, a, b, (c, d), counters, band.row0, e != 0)
         return _first_generation(wave, n, gen, counters), 0, 0, 0
     if step == SHADE:
-        return shade_generation(shading, wave, gen, (a, b), nxt, c, shadow, light, d, counters, e)
+        return shade_generation(shading, textures, wave, gen, (a, b), nxt, c, shadow, light, d,
+                                counters, e)
     if step == FINISH:
         return finish_generation(shading, gen, (a, b), shadow, light, c, counters), 0, 0, 0
     gather(wave, a, light, b)

@@ -49,11 +49,14 @@ from raytrace.kernels.render import camera_ray, hit_frame, sky, surface_albedo
 from raytrace.kernels.sampling import hash_key, rand01, square_sample
 from raytrace.kernels.shade import smooth_point
 
-# What the shading stages read: a Render's fields without the structure,
-# and the shadow mode as a number (NO_SHADOWS, HARD_SHADOWS, or soft
-# shadows' sampling.PATTERN_*), so one compiled stage serves every mode.
-Shading = namedtuple("Shading", ["geo", "lights", "shadow_mode", "seed", "cam", "textures",
-                                 "background", "width", "height", "spp"])
+# What the shading stages read: a Render's fields without the structure
+# and the textures, with the shadow mode as a number (NO_SHADOWS,
+# HARD_SHADOWS, or soft shadows' sampling.PATTERN_*), so one compiled stage
+# serves every mode.  The textures record goes apart, to the one stage
+# that reads it (shade_wave): a textured scene's entry compiles that stage
+# again and links the others as compiled for every scene.
+Shading = namedtuple("Shading", ["geo", "lights", "shadow_mode", "seed", "cam", "background",
+                                 "width", "height", "spp"])
 NO_SHADOWS, HARD_SHADOWS = -2, -1
 # A wave's camera rays: pixel (x, y), sample and film position (fx, fy) of
 # each, the counter row it counts into (``counters``: its image row's, or with AOVs its own), the rays as
@@ -82,7 +85,7 @@ WAVE_RAYS = 8192
 SHADOW_BATCH = 8192
 
 
-@njit(**STAGE)
+@njit(**JIT)
 def camera_wave(shading, wave, strip_top, y_end, cols, counters, row0, own_rows):
     """Camera rays of squares cols = (first, end) of the strip of TILE
     rows from strip_top (not past y_end), into wave; returns how many.
@@ -166,7 +169,7 @@ def _shadow_ray(lights, li, su, sv, origin, rays, m):
 
 
 @njit(**STAGE)
-def shade_wave(shading, wave, k0, n, rays, counters):
+def shade_wave(shading, textures, wave, k0, n, rays, counters):
     """Shade the hits of camera rays k0 .. while the shadow rays and light
     entries of one more hit fit in rays; returns (the first ray not
     shaded, shadow rays written).  A sample's colour starts as its ambient
@@ -189,8 +192,7 @@ def shade_wave(shading, wave, k0, n, rays, counters):
         hit = Hit(wave.hit_t[k], prim, wave.hit_u[k], wave.hit_v[k])
         counters[wave.row[k], SHADING_POINTS] += 1
         f = hit_frame(geo, ray, hit)
-        rgb = surface_albedo(shading.textures, geo, shading.cam, hit, f.mat, f.px, f.py, f.pz,
-                             sxn, syn)
+        rgb = surface_albedo(textures, geo, shading.cam, hit, f.mat, f.px, f.py, f.pz, sxn, syn)
         wave.normal[k, 0], wave.normal[k, 1], wave.normal[k, 2] = f.nx, f.ny, f.nz
         pixel = wave.y[k] * shading.width + wave.x[k]
         r, g, b, e, m = light_entries(shading, hit, f, rgb, ray, (pixel, wave.sample[k]), rays,
@@ -293,7 +295,7 @@ def light_wave(shading, wave, k0, k1, rays, counters):
             (wave.rgb[k, 0], wave.rgb[k, 1], wave.rgb[k, 2]), counters, wave.row[k])
 
 
-@njit(**STAGE)
+@njit(**JIT)
 def store_wave(shading, wave, n, band):
     """Each pixel's samples (consecutive camera rays) averaged into
     band.image and its first sample into the AOVs; with AOVs, each ray's
@@ -345,7 +347,7 @@ CAMERA, SHADE, FINISH = 0, 1, 2
 
 
 @njit(**BLOCK)
-def run_stage(step, shading, wave, rays, counters, band, args):
+def run_stage(step, shading, textures, wave, rays, counters, band, args):
     """One shading stage, for _Stages: one compiled entry for all of them
     (each entry's wrapper, unpacking these records, costs about a second
     of a cold compile).  args: five ints.  CAMERA: camera_wave of the
@@ -359,7 +361,7 @@ def run_stage(step, shading, wave, rays, counters, band, args):
     if step == CAMERA:
         return camera_wave(shading, wave, a, b, (c, d), counters, band.row0, e != 0), 0
     if step == SHADE:
-        return shade_wave(shading, wave, a, b, rays, counters)
+        return shade_wave(shading, textures, wave, a, b, rays, counters)
     light_wave(shading, wave, a, b, rays, counters)
     if b == c:
         store_wave(shading, wave, c, band)

@@ -32,8 +32,8 @@ from raytrace.kernels.wavefront import (
 class _Stages:
     """A thread's buffers and the stage calls of one wave (direct light)."""
 
-    def __init__(self, shading, acc, band):
-        self.shading, self.acc, self.band = shading, acc, band
+    def __init__(self, shading, textures, acc, band):
+        self.shading, self.textures, self.acc, self.band = shading, textures, acc, band
         spp = shading.spp
         self.squares = max(1, WAVE_RAYS // (TILE * TILE * spp))
         self.wave = wave_buffers(self.squares * TILE * TILE * spp)
@@ -54,8 +54,8 @@ class _Stages:
     def camera(self, top, y_end, q0, q1):
         """The wave's camera rays and their closest hits; returns how many."""
         wave = self.wave
-        n, _ = run_stage(CAMERA, self.shading, wave, self.shadow, self.counters, self.band,
-                         (top, y_end, q0, q1, int(self.counters is wave.cnt)))
+        n, _ = run_stage(CAMERA, self.shading, self.textures, wave, self.shadow, self.counters,
+                         self.band, (top, y_end, q0, q1, int(self.counters is wave.cnt)))
         if n not in self.views:
             self.views[n] = ((wave.origins[:n], wave.dirs[:n], wave.t_min[:n], wave.t_max[:n]),
                              (wave.hit_t[:n], wave.hit_prim[:n], wave.hit_u[:n], wave.hit_v[:n]),
@@ -72,7 +72,7 @@ class _Stages:
                       s.row[:m])
 
     def trace(self, top, y_end, q0, q1):
-        args = self.shading, self.wave, self.shadow, self.counters, self.band
+        args = self.shading, self.textures, self.wave, self.shadow, self.counters, self.band
         n = self.camera(top, y_end, q0, q1)
         k = 0
         while k < n:
@@ -87,19 +87,23 @@ class _Generations(_Stages):
     """_Stages for a render with mirror and glass rays: each wave's rays
     generation by generation (bounces.py)."""
 
-    def __init__(self, shading, acc, band, max_depth):
-        super().__init__(shading, acc, band)
+    def __init__(self, shading, textures, acc, band, max_depth):
+        super().__init__(shading, textures, acc, band)
         self.max_depth = max_depth
         size = len(self.wave.x)
         self.gens = [bounces.generation_buffers(size), bounces.generation_buffers(2 * size)]
         self.light = bounces.light_buffers(2 * size, size)
 
+    def stage(self, step, bufs, args):
+        """bounces.run_bounce_stage with this thread's records."""
+        return bounces.run_bounce_stage(step, self.shading, self.textures, self.wave, bufs,
+                                        self.counters, self.band, args)
+
     def trace(self, top, y_end, q0, q1):
-        shading, wave, counters, band = self.shading, self.wave, self.counters, self.band
         gen, nxt = self.gens
-        n, _, _, _ = bounces.run_bounce_stage(CAMERA, shading, wave, (gen, nxt, self.shadow, self.light),
-                                      counters, band, (top, y_end, q0, q1,
-                                                       int(counters is wave.cnt)))
+        own = int(self.counters is self.wave.cnt)
+        n, _, _, _ = self.stage(CAMERA, (gen, nxt, self.shadow, self.light),
+                                (top, y_end, q0, q1, own))
         p, c = n, 0
         while p:
             # Each ray spawns at most two and adds at most one contribution.
@@ -107,25 +111,21 @@ class _Generations(_Stages):
                 nxt = bounces.generation_buffers(2 * p)
             if len(self.light.key) < c + p:
                 self.light = _grown(self.light, 2 * (c + p))
-            closest_rays(shading.geo, self.acc, (gen.origins[:p], gen.dirs[:p], gen.t_min[:p],
-                                                 gen.t_max[:p]),
+            closest_rays(self.shading.geo, self.acc,
+                         (gen.origins[:p], gen.dirs[:p], gen.t_min[:p], gen.t_max[:p]),
                          (gen.hit_t[:p], gen.hit_prim[:p], gen.hit_u[:p], gen.hit_v[:p]),
-                         counters, gen.row[:p])
+                         self.counters, gen.row[:p])
             bufs = (gen, nxt, self.shadow, self.light)
             i = q = 0
             while i < p:
-                i1, m, q, c = bounces.run_bounce_stage(bounces.SHADE, shading, wave, bufs,
-                                                       counters, band,
-                                                       (i, p, q, c, self.max_depth))
+                i1, m, q, c = self.stage(bounces.SHADE, bufs, (i, p, q, c, self.max_depth))
                 if m:
                     self.occlude(m)
-                c, _, _, _ = bounces.run_bounce_stage(bounces.FINISH, shading, wave, bufs,
-                                                      counters, band, (i, i1, c, 0, 0))
+                c, _, _, _ = self.stage(bounces.FINISH, bufs, (i, i1, c, 0, 0))
                 i = i1
             gen, nxt, p = nxt, gen, q
         self.gens = [gen, nxt]
-        bounces.run_bounce_stage(bounces.STORE, shading, wave, (gen, nxt, self.shadow, self.light), counters,
-                         band, (n, c, 0, 0, 0))
+        self.stage(bounces.STORE, (gen, nxt, self.shadow, self.light), (n, c, 0, 0, 0))
 
 
 def _grown(light, rows):
@@ -169,12 +169,12 @@ def load_shading(render, band):
     stages.counters = band.stats_rows
     if isinstance(stages, _Generations):
         gen = bounces.generation_buffers(0)
-        bounces.run_bounce_stage(CAMERA, stages.shading, stages.wave,
+        bounces.run_bounce_stage(CAMERA, stages.shading, stages.textures, stages.wave,
                                  (gen, gen, stages.shadow, bounces.light_buffers(0, 0)),
                                  stages.counters, band, (0, 0, 0, 0, 0))
     else:
-        run_stage(CAMERA, stages.shading, stages.wave, stages.shadow, stages.counters, band,
-                  (0, 0, 0, 0, 0))
+        run_stage(CAMERA, stages.shading, stages.textures, stages.wave, stages.shadow,
+                  stages.counters, band, (0, 0, 0, 0, 0))
 
 
 def _stages(render, band):
@@ -185,10 +185,11 @@ def _stages(render, band):
     mode = (shadows.pattern if isinstance(shadows, SoftShadows) else
             HARD_SHADOWS if shadows.cast else NO_SHADOWS)
     shading = Shading(lighting.geo, lighting.lights, mode, lighting.seed, render.cam,
-                      render.textures, render.background, render.width, render.height, render.spp)
+                      render.background, render.width, render.height, render.spp)
     if isinstance(render.bounces, NoBounces):
-        return _Stages(shading, lighting.acc, band)
-    return _Generations(shading, lighting.acc, band, int(render.bounces.max_depth))
+        return _Stages(shading, render.textures, lighting.acc, band)
+    return _Generations(shading, render.textures, lighting.acc, band,
+                        int(render.bounces.max_depth))
 
 
 def render_rows(render, band, y0, y1, n_threads, clock):
