@@ -12,16 +12,20 @@ def _files(root, names):
         path.write_text(text)
 
 
-def test_the_stages_entries_are_adopted_data_first_and_only_where_missing(tmp_path, monkeypatch):
+def test_what_the_second_process_compiled_is_adopted_data_first_where_missing(tmp_path,
+                                                                              monkeypatch):
     ours = tmp_path / "ours" / "numba-abc"
     theirs = tmp_path / "theirs"
     _files(theirs / "numba-abc", {
         "kernels_x/wavefront.run_stage-347.py311.nbi": "index",
         "kernels_x/wavefront.run_stage-347.py311.1.nbc": "code",
-        "kernels_x/bounces.run_bounce_stage-200.py311.nbi": "their index",
-        "kernels_x/cast._closest_kernel.locals.block-60.py311.nbi": "not a stage"})
-    # A mirror-and-glass entry this cache has already: left as it is.
-    _files(ours, {"kernels_x/bounces.run_bounce_stage-200.py311.nbi": "our index"})
+        "kernels_x/shade.surface-28.py311.nbi": "surface index",
+        "kernels_x/shade.surface-28.py311.1.nbc": "surface code",
+        "kernels_x/ray.make_ray-40.py311.nbi": "their index",
+        "kernels_x/ray.make_ray-40.py311.2.nbc": "their code"})
+    # An entry this cache has already (this process compiled it too): left as it is.
+    _files(ours, {"kernels_x/ray.make_ray-40.py311.nbi": "our index",
+                  "kernels_x/ray.make_ray-40.py311.1.nbc": "our code"})
     monkeypatch.setattr(numba.config, "CACHE_DIR", str(ours))
     copied = []
     real_replace = ahead.os.replace
@@ -31,8 +35,12 @@ def test_the_stages_entries_are_adopted_data_first_and_only_where_missing(tmp_pa
     got = {p.relative_to(ours).as_posix(): p.read_text() for p in ours.rglob("*") if p.is_file()}
     assert got == {"kernels_x/wavefront.run_stage-347.py311.nbi": "index",
                    "kernels_x/wavefront.run_stage-347.py311.1.nbc": "code",
-                   "kernels_x/bounces.run_bounce_stage-200.py311.nbi": "our index"}
-    assert copied == ["wavefront.run_stage-347.py311.1.nbc", "wavefront.run_stage-347.py311.nbi"]
+                   "kernels_x/shade.surface-28.py311.nbi": "surface index",
+                   "kernels_x/shade.surface-28.py311.1.nbc": "surface code",
+                   "kernels_x/ray.make_ray-40.py311.nbi": "our index",
+                   "kernels_x/ray.make_ray-40.py311.1.nbc": "our code"}
+    for stem in ("wavefront.run_stage-347.py311", "shade.surface-28.py311"):
+        assert copied.index(f"{stem}.1.nbc") < copied.index(f"{stem}.nbi")
 
 
 class _Finished:

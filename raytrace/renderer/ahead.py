@@ -10,8 +10,8 @@ off).  The second process compiles the stages for
 a tiny scene of the same kind (scene/kinds.py: the same types, so the same
 kernels) into a cache of its own: two processes adding entries to one
 Numba index at once can leave it naming another entry's file.  The render
-waits for it (``wait``), copies the stages' entries (the index last) into
-its cache and loads them from there.  Whatever becomes of the second
+waits for it (``wait``), copies what it compiled (each index after its
+data) into its own cache and loads the stages from there.  Whatever becomes of the second
 process, the render goes on: without its entries, it compiles the stages
 itself.
 """
@@ -22,9 +22,6 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
-
-# The stages' compiled entries, by the start of Numba's cache file names.
-ENTRIES = ("wavefront.run_stage-", "bounces.run_bounce_stage-")
 
 _ahead = {"process": None, "cache": None}
 
@@ -72,22 +69,26 @@ def wait():
 
 
 def _adopt(cache):
-    """Copy the stages' entries from the second process's cache into this
-    process's, for each entry none of whose files is there yet: data files
-    first, then the index naming them (each by an atomic rename)."""
+    """Copy the second process's cache entries into this process's cache,
+    each entry (a function's index and data files) whose index is not there
+    yet: the stages' entry, and the functions it calls, which the next
+    render of another kind links in instead of compiling.  Data files
+    first, then the index naming them, each by an atomic rename.  This
+    process compiles nothing meanwhile, and an entry it has is left as it
+    is."""
     import numba
     ours = Path(numba.config.CACHE_DIR)
     theirs = cache / ours.name
-    for prefix in ENTRIES:
-        for index in theirs.glob(f"*/{prefix}*.nbi"):
-            target = ours / index.parent.relative_to(theirs)
-            if any(target.glob(f"{prefix}*")):
-                continue
-            target.mkdir(parents=True, exist_ok=True)
-            for path in sorted(index.parent.glob(f"{prefix}*"), key=lambda p: p == index):
-                tmp = target / f".{path.name}.tmp"
-                shutil.copyfile(path, tmp)
-                os.replace(tmp, target / path.name)
+    for index in theirs.glob("*/*.nbi"):
+        target = ours / index.parent.relative_to(theirs)
+        if (target / index.name).exists():
+            continue
+        target.mkdir(parents=True, exist_ok=True)
+        stem = index.name[:-len(".nbi")]
+        for path in [*index.parent.glob(f"{stem}.*.nbc"), index]:
+            tmp = target / f".{path.name}.tmp"
+            shutil.copyfile(path, tmp)
+            os.replace(tmp, target / path.name)
 
 
 def _stop(process):
