@@ -5,8 +5,9 @@ generation is shaded (its own share of the light, with shadow rays, as
 wavefront.py's stages do) and spawns the next generation's reflected and
 refracted rays, until none is left or ``max_depth`` stops them.
 
-render.py's kernel traced each camera sample's tree of rays depth first
-(reflected before refracted) and summed the light as it went.  Here a
+A recursive tracer (and the megakernel this replaced) traces each camera
+sample's tree of rays depth first (reflected before refracted), summing
+the light as it goes.  Here a
 generation is traced at once, so each ray carries its place in the tree,
 ``key``: one base-3 digit a level, most significant first (0: the tree
 ends above, 1: reflected, 2: refracted).  Sorted by key, a sample's
@@ -114,7 +115,7 @@ def shade_generation(shading, textures, wave, gen, ij, nxt, p, shadow, light, c,
     its ambient term and light entries (and shadow rays), and spawns its
     reflected and refracted rays into nxt from row p.  Returns (the first
     ray not shaded, shadow rays written, nxt's rows, light's rows).
-    render._whitted_sample's arithmetic, step for step."""
+    The megakernel's arithmetic, step for step."""
     geo = shading.geo
     e = m = np.int64(0)     # not literal 0s (wavefront.shade_wave)
     i, end = ij

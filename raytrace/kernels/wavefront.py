@@ -1,30 +1,25 @@
 """The renderer's stages over waves of rays (Laine, Karras & Aila 2013,
 "Megakernels Considered Harmful"; pbrt-v4's wavefront integrator).
 
-A wave is a run of the image's TILE x TILE squares (render.py's order: a
-strip of TILE rows at a time, its squares left to right, each square's
-rows, each pixel's camera samples).  Each thread takes the next wave by
-ticket and runs it through the stages:
+A wave is a run of the image's TILE x TILE squares in a strip of TILE
+rows, left to right (each square's rows, each pixel's camera samples).
+waves.py runs each through:
 
 1. ``camera_wave``: the wave's camera rays;
 2. the structure's closest-hit kernel (kernels/cast.py), the one
-   ``RayScene.cast_rays`` runs, with a counter row for each ray;
+   ``RayScene.cast_rays`` runs, each ray counting into its own row;
 3. ``shade_wave``: each hit's frame, colour, ambient term and, for each
    light it faces, the light's share before visibility and its shadow rays;
 4. the structure's any-hit kernel over those shadow rays (cast.py again);
 5. ``light_wave``: each light's share times its visibility;
 6. ``store_wave``: each pixel's samples summed into the image, its AOVs
-   and its image row's counters.
+   and, with AOVs, its rays' counters into its image row's.
 
 Only steps 2 and 4 know the structure, so the shading compiles once for
 every structure (its types hold no layout), and a structure compiles only
-its two ray kernels, which the ray-casting API shares.  The arithmetic is
-render.py's ``_local_sample`` term for term, in the same order, so the
-images are the megakernel's bit for bit, and every counter keeps its
-meaning: a ray's traversal counts go to its own row and from there to its
-pixel's image row, as the megakernel counted them.
-
-Mirror and glass rays (``Bounces``) still go through render.py's kernel.
+its two ray kernels.  The arithmetic is the megakernel's that this
+replaced, term for term and in its order, so images and counters did not
+change (docs/design.md, section 8).  Mirror and glass rays: bounces.py.
 """
 from collections import namedtuple
 
@@ -121,7 +116,7 @@ def camera_wave(shading, wave, strip_top, y_end, cols, counters, row0, own_rows)
 def _film_point(shading, x, y, s):
     """Film position (fx, fy) in [0,1]^2 of camera sample s of pixel (x,
     y): its centre, or with several samples a hashed point of the pixel
-    (render._render_span's)."""
+    (so tiles and threads never change it)."""
     width = shading.width
     if shading.spp == 1:
         jx, jy = 0.5, 0.5
@@ -134,7 +129,7 @@ def _film_point(shading, x, y, s):
 @njit(**JIT)
 def _emit_shadow_rays(shading, li, origin, pixel, sample, rays, m):
     """Shadow rays from origin (a 3-tuple) to light li into rows m ... of
-    rays (render._hard_visibility's and _soft_visibility's); returns how
+    rays (one to its centre, or its samples' pattern); returns how
     many."""
     mode, lights = shading.shadow_mode, shading.lights
     if mode == NO_SHADOWS:
@@ -156,8 +151,8 @@ def _emit_shadow_rays(shading, li, origin, pixel, sample, rays, m):
 @njit(**JIT)
 def _shadow_ray(lights, li, su, sv, origin, rays, m):
     """Row m of rays: from origin to point (su, sv) of light li,
-    unnormalised, so t in (0, 1) spans origin to light (render.py's
-    _shadow_ray_blocked)."""
+    unnormalised, so t in (0, 1) spans origin to light and nothing
+    beyond it is tested."""
     ox, oy, oz = origin
     tx = lights.pos[li, 0] + (su - 0.5) * lights.u[li, 0] + (sv - 0.5) * lights.v[li, 0]
     ty = lights.pos[li, 1] + (su - 0.5) * lights.u[li, 1] + (sv - 0.5) * lights.v[li, 1]
@@ -215,7 +210,7 @@ def room_for_hit(lights, rays, e, m):
 
 @njit(**JIT)
 def light_entries(shading, hit, f, rgb, ray, key, rays, em, counters, row):
-    """render._direct up to each light's visibility, term for term, at frame
+    """Blinn-Phong up to each light's visibility, at frame
     f of ray's hit with the material's colour rgb, for the camera sample
     key = (pixel, sample): returns the ambient term (r, g, b) and, after
     the entries and shadow rays written from em = (entry, shadow ray) on,
@@ -267,7 +262,7 @@ def light_entries(shading, hit, f, rgb, ray, key, rays, em, counters, row):
 def lit(shading, rays, entries, rgb, counters, row):
     """rgb (a 3-tuple: the ambient term) plus each light's share of
     entries = (first, end) times its visibility (the fraction of its shadow
-    rays not blocked), in render._direct's order."""
+    rays not blocked), added in the lights' order."""
     lights = shading.lights
     r, g, b = rgb
     for e in range(entries[0], entries[1]):

@@ -1,9 +1,9 @@
 """The renderer's Python side: threads take strips of TILE rows by ticket
-(render.py's bands, so a thread's image rows and counter rows are its
-own), and each strip goes through the stages a wave at a time: the shading
-stages' compiled entry (wavefront.py, or bounces.py for mirrors and glass)
-and the structure's ray kernels (cast.py's, shared with the ray-casting
-API), called in turn."""
+(so a thread's image rows and counter rows are its own), and each strip
+goes through the stages a wave at a time: the shading stages' compiled
+entry (wavefront.py, or bounces.py for mirrors and glass) and the
+structure's ray kernels (cast.py's, shared with the ray-casting API),
+called in turn."""
 import functools
 import threading
 
