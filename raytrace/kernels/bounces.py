@@ -72,8 +72,6 @@ def _first_generation(wave, n, gen, counters):
             gen.origins[k, a] = wave.origins[k, a]
             gen.dirs[k, a] = wave.dirs[k, a]
             gen.weight[k, a] = 1.0
-        gen.t_min[k] = 0.0
-        gen.t_max[k] = np.inf
         gen.sample[k] = k
         gen.row[k] = wave.row[k]
         gen.key[k] = 0
@@ -98,8 +96,6 @@ def _spawn(nxt, p, parent, origin, direction, weight, kind, gen):
         nxt.origins[p, a] = origin[a]
         nxt.dirs[p, a] = direction[a]
         nxt.weight[p, a] = weight[a]
-    nxt.t_min[p] = 0.0
-    nxt.t_max[p] = np.inf
     nxt.sample[p] = gen.sample[parent]
     nxt.row[p] = gen.row[parent]
     nxt.key[p] = gen.key[parent] + kind * DIGIT[gen.depth[parent] + 1]
@@ -269,9 +265,10 @@ def run_bounce_stage(step, shading, textures, wave, bufs, counters, band, args):
 
 
 def generation_buffers(rays):
+    """A generation's arrays; every ray's interval, (0, inf), filled once."""
     f8, i8 = np.float64, np.int64
     return Rays(origins=np.empty((rays, 3), f8), dirs=np.empty((rays, 3), f8),
-                t_min=np.empty(rays, f8), t_max=np.empty(rays, f8), hit_t=np.empty(rays, f8),
+                t_min=np.zeros(rays), t_max=np.full(rays, np.inf), hit_t=np.empty(rays, f8),
                 hit_prim=np.empty(rays, i8), hit_u=np.empty(rays, f8), hit_v=np.empty(rays, f8),
                 sample=np.empty(rays, i8), row=np.empty(rays, i8), key=np.empty(rays, i8),
                 depth=np.empty(rays, i8), weight=np.empty((rays, 3), f8),
