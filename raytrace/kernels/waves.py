@@ -37,9 +37,14 @@ class _Stages:
         spp = shading.spp
         self.squares = max(1, WAVE_RAYS // (TILE * TILE * spp))
         self.wave = wave_buffers(self.squares * TILE * TILE * spp)
+        # Room for a whole wave's shadow rays and light entries, up to
+        # SHADOW_BATCH (and at least one hit's): no bigger buffers than
+        # the scene's lights can fill.
         samples = shading.lights.samples
         most = int(np.maximum(samples, 1).sum()) if len(samples) else 0
-        self.shadow = shadow_buffers(max(SHADOW_BATCH, most), max(SHADOW_BATCH, len(samples)))
+        rays = len(self.wave.x)
+        self.shadow = shadow_buffers(max(min(SHADOW_BATCH, rays * most), most),
+                                     max(min(SHADOW_BATCH, rays * len(samples)), len(samples)))
         # With AOVs each camera ray counts into a row of its own, summed
         # per pixel for the cost AOV; otherwise straight into its image row.
         self.counters = self.wave.cnt if len(band.aovs.cost) else band.stats_rows
