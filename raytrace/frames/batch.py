@@ -150,12 +150,11 @@ def render_frames(scene, cameras, opts, runner=None, tiles=1, skip=(), on_frame=
 
 
 def _render_frames(scene, cameras, opts, runner, tiles, skip, on_frame):
+    validate(opts, scene)         # a bad option fails here, not on workers or a second process
     if getattr(runner, "warm", None) is not None:
-        validate(opts, scene)     # a bad option fails here, not on the workers
         runner.warm(scene, opts)  # they compile or load while prepare flattens and builds
     else:
         from raytrace.renderer import ahead
-        validate(opts, scene)
         ahead.start(scene)        # a first run: the shading compiles beside prepare
     setup = prepare(scene, opts)
     runner = runner or InProcess(setup.threads)

@@ -65,7 +65,7 @@ SHADE, FINISH, STORE = 1, 2, 3
 
 
 @njit(**STAGE)
-def _first_generation(wave, n, gen, counters):
+def _first_generation(wave, n, gen):
     """The wave's n camera rays as generation 0 (key 0, weight 1)."""
     for k in range(n):
         for a in range(3):
@@ -253,7 +253,7 @@ def run_bounce_stage(step, shading, textures, wave, bufs, counters, band, args):
     a, b, c, d, e = args
     if step == CAMERA:
         n = camera_wave(shading, wave, a, b, (c, d), counters, band.row0, e != 0)
-        return _first_generation(wave, n, gen, counters), 0, 0, 0
+        return _first_generation(wave, n, gen), 0, 0, 0
     if step == SHADE:
         return shade_generation(shading, textures, wave, gen, (a, b), nxt, c, shadow, light, d,
                                 counters, e)

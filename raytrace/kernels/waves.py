@@ -201,12 +201,10 @@ def render_rows(render, band, y0, y1, n_threads, clock):
     """Render rows y0 .. y1-1 of a Render (render.py's record) into a Band:
     image row y is band.image[y - band.row0] (row0 = 0 for a whole-image
     buffer; a tile's own buffer starts at its first row), likewise its
-    counter rows and AOVs.  y0 == y1 compiles or loads the kernels without
-    rendering.  clock: a one-element int64 array, 0 at the call: the
+    counter rows and AOVs (load_rays and load_shading compile or load the
+    kernels first).  clock: a one-element int64 array, 0 at the call: the
     strips' tickets."""
     if y1 <= y0:
-        load_rays(render, band)
-        load_shading(render, band)
         return
     n_parts = max(1, min(n_threads, -(-(y1 - y0) // TILE)))
     lock = threading.Lock()

@@ -371,7 +371,7 @@ def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows
     first compile or load the kernel, timed apart (compile_s; 0 without)."""
     from raytrace.kernels.counters import N_COUNTERS
     from raytrace.kernels.render import Band, Lighting, Render
-    from raytrace.kernels.waves import render_rows
+    from raytrace.kernels.waves import load_rays, load_shading, render_rows
     p = payload
     width = p.width
     if image is None:
@@ -391,12 +391,11 @@ def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows
     # without rendering anything, so that time is reported apart.
     t_compile = 0.0
     if load:
-        from raytrace.kernels.waves import load_rays
         from raytrace.renderer import ahead
         t0 = time.perf_counter()
         load_rays(render, band)
         ahead.wait()        # the shading stages, if compiled in a second process
-        render_rows(render, band, 0, 0, int(threads), clock)
+        load_shading(render, band)
         t_compile = time.perf_counter() - t0
     t0 = time.perf_counter()
     clock[0] = 0
