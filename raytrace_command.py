@@ -2,8 +2,8 @@
 outside the raytrace package because importing raytrace.cli.command runs
 the package's __init__ first, where a Ctrl-C in the command's first
 milliseconds was a KeyboardInterrupt traceback.  Here a Ctrl-C is noted
-from this module's first statements until main's try, and raised and
-caught inside it, so Ctrl-C at any moment after Python's own start-up is
+from this module's first statements until raytrace.cli.command is
+imported, then raised and caught inside main's try, so Ctrl-C at any moment after Python's own start-up is
 exit 130 and one line.  raytrace.cli.command.main does the rest."""
 # _signal, not signal: always loaded, where signal's import builds its enums
 # for milliseconds in which a Ctrl-C would be a traceback.
@@ -23,11 +23,16 @@ if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
 
 def main():
     try:
-        if signal.getsignal(signal.SIGINT) is _note:
-            signal.signal(signal.SIGINT, signal.default_int_handler)   # raised from here on
+        # Imported while a Ctrl-C is only noted: raised inside the import,
+        # it can land in importlib's weakref callback, where Python prints
+        # "Exception ignored" and drops it, and the render went on.
+        try:
+            from raytrace.cli.command import main as command_main
+        finally:
+            if signal.getsignal(signal.SIGINT) is _note:
+                signal.signal(signal.SIGINT, signal.default_int_handler)   # raised from here on
         if _noted:
             raise KeyboardInterrupt
-        from raytrace.cli.command import main as command_main
         return command_main()
     except KeyboardInterrupt:
         # Only before command_main installed its handler; the same line as it.

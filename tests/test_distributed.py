@@ -307,6 +307,11 @@ def test_workers_warm_up_the_kernel_their_tiles_use():
 
     from raytrace.cli.warmup import worker_payload
     from raytrace.frames.distributed import DaskRunner
+    # The kernels go into the cache here first: from an empty cache, both
+    # workers would compile the mirror kernel at once (twice the work, on
+    # cores the other tests share).  The workers still start without them.
+    for name in ("whitted", "teapot"):
+        raytrace.render(raytrace.load_scene(name, width=32, height=24), **HARD)
     # A cluster of its own: the other tests' renders load kernels on theirs.
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None, silence_logs=logging.ERROR) as c, \
