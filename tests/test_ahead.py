@@ -1,7 +1,9 @@
-"""A first render's shading stages compiled in a second process
-(renderer/ahead.py): when it starts, and how its entries join the cache."""
+"""Kernels compiled in a second process (kernels/ahead.py): when a first
+render's shading stages (renderer/ahead.py) and a first ray query's kernel
+(cast/ahead.py) start one, and how its entries join the cache."""
 import numba
 
+from raytrace.kernels import ahead as core
 from raytrace.renderer import ahead
 
 
@@ -28,10 +30,10 @@ def test_what_the_second_process_compiled_is_adopted_data_first_where_missing(tm
                   "kernels_x/ray.make_ray-40.py311.1.nbc": "our code"})
     monkeypatch.setattr(numba.config, "CACHE_DIR", str(ours))
     copied = []
-    real_replace = ahead.os.replace
-    monkeypatch.setattr(ahead.os, "replace",
+    real_replace = core.os.replace
+    monkeypatch.setattr(core.os, "replace",
                         lambda a, b: (copied.append(b.name), real_replace(a, b)))
-    ahead._adopt(theirs)
+    core._adopt(theirs)
     got = {p.relative_to(ours).as_posix(): p.read_text() for p in ours.rglob("*") if p.is_file()}
     assert got == {"kernels_x/wavefront.run_stage-347.py311.nbi": "index",
                    "kernels_x/wavefront.run_stage-347.py311.1.nbc": "code",
@@ -50,10 +52,10 @@ class _Finished:
 
 def test_no_second_process_when_switched_off_or_the_stages_are_cached(monkeypatch):
     started = []
-    monkeypatch.setattr(ahead.subprocess, "Popen",
+    monkeypatch.setattr(core.subprocess, "Popen",
                         lambda *a, **k: started.append(a[0]) or _Finished())
-    monkeypatch.setattr(ahead.atexit, "register", lambda *a: None)
-    monkeypatch.setitem(ahead._ahead, "process", None)
+    monkeypatch.setattr(core.atexit, "register", lambda *a: None)
+    monkeypatch.setattr(core, "_runs", {})
     monkeypatch.setenv("RAYTRACE_COMPILE_AHEAD", "0")
     ahead.start(None)
     monkeypatch.delenv("RAYTRACE_COMPILE_AHEAD")
@@ -61,13 +63,65 @@ def test_no_second_process_when_switched_off_or_the_stages_are_cached(monkeypatc
     ahead.start(None)
     assert started == []
     monkeypatch.setattr("raytrace.kernels.cachedir.render_kernel_cached", lambda: False)
-    monkeypatch.setattr(ahead.os, "cpu_count", lambda: 1)
+    monkeypatch.setattr(core.os, "cpu_count", lambda: 1)
     ahead.start(None)
     assert started == []
     # The control: a first run with two cores starts one, for the scene's kind.
-    monkeypatch.setattr(ahead.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(core.os, "cpu_count", lambda: 2)
     ahead.start(None)
     assert len(started) == 1 and started[0][-3:] == ["raytrace.renderer.precompile", "0", "0"]
     ahead.start(None)                   # once a process
     assert len(started) == 1
-    ahead._stop(ahead._ahead["process"])
+    core._stop("render")
+
+
+def test_each_structures_empty_layout_has_a_built_layouts_types():
+    """cast/precompile.py compiles a first query's kernel for the
+    structure's empty layout while the real one builds: the same types,
+    or it would compile a kernel nobody calls."""
+    import numpy as np
+
+    from raytrace.accel.registry import STRUCTURES
+    from raytrace.cast.rayscene import RayScene
+    v = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    f = np.array([[0, 1, 2], [0, 1, 3]])
+    for name, structure in STRUCTURES.items():
+        built = RayScene((v, f), accel=name)._built().acc
+        assert numba.typeof(structure.empty_layout()) == numba.typeof(built), name
+
+
+def test_the_second_process_compiles_the_kernel_the_first_query_runs():
+    """Run in this process, precompile.main adds the one specialisation a
+    first cast_rays (here brute force's, of one ray) would, and that call
+    then adds none."""
+    import numpy as np
+
+    from raytrace.cast import precompile
+    from raytrace.cast.rayscene import RayScene
+    from raytrace.kernels import cast
+    precompile.main("none", "closest", False)
+    before = list(cast._closest_single.signatures)
+    hits = RayScene((np.eye(3), np.array([[0, 1, 2]])), accel="none").cast_rays(
+        [0.0, 0, 0], [1.0, 1, 1])
+    assert hits.prim_id.tolist() == [0]
+    assert list(cast._closest_single.signatures) == before
+
+
+def test_a_first_query_starts_one_second_process_for_its_kernel(monkeypatch):
+    from raytrace.cast import ahead as query_ahead
+    started = []
+    monkeypatch.setattr(core.subprocess, "Popen",
+                        lambda *a, **k: started.append(a[0]) or _Finished())
+    monkeypatch.setattr(core.atexit, "register", lambda *a: None)
+    monkeypatch.setattr(core, "_runs", {})
+    monkeypatch.setattr(core.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr("raytrace.kernels.cachedir.kernel_cached", lambda *names: True)
+    query_ahead.start("grid", "closest", 1)
+    assert started == []
+    monkeypatch.setattr("raytrace.kernels.cachedir.kernel_cached", lambda *names: False)
+    query_ahead.start("grid", "occluded", 1000)
+    assert len(started) == 1 and started[0][-4:] == ["raytrace.cast.precompile", "grid",
+                                                     "occluded", "1"]
+    query_ahead.start("grid", "closest", 1)     # once a process
+    assert len(started) == 1
+    core._stop("query")

@@ -55,6 +55,12 @@ class Structure:
         layout = builder.build(geo, obj_ranges, **options)
         return layout, time.perf_counter() - t0
 
+    def empty_layout(self):
+        """A layout of no primitives, of the types a build's has, made
+        without compiling the builder: a second process compiles a query
+        kernel for it while this one builds (cast/ahead.py)."""
+        return self.package().empty()
+
     def counting_layout(self, layout, geo):
         """The layout that counts and lists every hit: what the accel
         module's ``for_counting(layout, geo)`` makes, if it has one (the

@@ -7,17 +7,22 @@ from raytrace.errors import RaytraceError
 from raytrace.scene.model import Scene
 
 
+def query_geometry(objects):
+    """flatten's (geometry, object ranges, _, (object, face) of each
+    primitive) of a RayScene's objects: no shading normals, as a ray query
+    reports the geometric normal."""
+    from raytrace.scene.flatten import flatten
+    return flatten(Scene(name="rays", camera=None, objects=objects), with_sources=True,
+                   shading=False)
+
+
 class _Prepared:
     """A built scene: kernel buffers, the structure, and the maps from the
     kernel's unified primitive ids back to the user's geometry and faces."""
 
     def __init__(self, objects, accel):
         from raytrace.accel.registry import build_structure
-        from raytrace.scene.flatten import flatten
-        scene = Scene(name="rays", camera=None, objects=objects)
-        # No shading normals: a ray query reports the geometric normal.
-        self.geo, self.obj_ranges, _, (self.prim_object, self.prim_face) = flatten(
-            scene, with_sources=True, shading=False)
+        self.geo, self.obj_ranges, _, (self.prim_object, self.prim_face) = query_geometry(objects)
         self.accel = accel
         self.acc, self.build_s = build_structure(accel, self.geo, self.obj_ranges)
         self.n_tris = self.geo.tri_v0.shape[0]

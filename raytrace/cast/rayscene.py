@@ -73,9 +73,19 @@ class RayScene:
         self._prepared = None
         return len(self._objects) - 1
 
-    def _built(self):
+    def _built(self, query=None, n_rays=0):
+        """The prepared scene, built at the first query after a change.
+        For a first closest or any-hit query (``query``, of ``n_rays``
+        rays), its kernel may compile in a second process meanwhile
+        (cast/ahead.py), and is adopted before the call."""
         if self._prepared is None:
+            ahead = None
+            if query is not None:
+                from raytrace.cast import ahead
+                ahead.start(self.accel, query, n_rays)
             self._prepared = _Prepared(self._objects, self.accel)
+            if ahead is not None:
+                ahead.wait()
         return self._prepared
 
     def cast_rays(self, origins, directions=None, t_min=0.0, t_max=np.inf):
@@ -87,7 +97,7 @@ class RayScene:
         them.  t_min, t_max: numbers or arrays over the rays, t_min < t_max
         (inf allowed); t_min < 0 counts hits at the origin (t = 0) too."""
         rays, shape, given = _rays(origins, directions, t_min, t_max)
-        p = self._built()
+        p = self._built("closest", len(rays[0]))
         (t, prim, u, v), cnt = _closest(p.geo, p.acc, *rays, check=self._check)
         return RayHits(t, prim, u, v, *given, p, _counters(cnt, len(t)), shape)
 
@@ -96,7 +106,7 @@ class RayScene:
         boolean array over the rays (rays as cast_rays takes them).  For a
         shadow ray, pass the unnormalised direction to the light and t_max = 1."""
         rays, shape, _ = _rays(origins, directions, t_min, t_max)
-        p = self._built()
+        p = self._built("occluded", len(rays[0]))
         return _shaped(_any_hit(p.geo, p.acc, *rays, check=self._check)[0], shape)
 
     def count_intersections(self, origins, directions=None, t_min=0.0, t_max=np.inf,

@@ -39,14 +39,20 @@ def cache_dir(numba_version):
     return Path(root) / f"numba-{digest.hexdigest()[:16]}"
 
 
-def render_kernel_cached():
-    """Whether any version of the render kernels (the shading stages, or
-    the mirror-and-glass kernel) is in the cache: if not, this is a first
-    run and a compile is certain."""
+def kernel_cached(*index_globs):
+    """Whether any version of a kernel is in the cache: an index file
+    matching one of ``index_globs`` (file names, as Numba names a
+    function's index).  If not, this is a first run and a compile is
+    certain."""
     from importlib.metadata import PackageNotFoundError, version
     try:
         where = cache_dir(version("numba"))
     except (PackageNotFoundError, OSError):
         return True                  # unknown: leave it to Numba's compile event
-    return any(where.glob("*/wavefront.run_stage-*.nbi")) or any(
-        where.glob("*/bounces.run_bounce_stage-*.nbi"))
+    return any(any(where.glob(f"*/{name}")) for name in index_globs)
+
+
+def render_kernel_cached():
+    """Whether any version of the render kernels (the shading stages, or
+    the mirror-and-glass kernel) is in the cache."""
+    return kernel_cached("wavefront.run_stage-*.nbi", "bounces.run_bounce_stage-*.nbi")

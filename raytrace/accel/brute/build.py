@@ -8,5 +8,10 @@ def build(geo, obj_ranges, **_):
     return Brute()
 
 
+def empty():
+    """A layout of no primitives, of the built ones' types (cast/precompile.py)."""
+    return Brute()
+
+
 def statistics(brute, n_prims):
     return {"memory_bytes": 0, "bytes_per_primitive": 0.0}

@@ -18,6 +18,7 @@ from raytrace.accel.bvh.layout import (
     MAX_LEAF,
     PARALLEL_MIN,
     TRAVERSAL_COST,
+    WIDTH,
 )
 from raytrace.accel.bvh.sah import build_bvh, build_bvh_parallel
 from raytrace.accel.bvh.stats import outline, statistics  # noqa: F401  (the registry's)
@@ -71,6 +72,13 @@ def build(geo, obj_ranges, bvh_build="sah", leaf_size=MAX_LEAF, traversal_cost=T
                                                       links)
     return BVH(node_box=node_box, node_child=node_child, node_count=node_count4, prim_ids=prim_ids,
                box_bound=box_bound(node_box))
+
+
+def empty():
+    """A layout of no primitives, of the built ones' types (cast/precompile.py)."""
+    return BVH(node_box=np.zeros((0, 6, WIDTH), BOX), node_child=np.zeros((0, WIDTH), np.int64),
+               node_count=np.zeros((0, WIDTH), np.int64), prim_ids=np.zeros(0, np.int64),
+               box_bound=0.0)
 
 
 def for_counting(bvh, geo):

@@ -34,6 +34,13 @@ def build(geo, obj_ranges, **_):
                            obj_start=starts, obj_count=counts)
 
 
+def empty():
+    """A layout of no primitives, of the built ones' types (cast/precompile.py)."""
+    z = np.zeros(0, np.int64)
+    return BoundingVolumes(obj_lo=np.zeros((0, 3)), obj_hi=np.zeros((0, 3)), obj_start=z,
+                           obj_count=z)
+
+
 def statistics(bvol, n_prims):
     from raytrace.accel.statistics import memory
     return {"boxes": int(len(bvol.obj_lo))} | memory(bvol, n_prims)

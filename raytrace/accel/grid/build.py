@@ -144,6 +144,12 @@ def build(geo, obj_ranges, grid_density=GRID_DENSITY, **_):
     return Grid(*build_grid(*prim_bounds(geo), density=grid_density))
 
 
+def empty():
+    """A layout of no primitives, of the built ones' types (cast/precompile.py)."""
+    z = np.zeros(3)
+    return Grid(z, z, z, np.ones(3, np.int64), np.zeros(2, np.int64), np.zeros(0, np.int64))
+
+
 def statistics(grid, n_prims):
     """Resolution, cells, empty cells, references and memory of a grid."""
     from raytrace.accel.statistics import memory

@@ -329,6 +329,11 @@ def build(geo, obj_ranges, **_):
     return build_kdtree(*prim_bounds(geo), triangles=(geo.tri_v0, geo.tri_v1, geo.tri_v2))
 
 
+def empty():
+    """A layout of no primitives, of the built ones' types (cast/precompile.py)."""
+    return build_kdtree(np.zeros((0, 3)), np.zeros((0, 3)))
+
+
 def statistics(tree, n_prims):
     """Nodes, leaves, depths, leaf sizes, references (a primitive is listed
     in every leaf it touches: the duplication factor) and memory."""

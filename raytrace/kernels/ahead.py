@@ -1,0 +1,101 @@
+"""Kernels compiled in a second process while this one does other work
+(loads a scene, compiles a structure's builder and builds): on two or more
+cores the two compiles overlap, and the caller waits for the longer of
+them instead of their sum.  Numba compiles one function at a time in a
+process, so a second process is the only way to use a second core.
+
+``launch(key, module, args)`` runs ``python -m module args`` with a kernel
+cache of its own (two processes adding entries to one Numba index at once
+can leave it naming another entry's file); ``wait(key)`` waits for it and
+copies what it compiled (each index after its data) into this process's
+cache, from where the kernels then load.  Whatever becomes of the second
+process, the caller goes on: without its entries, it compiles them itself.
+Only where it can pay: more than one core, a kernel cache to share, and
+``RAYTRACE_COMPILE_AHEAD`` not ``0``.  Once per key a process.  Users:
+renderer/ahead.py (a first render's shading stages) and cast/ahead.py (a
+first ray query's kernel).
+"""
+import atexit
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+# key -> {"process": Popen, or False once it is done, "cache": its directory}
+_runs = {}
+
+
+def worthwhile(key):
+    """Whether a second process for ``key`` can pay here and has not been
+    started in this process."""
+    if key in _runs or (os.cpu_count() or 1) < 2 or os.environ.get("RAYTRACE_COMPILE_AHEAD",
+                                                                     "") == "0":
+        return False
+    from raytrace.kernels.jitconfig import CACHING
+    return CACHING
+
+
+def launch(key, module, args):
+    """Start ``python -m module *args`` compiling into a cache of its own
+    (the caller checked ``worthwhile``)."""
+    try:
+        cache = tempfile.mkdtemp(prefix="raytrace-ahead-")
+        env = dict(os.environ, RAYTRACE_QUIET="1", NUMBA_CACHE_DIR=cache)
+        process = subprocess.Popen([sys.executable, "-m", module, *map(str, args)],
+                                   stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                   stderr=subprocess.DEVNULL, env=env)
+    except OSError:
+        return
+    _runs[key] = {"process": process, "cache": cache}
+    atexit.register(_stop, key)
+
+
+def wait(key):
+    """Wait for ``key``'s second process, if one was started (once), and
+    adopt what it compiled."""
+    run = _runs.get(key)
+    if not run or not run["process"]:
+        return
+    try:
+        if run["process"].wait() == 0:
+            _adopt(Path(run["cache"]))
+    except OSError:
+        pass                             # not adopted: the caller compiles them
+    finally:
+        _stop(key)
+
+
+def _adopt(cache):
+    """Copy the second process's cache entries into this process's cache,
+    each entry (a function's index and data files) whose index is not there
+    yet: the kernel, and the functions it calls, which the next kernel of
+    another kind links in instead of compiling.  Data files first, then
+    the index naming them, each by an atomic rename.  This process compiles
+    nothing meanwhile, and an entry it has is left as it is."""
+    import numba
+    ours = Path(numba.config.CACHE_DIR)
+    theirs = cache / ours.name
+    for index in theirs.glob("*/*.nbi"):
+        target = ours / index.parent.relative_to(theirs)
+        if (target / index.name).exists():
+            continue
+        target.mkdir(parents=True, exist_ok=True)
+        stem = index.name[:-len(".nbi")]
+        for path in [*index.parent.glob(f"{stem}.*.nbc"), index]:
+            tmp = target / f".{path.name}.tmp"
+            shutil.copyfile(path, tmp)
+            os.replace(tmp, target / path.name)
+
+
+def _stop(key):
+    run = _runs.get(key)
+    if not run or not run["process"]:
+        return
+    process = run["process"]
+    if process.poll() is None:
+        process.kill()
+        process.wait()
+    run["process"] = False               # started once: never again in this process
+    shutil.rmtree(run["cache"], ignore_errors=True)
