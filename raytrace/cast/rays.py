@@ -14,7 +14,7 @@ def _as_rows(name, a):
     """(n, 3) float64 array, or (3,) as one row; values are checked later."""
     try:
         raw = np.asarray(a)
-        if np.iscomplexobj(raw):
+        if raw.dtype.kind == "c":
             raise RaytraceError(f"{name}: complex numbers are not coordinates")
         arr = raw.astype(np.float64, copy=False)
     except (TypeError, ValueError) as exc:   # ragged rows, text
@@ -34,7 +34,9 @@ def _ray_rows(name, a, width=3):
         arr = np.asarray(a)
     except (TypeError, ValueError) as exc:   # ragged rows
         raise RaytraceError(f"{name}: not convertible to float64 ({exc})") from None
-    if np.iscomplexobj(arr):
+    # dtype.kind, not np.iscomplexobj: 2 us a call, a sizeable share of a
+    # call of one ray.
+    if arr.dtype.kind == "c":
         raise RaytraceError(f"{name}: complex numbers are not coordinates")
     if arr.dtype.kind in "mM":
         raise RaytraceError(f"{name}: dates and times are not coordinates (dtype {arr.dtype})")
@@ -59,6 +61,8 @@ def _shaped(a, shape):
 def _interval_end(name, value, n, shape=None):
     """An (n,) float64 array from a number or an array over the rays: (n,)
     or the rays' leading shape."""
+    if type(value) is float or type(value) is int:     # the common case, at once
+        return _filled(n, FROM_ORIGIN if name == "t_min" and value < 0 else float(value))
     if np.iscomplexobj(value):
         raise RaytraceError(f"{name}: complex numbers are not distances")
     try:
@@ -163,7 +167,8 @@ def _check_rays(cnt, rays):
     if the kernel found any (kernels/cast.py checks each ray as it reads
     it, instead of a pass of its own before the call)."""
     from raytrace.kernels.counters import BAD_RAYS
-    if cnt[..., BAD_RAYS].any():
+    # count_nonzero, not any(): 2 us less, a share of a call of one ray.
+    if np.count_nonzero(cnt[..., BAD_RAYS]):
         _name_the_problem(*rays)
 
 

@@ -136,6 +136,9 @@ _occluded_single = _occluded_kernel(False)
 def _run_blocks(block, args, cnt_rows, clock):
     """run_rows for the closest and any-hit blocks: a thread's rays all
     count into its row of cnt_rows (no per-ray rows)."""
+    if cnt_rows.shape[0] == 1:      # one thread's: called at once, as a call of a ray is
+        block(*args, cnt_rows, _ONE_ROW, clock)
+        return
     run_on_threads([functools.partial(block, *args, cnt_rows[b:b + 1], _ONE_ROW, clock)
                     for b in range(cnt_rows.shape[0])])
 
