@@ -125,3 +125,23 @@ def test_a_first_query_starts_one_second_process_for_its_kernel(monkeypatch):
     query_ahead.start("grid", "closest", 1)     # once a process
     assert len(started) == 1
     core._stop("query")
+
+
+def test_a_cached_query_kernel_is_found_by_its_index_name():
+    """cast/ahead.py tells a first run by a glob of the kernels' index
+    files: once a query has run, the glob finds them (a wrong name would
+    start a second process on every first query of a process, which then
+    compiled from nothing what this process loads in a second)."""
+    import numpy as np
+
+    from raytrace.cast import ahead as query_ahead
+    from raytrace.cast.rayscene import RayScene
+    from raytrace.kernels.cachedir import kernel_cached
+    from raytrace.kernels.jitconfig import CACHING
+    assert CACHING
+    scene = RayScene((np.eye(3), np.array([[0, 1, 2]])), accel="none")
+    scene.cast_rays([0.0, 0, 0], [1.0, 1, 1])
+    scene.occluded([0.0, 0, 0], [1.0, 1, 1])
+    assert kernel_cached(query_ahead._INDEX["closest"])
+    assert kernel_cached(query_ahead._INDEX["occluded"])
+    assert not kernel_cached("cast._no_such_kernel-*.nbi")

@@ -12,9 +12,10 @@ kernels/cast.py) and nothing else.
 from raytrace.kernels import ahead
 
 _KEY = "query"
-# The kernels' cache index names (kernels/cast.py's two block factories).
-_INDEX = {"closest": "cast._closest_kernel.<locals>.block-*.nbi",
-          "occluded": "cast._occluded_kernel.<locals>.block-*.nbi"}
+# The kernels' cache index names (kernels/cast.py's two block factories;
+# Numba drops a qualified name's "<" and ">").
+_INDEX = {"closest": "cast._closest_kernel.locals.block-*.nbi",
+          "occluded": "cast._occluded_kernel.locals.block-*.nbi"}
 
 
 def start(accel, query, n_rays):
