@@ -34,3 +34,8 @@ def wait():
     """Wait for the second process, if one was started, and adopt what it
     compiled."""
     ahead.wait(_KEY)
+
+
+def cancel():
+    """Stop the second process, if one runs (the build failed)."""
+    ahead.cancel(_KEY)

@@ -14,13 +14,12 @@ def main(accel, query, packets):
     from raytrace.accel.registry import get
     from raytrace.cast.prepared import query_geometry
     from raytrace.kernels import cast
-    from raytrace.kernels.counters import N_COUNTERS
     from raytrace.scene.model import Mesh
     mesh = Mesh(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]), np.array([[0, 1, 2]]))
     geo = query_geometry([mesh])[0]
     acc = get(accel).empty_layout()
     rows, ends = np.zeros((0, 3)), np.zeros(0)
-    cnt, clock = np.zeros((1, N_COUNTERS + 1), np.int64), np.zeros(1, np.int64)
+    cnt, clock = np.zeros((1, cast.COLUMNS), np.int64), np.zeros(1, np.int64)
     if query == "closest":
         block = cast._closest_block if packets else cast._closest_single
         out = (np.zeros(0), np.zeros(0, np.int64), np.zeros(0), np.zeros(0))

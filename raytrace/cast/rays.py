@@ -167,8 +167,10 @@ def _check_rays(cnt, rays):
     if the kernel found any (kernels/cast.py checks each ray as it reads
     it, instead of a pass of its own before the call)."""
     from raytrace.kernels.counters import BAD_RAYS
-    # count_nonzero, not any(): 2 us less, a share of a call of one ray.
-    if np.count_nonzero(cnt[..., BAD_RAYS]):
+    # One counter row read as a number: any() costs 2-3 us, a share of a
+    # call of one ray.
+    one_row = cnt.ndim == 2 and cnt.shape[0] == 1
+    if cnt[0, BAD_RAYS] if one_row else np.count_nonzero(cnt[..., BAD_RAYS]):
         _name_the_problem(*rays)
 
 
@@ -304,7 +306,7 @@ def _any_hit(geo, acc, origins, dirs, t_min, t_max, check=True):
     cast_occluded(geo, acc, origins, dirs, t_min, t_max, hit, cnt, _clock())
     if check:
         _check_rays(cnt, (origins, dirs, t_min, t_max))
-    return hit, cnt.sum(axis=0)
+    return hit, (cnt[0] if len(cnt) == 1 else cnt.sum(axis=0))
 
 
 def _counters(cnt, n):

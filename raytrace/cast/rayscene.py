@@ -83,7 +83,12 @@ class RayScene:
             if query is not None:
                 from raytrace.cast import ahead
                 ahead.start(self.accel, query, n_rays)
-            self._prepared = _Prepared(self._objects, self.accel)
+            try:
+                self._prepared = _Prepared(self._objects, self.accel)
+            except BaseException:
+                if ahead is not None:
+                    ahead.cancel()
+                raise
             if ahead is not None:
                 ahead.wait()
         return self._prepared

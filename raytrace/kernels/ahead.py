@@ -40,6 +40,7 @@ def worthwhile(key):
 def launch(key, module, args):
     """Start ``python -m module *args`` compiling into a cache of its own
     (the caller checked ``worthwhile``)."""
+    cache = None
     try:
         cache = tempfile.mkdtemp(prefix="raytrace-ahead-")
         env = dict(os.environ, RAYTRACE_QUIET="1", NUMBA_CACHE_DIR=cache)
@@ -47,6 +48,8 @@ def launch(key, module, args):
                                    stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                    stderr=subprocess.DEVNULL, env=env)
     except OSError:
+        if cache:
+            shutil.rmtree(cache, ignore_errors=True)
         return
     _runs[key] = {"process": process, "cache": cache}
     atexit.register(_stop, key)
@@ -87,6 +90,12 @@ def _adopt(cache):
             tmp = target / f".{path.name}.tmp"
             shutil.copyfile(path, tmp)
             os.replace(tmp, target / path.name)
+
+
+def cancel(key):
+    """Stop ``key``'s second process, if it runs, adopting nothing (the
+    caller failed before it needed the kernels)."""
+    _stop(key)
 
 
 def _stop(key):
