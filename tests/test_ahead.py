@@ -2,6 +2,7 @@
 render's shading stages (renderer/ahead.py) and a first ray query's kernel
 (cast/ahead.py) start one, and how its entries join the cache."""
 import numba
+import pytest
 
 from raytrace.kernels import ahead as core
 from raytrace.renderer import ahead
@@ -50,12 +51,19 @@ class _Finished:
         return 0
 
 
-def test_no_second_process_when_switched_off_or_the_stages_are_cached(monkeypatch):
-    started = []
+@pytest.fixture
+def started(monkeypatch):
+    """The command lines of the second processes launched (none runs), in
+    a process that has started none yet."""
+    commands = []
     monkeypatch.setattr(core.subprocess, "Popen",
-                        lambda *a, **k: started.append(a[0]) or _Finished())
+                        lambda *a, **k: commands.append(a[0]) or _Finished())
     monkeypatch.setattr(core.atexit, "register", lambda *a: None)
     monkeypatch.setattr(core, "_runs", {})
+    return commands
+
+
+def test_no_second_process_when_switched_off_or_the_stages_are_cached(monkeypatch, started):
     monkeypatch.setenv("RAYTRACE_COMPILE_AHEAD", "0")
     ahead.start(None)
     monkeypatch.delenv("RAYTRACE_COMPILE_AHEAD")
@@ -72,7 +80,7 @@ def test_no_second_process_when_switched_off_or_the_stages_are_cached(monkeypatc
     assert len(started) == 1 and started[0][-3:] == ["raytrace.renderer.precompile", "0", "0"]
     ahead.start(None)                   # once a process
     assert len(started) == 1
-    core._stop("render")
+    core.stop("render")
 
 
 def test_each_structures_empty_layout_has_a_built_layouts_types():
@@ -107,13 +115,8 @@ def test_the_second_process_compiles_the_kernel_the_first_query_runs():
     assert list(cast._closest_single.signatures) == before
 
 
-def test_a_first_query_starts_one_second_process_for_its_kernel(monkeypatch):
+def test_a_first_query_starts_one_second_process_for_its_kernel(monkeypatch, started):
     from raytrace.cast import ahead as query_ahead
-    started = []
-    monkeypatch.setattr(core.subprocess, "Popen",
-                        lambda *a, **k: started.append(a[0]) or _Finished())
-    monkeypatch.setattr(core.atexit, "register", lambda *a: None)
-    monkeypatch.setattr(core, "_runs", {})
     monkeypatch.setattr(core.os, "cpu_count", lambda: 2)
     monkeypatch.setattr("raytrace.kernels.cachedir.kernel_cached", lambda *names: True)
     query_ahead.start("grid", "closest", 1)
@@ -124,7 +127,7 @@ def test_a_first_query_starts_one_second_process_for_its_kernel(monkeypatch):
                                                      "occluded", "1"]
     query_ahead.start("grid", "closest", 1)     # once a process
     assert len(started) == 1
-    core._stop("query")
+    core.stop("query")
 
 
 def test_a_cached_query_kernel_is_found_by_its_index_name():

@@ -38,4 +38,4 @@ def wait():
 
 def cancel():
     """Stop the second process, if one runs (the build failed)."""
-    ahead.cancel(_KEY)
+    ahead.stop(_KEY)

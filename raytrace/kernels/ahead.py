@@ -52,7 +52,7 @@ def launch(key, module, args):
             shutil.rmtree(cache, ignore_errors=True)
         return
     _runs[key] = {"process": process, "cache": cache}
-    atexit.register(_stop, key)
+    atexit.register(stop, key)
 
 
 def wait(key):
@@ -67,7 +67,7 @@ def wait(key):
     except OSError:
         pass                             # not adopted: the caller compiles them
     finally:
-        _stop(key)
+        stop(key)
 
 
 def _adopt(cache):
@@ -92,13 +92,10 @@ def _adopt(cache):
             os.replace(tmp, target / path.name)
 
 
-def cancel(key):
-    """Stop ``key``'s second process, if it runs, adopting nothing (the
-    caller failed before it needed the kernels)."""
-    _stop(key)
-
-
-def _stop(key):
+def stop(key):
+    """Stop ``key``'s second process, if it runs, and remove its cache:
+    once it is adopted, or when the caller no longer needs it (a failed
+    build, the process's exit)."""
     run = _runs.get(key)
     if not run or not run["process"]:
         return
