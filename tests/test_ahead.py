@@ -35,7 +35,11 @@ def test_what_the_second_process_compiled_is_adopted_data_first_where_missing(tm
     monkeypatch.setattr(core.os, "replace",
                         lambda a, b: (copied.append(b.name), real_replace(a, b)))
     core._adopt(theirs)
-    got = {p.relative_to(ours).as_posix(): p.read_text() for p in ours.rglob("*") if p.is_file()}
+    got = {p.relative_to(ours).as_posix(): p.read_text() for p in ours.rglob("*")
+           if p.is_file() and p.suffix != ".lock"}          # each copy is made under a lock
+    assert {p.name for p in ours.rglob("*.lock")} == {
+        f"{stem}.nbi.lock" for stem in ("wavefront.run_stage-347.py311", "shade.surface-28.py311",
+                                        "ray.make_ray-40.py311")}
     assert got == {"kernels_x/wavefront.run_stage-347.py311.nbi": "index",
                    "kernels_x/wavefront.run_stage-347.py311.1.nbc": "code",
                    "kernels_x/shade.surface-28.py311.nbi": "surface index",

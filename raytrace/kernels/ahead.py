@@ -78,18 +78,23 @@ def _adopt(cache):
     the index naming them, each by an atomic rename.  This process compiles
     nothing meanwhile, and an entry it has is left as it is."""
     import numba
+
+    from raytrace.kernels.kernel_cache import index_lock
     ours = Path(numba.config.CACHE_DIR)
     theirs = cache / ours.name
     for index in theirs.glob("*/*.nbi"):
         target = ours / index.parent.relative_to(theirs)
-        if (target / index.name).exists():
-            continue
         target.mkdir(parents=True, exist_ok=True)
-        stem = index.name[:-len(".nbi")]
-        for path in [*index.parent.glob(f"{stem}.*.nbc"), index]:
-            tmp = target / f".{path.name}.tmp"
-            shutil.copyfile(path, tmp)
-            os.replace(tmp, target / path.name)
+        # Under the lock other processes save entries under: one saving this
+        # function meanwhile would otherwise lose its entry to the copy.
+        with index_lock(target / index.name):
+            if (target / index.name).exists():
+                continue
+            stem = index.name[:-len(".nbi")]
+            for path in [*index.parent.glob(f"{stem}.*.nbc"), index]:
+                tmp = target / f".{path.name}.tmp"
+                shutil.copyfile(path, tmp)
+                os.replace(tmp, target / path.name)
 
 
 def stop(key):

@@ -3,19 +3,38 @@ truncated or garbage index fails to unpickle (a traceback), a directory in
 a file's place raises IsADirectoryError, and data files swapped between
 entries load one function's machine code as another's (a segfault).
 
-Here each data file starts with a SHA-256 of its own name and contents, so
-a damaged, truncated or swapped file is found before anything is loaded
-from it; a damaged entry (index or data) is removed and compiled again,
-with one warning line per process.  Only raytrace's own cache directory
-(jitconfig) is treated so; other Numba users' caches are left as Numba
-has them.
+Here each data file starts with a SHA-256 of its own name, the entry's key
+and its contents, so a damaged, truncated or swapped file, or one written
+for another entry, is found before anything is loaded from it; a damaged
+entry (index or data) is removed and compiled again, with one warning line
+per process.
+
+Processes sharing the cache (the suite's workers, Dask workers, a second
+process compiling ahead) save entries under a lock.  Numba reads a
+function's index, adds its entry and writes the index back, unlocked: two
+processes saving two entries of one function at once (every structure's
+closest-hit kernel is one function) kept only the last one, and could give
+both entries the same data file name, so that one key's index entry named
+the other's machine code (a known Numba race: numba/numba#10128).  Here the
+index is read and written, and the data written before the entry that
+names it, inside an exclusive lock on a file beside the index.
+
+Only raytrace's own cache directory (jitconfig) is treated so; other Numba
+users' caches are left as Numba has them.
 """
+import contextlib
 import hashlib
+import itertools
 import os
 import shutil
 import warnings
 
 from numba.core import caching
+
+try:
+    import fcntl
+except ImportError:        # not POSIX: entries are saved unlocked, as Numba saves them
+    fcntl = None
 
 
 class KernelCacheWarning(UserWarning):
@@ -26,7 +45,7 @@ class KernelCacheWarning(UserWarning):
 def warn(message):
     warnings.warn(message, KernelCacheWarning, stacklevel=3)
 
-MAGIC = b"raytrace-kernel-cache-1\n"
+MAGIC = b"raytrace-kernel-cache-2\n"
 _DIGEST = hashlib.sha256().digest_size
 _warned = set()
 
@@ -84,30 +103,42 @@ class CheckedCacheFile(caching.IndexDataCacheFile):
         if name is None:
             return None
         try:
-            return self._load_data(name)
+            return self._load_entry(name, key)
         except FileNotFoundError:
             return None
         except Exception as exc:
             self._damaged(self._data_path(name), exc)
             return None
 
-    def _load_data(self, name):
+    def _load_entry(self, name, key):
         with open(self._data_path(name), "rb") as f:
             data = f.read()
         head, digest, payload = data[:len(MAGIC)], data[len(MAGIC):len(MAGIC) + _DIGEST], \
             data[len(MAGIC) + _DIGEST:]
-        if head != MAGIC or digest != _digest(name, payload):
+        if head != MAGIC or digest != _digest(name, key, payload):
             raise _Damaged("contents do not match their checksum")
         return caching.pickle.loads(payload)
 
-    def _save_data(self, name, data):
+    def _save_entry(self, key, data):
+        """Numba's save, locked, the data file written before the index
+        entry that names it (so a reader never finds an entry without its
+        data)."""
         payload = self._dump(data)
-        with self._open_for_write(self._data_path(name)) as f:
-            f.write(MAGIC + _digest(name, payload) + payload)
+        with index_lock(self._index_path):
+            overloads = self._load_index()
+            name = overloads.get(key)
+            if name is None:
+                taken = set(overloads.values())
+                name = next(n for n in map(self._data_name, itertools.count(1)) if n not in taken)
+            with self._open_for_write(self._data_path(name)) as f:
+                f.write(MAGIC + _digest(name, key, payload) + payload)
+            if overloads.get(key) != name:
+                overloads[key] = name
+                self._save_index(overloads)
 
     def save(self, key, data):
         try:
-            super().save(key, data)
+            self._save_entry(key, data)
         except IsADirectoryError as exc:     # a directory where a file goes: make room, once more
             self._damaged(exc.filename2 or exc.filename, exc)
             self._try_save(key, data)
@@ -117,14 +148,34 @@ class CheckedCacheFile(caching.IndexDataCacheFile):
 
     def _try_save(self, key, data):
         try:
-            super().save(key, data)
+            self._save_entry(key, data)
         except OSError as exc:
             _warn_once("write", f"kernel cache {self._cache_path}: cannot write "
                                 f"({_reason(exc)}); this run's kernels are not cached")
 
 
-def _digest(name, payload):
-    return hashlib.sha256(name.encode() + b"\0" + payload).digest()
+@contextlib.contextmanager
+def index_lock(index_path):
+    """An exclusive lock on a function's entries (a file beside its index)
+    while the block runs: held for the milliseconds of a save; the system
+    drops it if the process dies."""
+    if fcntl is None:
+        yield
+        return
+    with open(f"{index_path}.lock", "a") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
+
+
+def _digest(name, key, payload):
+    """The data file's checksum: its name, its entry's key (the signature,
+    target and code hashes, whose repr is the same in every process) and
+    its contents."""
+    return hashlib.sha256(name.encode() + b"\0" + repr(key).encode() + b"\0"
+                          + payload).digest()
 
 
 def install(cache_dir):

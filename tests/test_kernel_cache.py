@@ -1,0 +1,55 @@
+"""The kernel cache shared by processes (raytrace/kernels/kernel_cache.py):
+entries saved at the same moment by several processes are all kept, each
+under a data file of its own, and an entry's data loads only for its key."""
+import multiprocessing
+
+import pytest
+
+from raytrace.kernels import kernel_cache
+
+PROCESSES, ENTRIES = 4, 40
+
+
+def _cache_file(path):
+    return kernel_cache.CheckedCacheFile(str(path), "kernel-7.py311", "stamp")
+
+
+def _save_many(path, writer, start):
+    cache = _cache_file(path)
+    start.wait()
+    for i in range(ENTRIES):
+        cache.save(("sig", writer, i), f"machine code {writer} {i}")
+
+
+@pytest.mark.skipif(kernel_cache.fcntl is None, reason="saves are locked on POSIX only")
+def test_entries_saved_at_once_by_several_processes_are_all_kept(tmp_path):
+    # Each process adds its own keys to one function's index, as the
+    # suite's workers or Dask workers compiling different structures do.
+    ctx = multiprocessing.get_context("fork")
+    start = ctx.Event()
+    workers = [ctx.Process(target=_save_many, args=(tmp_path, w, start)) for w in range(PROCESSES)]
+    for w in workers:
+        w.start()
+    start.set()
+    for w in workers:
+        w.join(60)
+        assert w.exitcode == 0
+    cache = _cache_file(tmp_path)
+    index = cache._load_index()
+    assert len(index) == PROCESSES * ENTRIES
+    assert len(set(index.values())) == PROCESSES * ENTRIES        # a data file each
+    for w in range(PROCESSES):
+        for i in range(ENTRIES):
+            assert cache.load(("sig", w, i)) == f"machine code {w} {i}"
+
+
+def test_an_entrys_data_does_not_load_for_another_key(tmp_path, recwarn):
+    cache = _cache_file(tmp_path)
+    cache.save(("sig", "a"), "code of a")
+    cache.save(("sig", "b"), "code of b")
+    index = cache._load_index()
+    # The index names a's data file for b, as the unlocked race could leave it.
+    index[("sig", "b")] = index[("sig", "a")]
+    cache._save_index(index)
+    assert cache.load(("sig", "b")) is None                 # compiled again, not a's code run
+    assert any("damaged" in str(w.message) for w in recwarn)
