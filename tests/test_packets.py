@@ -223,3 +223,22 @@ def test_small_calls_go_one_by_one_with_the_same_answers(scenes):
         [bvh.occluded(o[s:s + step], d[s:s + step], t_max=6.0) for s in range(0, len(o), step)]))
     # The small calls compiled the one-by-one kernels, the big ones the packet kernels.
     assert cast._closest_single.signatures and cast._closest_block.signatures
+
+
+@pytest.mark.parametrize("accel", ["none", "grid"])
+def test_a_structure_without_packets_runs_its_one_ray_kernels_for_big_calls(accel):
+    """Only the BVH has packet traversals: a big call on another structure
+    runs (and compiles) the one-ray kernels a small call runs, not a
+    packet kernel that would trace every ray alone too."""
+    from raytrace.kernels import cast
+    scene = RayScene(_teapot_scene(), accel=accel)
+    rays = create_rays_pinhole(50, [0, 0.7, 0], [0.3, 2.2, 5.5], [0, 1, 0], 32, 24).reshape(-1, 6)
+    o, d = rays[:, :3], rays[:, 3:]
+    assert len(o) >= cast.PACKET_MIN
+    hits, blocked = scene.cast_rays(o, d), scene.occluded(o, d, t_max=6.0)
+    assert hits.hit.any() and blocked.any()
+    layout = type(scene._built().acc).__name__
+    for kernel in (cast._closest_single, cast._occluded_single):
+        assert any(f"{layout}(" in str(s) for s in kernel.signatures), kernel
+    for kernel in (cast._closest_block, cast._occluded_block):
+        assert not any(f"{layout}(" in str(s) for s in kernel.signatures), kernel

@@ -20,11 +20,12 @@ def main(accel, query, packets):
     acc = get(accel).empty_layout()
     rows, ends = np.zeros((0, 3)), np.zeros(0)
     cnt, clock = np.zeros((1, cast.COLUMNS), np.int64), np.zeros(1, np.int64)
+    n_rays = cast.PACKET_MIN if packets else 1        # the call's size picks its kernel
     if query == "closest":
-        block = cast._closest_block if packets else cast._closest_single
+        block = cast.closest_block(acc, n_rays)
         out = (np.zeros(0), np.zeros(0, np.int64), np.zeros(0), np.zeros(0))
     else:
-        block = cast._occluded_block if packets else cast._occluded_single
+        block = cast.occluded_block(acc, n_rays)
         out = np.zeros(0, np.bool_)
     block(geo, acc, rows, rows, ends, ends, out, cnt, np.empty(0, np.int64), clock)
 

@@ -45,6 +45,7 @@ from raytrace.kernels.query import (
     closest_hit,
     closest_packet,
     count_rays,
+    has_packets,
     list_hits,
     occluded,
     occluded_packet,
@@ -133,6 +134,19 @@ _closest_single = _closest_kernel(False)
 _occluded_single = _occluded_kernel(False)
 
 
+def closest_block(acc, n_rays):
+    """The closest-hit kernel a call of ``n_rays`` rays on layout ``acc``
+    runs: the packet kernel for PACKET_MIN rays or more on a structure
+    with packet traversals.  Any other structure's packet kernel would be
+    the one-ray kernel again, a second compile of it."""
+    return _closest_block if n_rays >= PACKET_MIN and has_packets(acc) else _closest_single
+
+
+def occluded_block(acc, n_rays):
+    """closest_block's choice for the any-hit kernel."""
+    return _occluded_block if n_rays >= PACKET_MIN and has_packets(acc) else _occluded_single
+
+
 def _run_blocks(block, args, cnt_rows, clock):
     """run_rows for the closest and any-hit blocks: a thread's rays all
     count into its row of cnt_rows (no per-ray rows)."""
@@ -149,15 +163,15 @@ _ONE_ROW = np.empty(0, np.int64)
 def cast_closest(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v,
                  cnt_rows, clock):
     """Closest hit of ray i = (origins[i], dirs[i]) with t_min[i] < t < t_max[i]."""
-    block = _closest_block if origins.shape[0] >= PACKET_MIN else _closest_single
-    _run_blocks(block, (geo, acc, origins, dirs, t_min, t_max, (out_t, out_prim, out_u, out_v)),
-                cnt_rows, clock)
+    outs = (out_t, out_prim, out_u, out_v)
+    _run_blocks(closest_block(acc, origins.shape[0]),
+                (geo, acc, origins, dirs, t_min, t_max, outs), cnt_rows, clock)
 
 
 def cast_occluded(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows, clock):
     """Whether anything is hit with t_min[i] < t < t_max[i] (stops at the first)."""
-    block = _occluded_block if origins.shape[0] >= PACKET_MIN else _occluded_single
-    _run_blocks(block, (geo, acc, origins, dirs, t_min, t_max, out_hit), cnt_rows, clock)
+    _run_blocks(occluded_block(acc, origins.shape[0]),
+                (geo, acc, origins, dirs, t_min, t_max, out_hit), cnt_rows, clock)
 
 
 # The renderer's calls (kernels/wavefront.py): one thread's rays, ray i

@@ -55,6 +55,13 @@ def register_packets(layout, closest, occluded):
     _PACKETS[layout] = (closest, occluded)
 
 
+def has_packets(layout):
+    """Whether a built layout (an instance of its structure's class) has
+    packet traversals: a call on any other compiles the one-ray kernel
+    only, since its packet kernel would trace every ray alone anyway."""
+    return type(layout) in _PACKETS
+
+
 def _traversal(acc, mode):
     """The traversal registered for acc's layout in ``mode`` (MODES order)."""
     # A layout's class is defined in its structure's package, whose import
