@@ -218,7 +218,10 @@ def _packets(acc, origins, dirs):
     return _PACKETS.get(acc.instance_class)
 
 
-@overload(closest_packet, jit_options=OVERLOAD)
+# The packet overloads, and accel/bvh/packet.py's two entries, are inlined
+# by Numba: a level compiled on its own optimises and emits again all the
+# packet code it links in (about a second of a cold packet kernel each).
+@overload(closest_packet, jit_options=OVERLOAD, inline="always")
 def _closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
     packets = _packets(acc, origins, dirs)
     if packets is None:
@@ -232,7 +235,7 @@ def _closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
     return impl
 
 
-@overload(occluded_packet, jit_options=OVERLOAD)
+@overload(occluded_packet, jit_options=OVERLOAD, inline="always")
 def _occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit, cnt):
     packets = _packets(acc, origins, dirs)
     if packets is None:

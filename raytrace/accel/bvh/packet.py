@@ -46,7 +46,7 @@ from raytrace.accel.bvh.traverse import (
     STACK_SIZE,
     tally,
 )
-from raytrace.kernels.jit import JIT
+from raytrace.kernels.jit import JIT, STAGE
 from raytrace.kernels.lowlevel import PACKET, frame_array, popcount
 from raytrace.kernels.prims import planes_closest, planes_occluded, test_prim
 from raytrace.kernels.query import ANY_HIT, CLOSEST, register_packets
@@ -315,7 +315,8 @@ _closest_query = _packet_query(CLOSEST)
 _occluded_query = _packet_query(ANY_HIT)
 
 
-@njit(**JIT)
+# Inlined by Numba into the kernels (kernels/query.py says why).
+@njit(**STAGE)
 def closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
     """Closest hits of rays i0 .. i0 + m - 1 as cast_closest writes them
     (outs: its t, prim, u and v arrays), if they go as a packet; returns
@@ -323,7 +324,7 @@ def closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
     return _closest_query(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt)
 
 
-@njit(**JIT)
+@njit(**STAGE)
 def occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit, cnt):
     """Whether rays i0 .. i0 + m - 1 are blocked, as cast_occluded writes
     it, if they go as a packet; returns whether they did."""
