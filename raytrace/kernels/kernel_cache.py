@@ -3,11 +3,11 @@ truncated or garbage index fails to unpickle (a traceback), a directory in
 a file's place raises IsADirectoryError, and data files swapped between
 entries load one function's machine code as another's (a segfault).
 
-Here each data file starts with a SHA-256 of its own name, the entry's key
-and its contents, so a damaged, truncated or swapped file, or one written
-for another entry, is found before anything is loaded from it; a damaged
-entry (index or data) is removed and compiled again, with one warning line
-per process.
+Here each data file starts with a SHA-256 of its own name and contents,
+and holds its entry's key, so a damaged, truncated or swapped file, or one
+written for another entry, is found before its machine code is loaded; a
+damaged entry (index or data) is removed and compiled again, with one
+warning line per process.
 
 Processes sharing the cache (the suite's workers, Dask workers, a second
 process compiling ahead) save entries under a lock.  Numba reads a
@@ -115,15 +115,18 @@ class CheckedCacheFile(caching.IndexDataCacheFile):
             data = f.read()
         head, digest, payload = data[:len(MAGIC)], data[len(MAGIC):len(MAGIC) + _DIGEST], \
             data[len(MAGIC) + _DIGEST:]
-        if head != MAGIC or digest != _digest(name, key, payload):
+        if head != MAGIC or digest != _digest(name, payload):
             raise _Damaged("contents do not match their checksum")
-        return caching.pickle.loads(payload)
+        saved_key, entry = caching.pickle.loads(payload)
+        if saved_key != key:          # compared as Numba compares index keys
+            raise _Damaged("it holds another entry")
+        return entry
 
     def _save_entry(self, key, data):
         """Numba's save, locked, the data file written before the index
         entry that names it (so a reader never finds an entry without its
         data)."""
-        payload = self._dump(data)
+        payload = self._dump((key, data))
         with index_lock(self._index_path):
             overloads = self._load_index()
             name = overloads.get(key)
@@ -131,7 +134,7 @@ class CheckedCacheFile(caching.IndexDataCacheFile):
                 taken = set(overloads.values())
                 name = next(n for n in map(self._data_name, itertools.count(1)) if n not in taken)
             with self._open_for_write(self._data_path(name)) as f:
-                f.write(MAGIC + _digest(name, key, payload) + payload)
+                f.write(MAGIC + _digest(name, payload) + payload)
             if overloads.get(key) != name:
                 overloads[key] = name
                 self._save_index(overloads)
@@ -170,12 +173,8 @@ def index_lock(index_path):
             fcntl.flock(f, fcntl.LOCK_UN)
 
 
-def _digest(name, key, payload):
-    """The data file's checksum: its name, its entry's key (the signature,
-    target and code hashes, whose repr is the same in every process) and
-    its contents."""
-    return hashlib.sha256(name.encode() + b"\0" + repr(key).encode() + b"\0"
-                          + payload).digest()
+def _digest(name, payload):
+    return hashlib.sha256(name.encode() + b"\0" + payload).digest()
 
 
 def install(cache_dir):
