@@ -53,3 +53,16 @@ def test_an_entrys_data_does_not_load_for_another_key(tmp_path, recwarn):
     cache._save_index(index)
     assert cache.load(("sig", "b")) is None                 # compiled again, not a's code run
     assert any("damaged" in str(w.message) for w in recwarn)
+
+
+def test_a_file_system_without_locks_still_caches(tmp_path, monkeypatch, recwarn):
+    import errno
+
+    def no_locks(f, operation):
+        raise OSError(errno.ENOLCK, "No locks available")
+    if kernel_cache.fcntl is not None:
+        monkeypatch.setattr(kernel_cache.fcntl, "flock", no_locks)
+    cache = _cache_file(tmp_path)
+    cache.save(("sig", "a"), "code of a")
+    assert cache.load(("sig", "a")) == "code of a"
+    assert not recwarn.list

@@ -166,7 +166,11 @@ def index_lock(index_path):
         yield
         return
     with open(f"{index_path}.lock", "a") as f:
-        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX)
+        except OSError:        # a file system without locks (some network ones): save as Numba does
+            yield
+            return
         try:
             yield
         finally:
