@@ -5,10 +5,9 @@ them instead of their sum.  Numba compiles one function at a time in a
 process, so a second process is the only way to use a second core.
 
 ``launch(key, module, args)`` runs ``python -m module args`` with a kernel
-cache of its own (two processes adding entries to one Numba index at once
-can leave it naming another entry's file); ``wait(key)`` waits for it and
-copies what it compiled (each index after its data) into this process's
-cache, from where the kernels then load.  Whatever becomes of the second
+cache of its own; ``wait(key)`` waits for it and copies what it compiled
+(each index after its data, under kernel_cache's index lock) into this
+process's cache, from where the kernels then load.  Whatever becomes of the second
 process, the caller goes on: without its entries, it compiles them itself.
 Only where it can pay: more than one core, a kernel cache to share, and
 ``RAYTRACE_COMPILE_AHEAD`` not ``0``.  Once per key a process.  Users:
