@@ -154,6 +154,32 @@ def test_one_block_in_the_calling_thread_answers_as_the_threads_do(monkeypatch, 
         assert np.array_equal(a, b, equal_nan=True)
     assert one[1:] == three[1:] and one[1]["prim_tests"] > 0
 
+def test_calls_of_one_ray_on_scenes_of_two_structures_keep_their_own_kernels():
+    """A call of one ray runs its kernel's compiled entry point, kept per
+    prepared scene (kernels/cast.py closest_alone).  The grid's and the
+    BVH's layouts are different types, so an entry kept for one scene and
+    used by the other would read its arrays wrongly: calls alternating
+    between the two answer ray by ray as each scene's batch call does, and
+    a rebuilt scene keeps new entries."""
+    rng = np.random.default_rng(11)
+    v, f = rng.normal(size=(60, 3)), rng.integers(0, 60, size=(40, 3))
+    o = rng.normal(size=(30, 3)) * 3
+    d = rng.normal(size=(30, 3)) * 0.5 - o        # towards the soup: most hit, some miss
+    scenes = [RayScene((v, f), accel=a) for a in ("bvh", "grid")]
+    batch = [(s.cast_rays(o, d), s.occluded(o, d)) for s in scenes]
+    for i in range(len(o)):
+        for s, (h, blocked) in zip(scenes, batch):
+            one = s.cast_rays(o[i], d[i])
+            assert (one["t"][0], one["prim_id"][0]) == (h["t"][i], h["prim_id"][i])
+            assert s.occluded(o[i], d[i])[0] == blocked[i]
+    assert 0 < (batch[0][0]["prim_id"] >= 0).sum() < len(o) and batch[0][1].any()
+    first = scenes[0]._built()
+    assert len(first.entries) == 2           # closest and any hit
+    scenes[0].add_mesh(SQUARE_V + [100, 0, 0], SQUARE_F)     # away from the soup
+    assert scenes[0].cast_rays([100.5, 0.5, 1.0], DOWN)["geometry_id"][0] == 1
+    assert scenes[0]._built() is not first and len(scenes[0]._built().entries) == 1
+
+
 def test_same_answers_as_the_one_call_functions():
     rng = np.random.default_rng(4)
     v, f = rng.normal(size=(30, 3)), rng.integers(0, 30, size=(20, 3))

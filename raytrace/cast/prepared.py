@@ -26,6 +26,9 @@ class _Prepared:
         self.accel = accel
         self.acc, self.build_s = build_structure(accel, self.geo, self.obj_ranges)
         self.n_tris = self.geo.tri_v0.shape[0]
+        # The closest and any-hit kernels' compiled entry points for this
+        # scene's types (kernels/cast.py closest_alone).
+        self.entries = {}
         self._counting = None
         self._bvh = None
         self._bounds = None

@@ -6,6 +6,7 @@ import threading
 import numpy as np
 
 from raytrace.errors import RaytraceError
+from raytrace.kernels.counters import BAD_RAYS
 from raytrace.kernels.limits import FROM_ORIGIN
 from raytrace.scene.formats.mesh import MAX_COORD, bad_coordinate_rows
 
@@ -166,7 +167,6 @@ def _check_rays(cnt, rays):
     """After a query kernel: raise RaytraceError naming the first bad ray
     if the kernel found any (kernels/cast.py checks each ray as it reads
     it, instead of a pass of its own before the call)."""
-    from raytrace.kernels.counters import BAD_RAYS
     # One counter row read as a number: any() costs 2-3 us, a share of a
     # call of one ray.
     one_row = cnt.ndim == 2 and cnt.shape[0] == 1
@@ -260,12 +260,25 @@ def _kernel_ready(a, dtype):
     return a.dtype == dtype and a.flags.c_contiguous and a.flags.aligned and a.flags.writeable
 
 
+# kernels/cast.py, imported at the first query (it imports Numba); kept
+# here, as an import statement in a query's path costs a call of one ray
+# about 1 us.
+_cast = None
+
+
+def _kernels():
+    global _cast
+    if _cast is None:
+        from raytrace.kernels import cast
+        _cast = cast
+    return _cast
+
+
 def _blocks(n, chunk=None):
     """Counter rows: one per thread (kernels/cast.py: each takes chunks of
     rays, or of points, by ticket), fewer when there are fewer chunks than
     threads.  One block runs in the calling thread, without waking Numba's."""
-    from raytrace.kernels.cast import CHUNK
-    chunks = -(-n // (chunk or CHUNK))
+    chunks = -(-n // (chunk or _kernels().CHUNK))
     if chunks <= 1:
         return 1
     import numba
@@ -274,8 +287,7 @@ def _blocks(n, chunk=None):
 
 def _counter_rows(n):
     """Zeroed counter rows for a query kernel over n rays (kernels/cast.py)."""
-    from raytrace.kernels.cast import COLUMNS
-    return np.zeros((_blocks(n), COLUMNS), np.int64)
+    return np.zeros((_blocks(n), _kernels().COLUMNS), np.int64)
 
 
 def _clock():
@@ -283,27 +295,35 @@ def _clock():
     return np.zeros(1, np.int64)
 
 
-def _closest(geo, acc, origins, dirs, t_min, t_max, check=True):
+def _closest(geo, acc, origins, dirs, t_min, t_max, check=True, entries=None):
     """((t, prim, b1, b2), counters) for (n, 3) rays and (n,) bounds;
-    RaytraceError if a ray is bad (with ``check``; else it misses)."""
-    from raytrace.kernels.cast import cast_closest
+    RaytraceError if a ray is bad (with ``check``; else it misses).
+    ``entries``: the prepared scene's compiled entry points
+    (kernels/cast.py closest_alone), for rays as _rays makes them."""
+    k = _kernels()
     n = len(origins)
     out = (np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n))
     cnt = _counter_rows(n)
-    cast_closest(geo, acc, origins, dirs, t_min, t_max, *out, cnt, _clock())
+    if entries is not None and len(cnt) == 1:
+        k.closest_alone(geo, acc, (origins, dirs, t_min, t_max), out, cnt, _clock(), entries)
+    else:
+        k.cast_closest(geo, acc, origins, dirs, t_min, t_max, *out, cnt, _clock())
     if check:
         _check_rays(cnt, (origins, dirs, t_min, t_max))
     return out, (cnt[0] if len(cnt) == 1 else cnt.sum(axis=0))
 
 
-def _any_hit(geo, acc, origins, dirs, t_min, t_max, check=True):
+def _any_hit(geo, acc, origins, dirs, t_min, t_max, check=True, entries=None):
     """(occluded bool array, counters); RaytraceError if a ray is bad (with
-    ``check``; else it is not occluded)."""
-    from raytrace.kernels.cast import cast_occluded
+    ``check``; else it is not occluded).  ``entries``: as _closest's."""
+    k = _kernels()
     n = len(origins)
     hit = np.empty(n, np.bool_)
     cnt = _counter_rows(n)
-    cast_occluded(geo, acc, origins, dirs, t_min, t_max, hit, cnt, _clock())
+    if entries is not None and len(cnt) == 1:
+        k.occluded_alone(geo, acc, (origins, dirs, t_min, t_max), hit, cnt, _clock(), entries)
+    else:
+        k.cast_occluded(geo, acc, origins, dirs, t_min, t_max, hit, cnt, _clock())
     if check:
         _check_rays(cnt, (origins, dirs, t_min, t_max))
     return hit, (cnt[0] if len(cnt) == 1 else cnt.sum(axis=0))

@@ -160,6 +160,37 @@ def _run_blocks(block, args, cnt_rows, clock):
 _ONE_ROW = np.empty(0, np.int64)
 
 
+def _call_entry(block, args, entries):
+    """block(*args) in the calling thread through its compiled entry point,
+    kept in ``entries`` after the first call.  Numba's dispatcher types a
+    Geometry and a layout (named tuples) in Python on every call: 7-8 us of
+    a call of one ray.  So ``entries`` must serve arguments of one set of
+    types only: one prepared scene's, with the rays as _closest_alone
+    takes them (a wrong entry would read the arrays as another type)."""
+    key = (block, args[2].dtype)
+    entry = entries.get(key)
+    if entry is None:
+        block(*args)
+        entries[key] = block.overloads[tuple(block.typeof_pyval(a) for a in args)].entry_point
+    else:
+        entry(*args)
+
+
+def closest_alone(geo, acc, rays, outs, cnt, clock, entries):
+    """cast_closest of a call of one counter row ``cnt`` (1, COLUMNS), in
+    the calling thread, through _call_entry: rays (origins, dirs, t_min,
+    t_max) C-contiguous, aligned and writeable float64 arrays, and outs (t,
+    prim, u, v) as cast/rays.py allocates them."""
+    _call_entry(closest_block(acc, rays[0].shape[0]), (geo, acc, *rays, outs, cnt, _ONE_ROW, clock),
+                entries)
+
+
+def occluded_alone(geo, acc, rays, out_hit, cnt, clock, entries):
+    """cast_occluded as closest_alone is cast_closest."""
+    _call_entry(occluded_block(acc, rays[0].shape[0]),
+                (geo, acc, *rays, out_hit, cnt, _ONE_ROW, clock), entries)
+
+
 def cast_closest(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v,
                  cnt_rows, clock):
     """Closest hit of ray i = (origins[i], dirs[i]) with t_min[i] < t < t_max[i]."""
