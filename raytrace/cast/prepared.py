@@ -33,6 +33,11 @@ class _Prepared:
         self._bvh = None
         self._bounds = None
 
+    def __getstate__(self):
+        # Compiled entry points are this process's (and do not pickle): a
+        # copy on a Dask worker finds its own at its first call.
+        return dict(self.__dict__, entries={})
+
     def bounds(self):
         """(lo, hi) of the bounded primitives (triangles, spheres); None if
         there are none."""
