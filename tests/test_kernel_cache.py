@@ -66,3 +66,28 @@ def test_a_file_system_without_locks_still_caches(tmp_path, monkeypatch, recwarn
     cache.save(("sig", "a"), "code of a")
     assert cache.load(("sig", "a")) == "code of a"
     assert not recwarn.list
+
+
+LOADS = """
+import sys
+import numpy as np
+import raytrace
+s = raytrace.RayScene((np.eye(3), np.array([[0, 1, 2]])), accel="none")
+hit = s.cast_rays([0.2, 0.2, 1.0], [0.0, 0.0, -1.0])["prim_id"][0]
+print(hit, "numba.np.linalg" in sys.modules, "numba.typed.typeddict" in sys.modules)
+"""
+
+
+def test_a_warm_process_loads_kernels_without_numbas_compile_registries():
+    """Numba refreshes its target context (imports and installs every
+    lowering registry, ~0.45 s) before loading a cached kernel; raytrace's
+    cache loads without it, as loading machine code needs only the
+    runtime's and C helpers' symbols.  The second process finds the
+    kernel cached (the first may compile it), answers the same, and
+    never imports those registries."""
+    import subprocess
+    import sys
+    runs = [subprocess.run([sys.executable, "-c", LOADS], capture_output=True, text=True,
+                           timeout=300) for _ in range(2)]
+    assert all(r.returncode == 0 for r in runs), [r.stderr for r in runs]
+    assert runs[1].stdout.split() == ["0", "False", "False"], runs[1].stdout
