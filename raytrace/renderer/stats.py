@@ -36,7 +36,8 @@ def counters_from_rows(rows):
 def derive(stats):
     """Per-ray figures and throughput, from the counters and times."""
     c = stats["counters"]
-    rays = c["primary_rays"] + c["shadow_rays"] + c["reflection_rays"] + c["refraction_rays"]
+    rays = (c["primary_rays"] + c["shadow_rays"] + c["reflection_rays"] + c["refraction_rays"]
+            + c["bounce_rays"])
     render_s = stats["time"]["render_s"]
     stats["derived"] = {
         "rays": rays,
