@@ -189,24 +189,17 @@ def next_event(shading, paths, f, origin, frame, shadow, m, counters):
 
 
 @njit(**JIT)
-def emitted(paths, geo, f, hit, pdf, strategy):
-    """The MIS weight of an emitter met by a path whose last direction was
-    drawn with density pdf (0: no MIS) at distance hit.t: 1 where no light
-    sample could have found it (a camera ray, a specular event, a sphere or
-    a plane), else the power heuristic against the emitter sample's
-    density (0 with light samples alone)."""
-    if pdf <= 0.0 or hit.prim >= geo.tri_v0.shape[0] or strategy == BSDF_ONLY:
+def emitted(paths, geo, f, hit, pdf, ray):
+    """The MIS weight of an emitter met by ``ray`` (unit direction) at
+    ``hit``, its direction drawn with density pdf (0: no MIS): 1 where no
+    light sample could have found it (a camera ray, a specular event, a
+    sphere or a plane), else the power heuristic against the emitter
+    sample's density there (0 with light samples alone)."""
+    if pdf <= 0.0 or hit.prim >= geo.tri_v0.shape[0] or paths.strategy == BSDF_ONLY:
         return 1.0
-    if strategy == LIGHTS_ONLY:
+    if paths.strategy == LIGHTS_ONLY:
         return 0.0
-    t = hit.prim
-    v0, v1, v2 = geo.tri_v0, geo.tri_v1, geo.tri_v2
-    ex, ey, ez = v1[t, 0] - v0[t, 0], v1[t, 1] - v0[t, 1], v1[t, 2] - v0[t, 2]
-    fx, fy, fz = v2[t, 0] - v0[t, 0], v2[t, 1] - v0[t, 1], v2[t, 2] - v0[t, 2]
-    cx, cy, cz = ey * fz - ez * fy, ez * fx - ex * fz, ex * fy - ey * fx
-    cl = np.sqrt(cx * cx + cy * cy + cz * cz)
-    cos_l = abs(cx * f.gx + cy * f.gy + cz * f.gz) / cl
-    # |f.g . d| is cos_l too; the hit's t is its distance (unit directions).
+    cos_l = abs(f.gx * ray.dx + f.gy * ray.dy + f.gz * ray.dz)
     return power_heuristic(pdf, emitter_pdf(paths, cos_l, hit.t * hit.t))
 
 
@@ -280,7 +273,7 @@ def shade_paths(shading, textures, paths, wave, gen, ij, nxt, q, shadow, counter
             alb = point_albedo(textures, geo, hit, f.mat, f.px, f.py, f.pz)
         par = geo.mat_param[f.mat]
         if f.front and par[MAT_EMISSION] + par[MAT_EMISSION + 1] + par[MAT_EMISSION + 2] > 0.0:
-            w = emitted(paths, geo, f, hit, gen.pdf[i - 1], paths.strategy)
+            w = emitted(paths, geo, f, hit, gen.pdf[i - 1], ray)
             _add(wave, k, (thr[0] * w * par[MAT_EMISSION], thr[1] * w * par[MAT_EMISSION + 1],
                            thr[2] * w * par[MAT_EMISSION + 2]))
         if depth >= paths.max_depth:
