@@ -2,6 +2,8 @@
 (the furnace), its techniques agreeing, its direct light the whitted
 image's diffuse term, and the same bits for any tile split, thread count
 and structure.  Tiny images: the suite's time is spent."""
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -150,10 +152,12 @@ def test_same_bits_for_any_tiles_threads_and_structure():
 
 
 def test_scene_files_and_mtl_give_emission(tmp_path):
-    from raytrace.scene.formats.materials import mtl_material
+    from raytrace.scene.formats.materials import gltf_material, mtl_material
     from raytrace.scene.formats.mtl import parse_mtl
     mtl = parse_mtl("newmtl lamp\nKd 0.5 0.5 0.5\nKe 4 3 2\n", "x.mtl", print)["lamp"]
     assert mtl_material(mtl, Material(), "x.mtl", print).emission == (4.0, 3.0, 2.0)
+    pbr = SimpleNamespace(baseColorFactor=[1.0, 1.0, 1.0, 1.0], emissiveFactor=[0.5, 2.0, -1.0])
+    assert gltf_material(pbr, Material(), "x.glb", print).emission == (0.5, 2.0, 0.0)
     scene = cornell(8)
     assert scene.integrator == "path"
     assert sum(1 for o in scene.objects if max(o.material.emission) > 0) == 1

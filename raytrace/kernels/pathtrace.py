@@ -168,7 +168,10 @@ def next_event(shading, paths, f, origin, frame, shadow, m, counters):
     fx, fy, fz = v2[t, 0] - v0[t, 0], v2[t, 1] - v0[t, 1], v2[t, 2] - v0[t, 2]
     cx, cy, cz = ey * fz - ez * fy, ez * fx - ex * fz, ex * fy - ey * fx
     cl = np.sqrt(cx * cx + cy * cy + cz * cz)
-    lx, ly, lz = y[0] - f.px, y[1] - f.py, y[2] - f.pz
+    # From the shadow ray's origin, where bounce rays start too: the
+    # emitter's density is then the one emitted() weighs a bounce ray's
+    # hit with, and the two weights sum to one.
+    lx, ly, lz = y[0] - origin[0], y[1] - origin[1], y[2] - origin[2]
     dist2 = lx * lx + ly * ly + lz * lz
     dist = np.sqrt(dist2)
     lx, ly, lz = lx / dist, ly / dist, lz / dist

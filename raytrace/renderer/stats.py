@@ -70,7 +70,8 @@ def format_table(stats):
         ("Shadows", stats["shadows"] + (f" ({stats['light_samples']} samples, {stats['pattern']})"
                                         if stats["shadows"] == "soft" else "")),
         ("Image", f"{stats['width']}x{stats['height']}, {stats['spp']} spp, {stats['threads']} threads"
-                  + (", textures unfiltered" if stats.get("texture_filter") == "none" else "")),
+                  + (", textures unfiltered" if stats.get("texture_filter") == "none" else "")
+                  + (", path traced" if stats.get("integrator") == "path" else "")),
         ("Degenerate triangles dropped", stats["degenerate_dropped"]),
         ("Render time (s)", t["render_s"]),
         ("Build time (s)", t["build_s"]),
