@@ -178,3 +178,15 @@ def test_bad_integrator_and_emission_are_one_line_errors(tmp_path):
     path.write_text(text.replace("emission = [17.0, 12.0, 4.0]", "emission = [17.0, -12.0, 4.0]"))
     r = CliRunner().invoke(main, [str(path), "-o", str(tmp_path / "x.png")])
     assert r.exit_code == 1 and "emission" in r.output and len(r.output.strip().splitlines()) == 1
+
+
+def test_a_whitted_render_imports_none_of_the_path_tracer():
+    """Scenes without --integrator path compile none of it: its modules
+    are not even imported (a fresh process; this one has them)."""
+    import subprocess
+    import sys
+    code = ("import sys, raytrace; raytrace.render(raytrace.load_scene('teapot'), width=8, "
+            "height=6); print(sorted(m for m in sys.modules if 'path' in m.split('.')[-1] "
+            "and m.startswith('raytrace')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout
