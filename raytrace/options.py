@@ -107,6 +107,8 @@ OPTIONS = (
            noun="sampling pattern"),
     Option("max_depth", "int", 5, "mirror and glass bounces a ray is followed for", lo=0, hi=MAX_BOUNCES,
            metavar="N"),
+    Option("integrator", "choice", None, "`path`: path tracing, with indirect light and emission",
+           choices=("whitted", "path"), default_text="`whitted`, or the scene's"),
     Option("texture_filter", "choice", "box", "checker averaged over each pixel's footprint and "
            "image textures bilinear, or `none`: point-sampled, nearest texel",
            choices=("box", "none"), noun="texture filter"),

@@ -117,7 +117,7 @@ BAD = [
     (CAMERA + "width = 640.5\n", "camera.width: expected an integer, got 640.5"),
     (CAMERA + "height = 0\n", "camera.height: must be between 1 and"),
     (CAMERA + '[[objects]]\ntype = "cube"\n',
-     "objects[0].type: expected one of mesh, teapot, sphere, plane, got 'cube'"),
+     "objects[0].type: expected one of mesh, teapot, sphere, plane, quad, got 'cube'"),
     (CAMERA + '[[objects]]\nradius = 1\n', "objects[0]: missing key 'type'"),
     (CAMERA + SPHERE.replace("radius = 1", "radius = -1"), "objects[0].radius: must be positive, got -1"),
     (CAMERA + SPHERE.replace("[0, 0, 0]", "[0, nan, 0]"), "objects[0].center[1]: expected a finite number"),

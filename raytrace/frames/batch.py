@@ -13,7 +13,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from raytrace.renderer.driver import base_stats, camera_buffer, prepare, render_band, to_srgb8, validate
+from raytrace.renderer.driver import (
+    base_stats,
+    camera_buffer,
+    integrator_of,
+    prepare,
+    render_band,
+    to_srgb8,
+    validate,
+)
 
 
 @dataclass
@@ -153,7 +161,7 @@ def _render_frames(scene, cameras, opts, runner, tiles, skip, on_frame):
     validate(opts, scene)         # a bad option fails here, not on workers or a second process
     if getattr(runner, "warm", None) is not None:
         runner.warm(scene, opts)  # they compile or load while prepare flattens and builds
-    else:
+    elif integrator_of(opts, scene) == "whitted":
         from raytrace.renderer import ahead
         ahead.start(scene)        # a first run: the shading compiles beside prepare
     setup = prepare(scene, opts)

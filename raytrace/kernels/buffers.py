@@ -41,8 +41,9 @@ Geometry = namedtuple(
 
 # Columns of mat_param.
 (MAT_AMBIENT, MAT_DIFFUSE, MAT_SPECULAR, MAT_SHININESS, MAT_CHECKER, MAT_REFLECT, MAT_TRANSMIT,
- MAT_IOR) = range(8)
-N_MAT_PARAMS = 8
+ MAT_IOR, MAT_EMISSION) = range(9)
+# MAT_EMISSION .. MAT_EMISSION + 2: emitted RGB radiance (the path tracer's).
+N_MAT_PARAMS = 11
 
 def f64(a, cols=None):
     a = np.ascontiguousarray(a, dtype=FLOAT)

@@ -22,6 +22,9 @@ OCCLUDED_RAYS = 9
 REFLECTION_RAYS = 10
 REFRACTION_RAYS = 11
 DEPTH_LIMITED = 12
+BOUNCE_RAYS = 13
+ROULETTE_ENDED = 14
+EMITTER_SAMPLES = 15
 
 # index -> (JSON key, label, meaning), in the table's order.
 DECLARED = {
@@ -49,6 +52,14 @@ DECLARED = {
                     "reflection and refraction rays not cast because their path reached "
                     "--max-depth bounces: what they would have added is missing (glass shows "
                     "black there)"),
+    BOUNCE_RAYS: ("bounce_rays", "Path bounce rays",
+                  "--integrator path: rays continuing a path after a surface (diffuse, mirror "
+                  "or glass)"),
+    ROULETTE_ENDED: ("roulette_ended", "Paths ended by roulette",
+                     "--integrator path: paths stopped by Russian roulette"),
+    EMITTER_SAMPLES: ("emitter_samples", "Emitter samples",
+                      "--integrator path: points picked on emissive triangles for next-event "
+                      "estimation (one facing away casts no shadow ray)"),
 }
 N_COUNTERS = len(DECLARED)
 # Counter rows of ray queries have one more column: the rays found bad as

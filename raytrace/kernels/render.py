@@ -41,6 +41,13 @@ MeshTextures = namedtuple("MeshTextures", Textures._fields)
 # whose materials neither reflect nor transmit never compiles them.
 NoBounces = namedtuple("NoBounces", [])
 Bounces = namedtuple("Bounces", ["max_depth"])
+# --integrator path (kernels/pathtrace.py) in place of either: paths of up
+# to max_depth bounces, ``strategy`` (pathtrace.MIS, or one technique
+# alone, for tests), Russian roulette from bounce ``roulette_depth`` on,
+# and the emissive triangles (emit_tri) with their areas' running sum
+# over the total (emit_cdf) and that total (emit_area; 0: none).
+Paths = namedtuple("Paths", ["max_depth", "strategy", "roulette_depth", "emit_tri", "emit_cdf",
+                             "emit_area"])
 # The geometry, its structure, the lights, the shadow mode and the
 # sampling seed.
 Lighting = namedtuple("Lighting", ["geo", "acc", "lights", "shadows", "seed"])

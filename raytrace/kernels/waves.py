@@ -11,7 +11,7 @@ import numpy as np
 
 from raytrace.kernels import bounces
 from raytrace.kernels.cast import closest_rays, occluded_rays
-from raytrace.kernels.render import NoBounces, SoftShadows
+from raytrace.kernels.render import NoBounces, Paths, SoftShadows
 from raytrace.kernels.threads import run_on_threads
 from raytrace.kernels.wavefront import (
     CAMERA,
@@ -170,8 +170,12 @@ def load_shading(render, band):
     buffers; render.lighting.acc is not read (renderer/ahead.py compiles it
     in a process of its own, structure or none)."""
     stages = _stages(render, band)
-    stages.wave, stages.shadow = wave_buffers(0), shadow_buffers(0, 0)
     stages.counters = band.stats_rows
+    if isinstance(render.bounces, Paths):
+        from raytrace.kernels import path_waves
+        path_waves.load(stages)
+        return
+    stages.wave, stages.shadow = wave_buffers(0), shadow_buffers(0, 0)
     if isinstance(stages, _Generations):
         gen = bounces.generation_buffers(0)
         bounces.run_bounce_stage(CAMERA, stages.shading, stages.textures, stages.wave,
@@ -183,14 +187,18 @@ def load_shading(render, band):
 
 
 def _stages(render, band):
-    """The stages (and their buffers) of a Render: _Generations for mirrors
-    and glass, else _Stages."""
+    """The stages (and their buffers) of a Render: the path tracer's
+    (path_waves.py, imported only then), _Generations for mirrors and
+    glass, else _Stages."""
     lighting = render.lighting
     shadows = lighting.shadows
     mode = (shadows.pattern if isinstance(shadows, SoftShadows) else
             HARD_SHADOWS if shadows.cast else NO_SHADOWS)
     shading = Shading(lighting.geo, lighting.lights, mode, lighting.seed, render.cam,
                       render.background, render.width, render.height, render.spp)
+    if isinstance(render.bounces, Paths):
+        from raytrace.kernels.path_waves import PathStages
+        return PathStages(shading, render.textures, lighting.acc, band, render.bounces)
     if isinstance(render.bounces, NoBounces):
         return _Stages(shading, render.textures, lighting.acc, band)
     return _Generations(shading, render.textures, lighting.acc, band,

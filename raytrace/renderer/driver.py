@@ -72,13 +72,17 @@ def _check_materials(scene):
         m = getattr(obj, "material", None)
         if m is None:
             continue
+        emission = list(np.ravel(np.asarray(m.emission, dtype=object)))
         values = [*np.ravel(np.asarray(m.color, dtype=object)), m.ambient, m.diffuse, m.specular,
-                  m.shininess, m.checker, m.reflect, m.transmit, m.ior]
+                  m.shininess, m.checker, m.reflect, m.transmit, m.ior, *emission]
+        name = getattr(obj, 'name', type(obj).__name__)
         for x in values:
             if isinstance(x, (bool, np.bool_)) or not isinstance(x, Real) or not math.isfinite(x):
-                raise RaytraceError(f"object {k} ({getattr(obj, 'name', type(obj).__name__)}): its "
-                                    f"material has {x!r} among its colour and weights; they must be "
-                                    "finite numbers")
+                raise RaytraceError(f"object {k} ({name}): its material has {x!r} among its "
+                                    "colour, weights and emission; they must be finite numbers")
+        if len(emission) != 3 or min(emission) < 0:
+            raise RaytraceError(f"object {k} ({name}): its material's emission must be three "
+                                f"numbers of at least 0 (r, g, b), got {m.emission!r}")
 
 
 def validate(opts, scene):
@@ -91,6 +95,7 @@ def validate(opts, scene):
                           f"got {opts.progress!r}")
     for opt in OPTIONS:
         opt.check(getattr(opts, opt.name))
+    BY_NAME["integrator"].check(integrator_of(opts, scene))
     w = scene.camera.width if opts.width is None else opts.width
     h = scene.camera.height if opts.height is None else opts.height
     BY_NAME["width"].check(w)
@@ -208,11 +213,21 @@ def texture_record(texture_filter, width, height, spp, geo):
                 step_y=2.0 / height * share)
 
 
-def bounce_record(scene, max_depth):
+def integrator_of(opts, scene):
+    """The render's integrator: the option, else the scene file's, else
+    whitted."""
+    return opts.integrator or getattr(scene, "integrator", None) or "whitted"
+
+
+def bounce_record(scene, max_depth, integrator="whitted", geo=None):
     """The kernel's mirror-and-glass record: Bounces only when a material
-    reflects or transmits, so other scenes compile and cast no such rays."""
+    reflects or transmits, so other scenes compile and cast no such rays;
+    the path tracer's record (Paths, with its emitters) for ``path``."""
     from raytrace.kernels.render import Bounces, NoBounces
     from raytrace.scene.model import Mesh, Plane, Sphere
+    if integrator == "path":
+        from raytrace.renderer.emitters import path_record
+        return path_record(geo, int(max_depth))
     if any(o.material.bounces() for o in scene.objects if isinstance(o, (Mesh, Sphere, Plane))):
         return Bounces(max_depth=int(max_depth))
     return NoBounces()
@@ -343,7 +358,7 @@ def prepare(scene, opts, drop_meshes=False):
     background = f64(scene.background)
     shadows = shadow_record(opts.shadows, opts.pattern)
     textures = texture_record(opts.texture_filter, width, height, int(opts.spp), geo)
-    bounces = bounce_record(scene, opts.max_depth)
+    bounces = bounce_record(scene, opts.max_depth, integrator_of(opts, scene), geo)
     t_import = time.perf_counter() - t_start - t_corners
     peaks["flatten"] = peak_memory_mb()
     if drop_meshes:
@@ -421,7 +436,8 @@ def _render(scene, opts, drop_meshes):
     from raytrace.renderer import ahead
     from raytrace.renderer.stats import counters_from_rows, derive
     validate(opts, scene)
-    ahead.start(scene)        # a first run: the shading compiles beside prepare
+    if integrator_of(opts, scene) == "whitted":
+        ahead.start(scene)    # a first run: the shading compiles beside prepare
     setup = prepare(scene, opts, drop_meshes)
     cam = camera_buffer(scene.camera, setup.width, setup.height)
     width, height = setup.width, setup.height
@@ -468,6 +484,7 @@ def base_stats(setup, scene_name):
         **{name: getattr(opts, name) for name in BUILD_OPTIONS},
         "pattern": opts.pattern, "texture_filter": opts.texture_filter,
         "max_depth": getattr(setup.bounces, "max_depth", None), "width": setup.width,
+        "integrator": "path" if hasattr(setup.bounces, "emit_cdf") else "whitted",
         "height": setup.height, "spp": opts.spp, "seed": opts.seed, "threads": setup.threads,
         **setup.info,
         "time": {},

@@ -36,7 +36,8 @@ def counters_from_rows(rows):
 def derive(stats):
     """Per-ray figures and throughput, from the counters and times."""
     c = stats["counters"]
-    rays = c["primary_rays"] + c["shadow_rays"] + c["reflection_rays"] + c["refraction_rays"]
+    rays = (c["primary_rays"] + c["shadow_rays"] + c["reflection_rays"] + c["refraction_rays"]
+            + c["bounce_rays"])
     render_s = stats["time"]["render_s"]
     stats["derived"] = {
         "rays": rays,
@@ -69,7 +70,8 @@ def format_table(stats):
         ("Shadows", stats["shadows"] + (f" ({stats['light_samples']} samples, {stats['pattern']})"
                                         if stats["shadows"] == "soft" else "")),
         ("Image", f"{stats['width']}x{stats['height']}, {stats['spp']} spp, {stats['threads']} threads"
-                  + (", textures unfiltered" if stats.get("texture_filter") == "none" else "")),
+                  + (", textures unfiltered" if stats.get("texture_filter") == "none" else "")
+                  + (", path traced" if stats.get("integrator") == "path" else "")),
         ("Degenerate triangles dropped", stats["degenerate_dropped"]),
         ("Render time (s)", t["render_s"]),
         ("Build time (s)", t["build_s"]),

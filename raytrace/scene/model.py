@@ -19,6 +19,9 @@ class Material:
     reflect: float = 0.0             # mirror weight, 0..1
     transmit: float = 0.0            # glass weight, 0..1 (reflect + transmit <= 1)
     ior: float = 1.5                 # index of refraction, for transmit > 0
+    # Linear RGB radiance emitted from the front face (a triangle's winding,
+    # a sphere's outside); lights the scene only under the path tracer.
+    emission: tuple = (0.0, 0.0, 0.0)
     # (h, w, 3) linear RGB image multiplying ``color`` on meshes with
     # texture coordinates (an OBJ's map_Kd, a glTF baseColorTexture).
     texture: np.ndarray = field(default=None, compare=False, repr=False)
@@ -93,6 +96,9 @@ class Scene:
     # A scene file's [animation] table (raytrace.scene.animation.Animation), or
     # None; typed loosely so this module imports nothing more.
     animation: object = None
+    # The scene file's ``integrator`` ("whitted" or "path"), or None: the
+    # render's option, else whitted.
+    integrator: str = None
 
     def __repr__(self):              # one line: a notebook shows it
         return scene_repr(self)

@@ -3,7 +3,8 @@ Material, and a warning for what it can only approximate.
 
 The renderer has one colour (times a base-colour texture and vertex
 colours), a white highlight (a scalar ``specular``), mirror and glass
-weights (``reflect``, ``transmit``, ``ior``): a material needing what it
+weights (``reflect``, ``transmit``, ``ior``) and emitted radiance
+(``emission``, from MTL's Ke and glTF's emissiveFactor): a material needing what it
 lacks is approximated, and ``warn`` is told once per material and problem.
 """
 from dataclasses import replace
@@ -44,6 +45,8 @@ def mtl_material(entry, base, source, warn, image=None, has_uv=False):
         mat.specular = float(np.clip(np.mean(v["ks"]), 0.0, 1.0))
     if "ns" in v:
         mat.shininess = float(np.clip(v["ns"][0], 1.0, 1000.0))
+    if "ke" in v:       # emitted radiance (the path tracer's lights)
+        mat.emission = tuple(max(0.0, float(x)) for x in v["ke"])
     illum = int(v["illum"][0]) if "illum" in v else None
     if illum in (0, 1):
         mat.specular = 0.0
@@ -136,6 +139,11 @@ def gltf_material(pbr, base, source, warn, has_uv=False):
     f0 = DIELECTRIC_F0 * (1.0 - metallic) + float(np.mean(rgba[:3])) * metallic
     mat.specular = float(min(1.0, f0 * (mat.shininess + 8.0) / 8.0))
     mat.diffuse = base.diffuse * (1.0 - 0.5 * metallic)
+    emissive = getattr(pbr, "emissiveFactor", None)
+    if emissive is not None:    # glTF's emitted colour (its default: none)
+        e = np.asarray(emissive, dtype=np.float64).ravel()
+        if e.size >= 3 and np.isfinite(e[:3]).all():
+            mat.emission = tuple(float(x) for x in np.maximum(e[:3], 0.0))
     name = getattr(pbr, "name", None)
     what = f"{source}: material {name!r}" if name else f"{source}: a material"
     alpha_mode = str(getattr(pbr, "alphaMode", None) or "OPAQUE").upper()

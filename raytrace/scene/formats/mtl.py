@@ -16,8 +16,8 @@ class MtlMaterial:
 
 
 # Keys read, and how many numbers each takes (1 or 3: a colour may also be
-# given as one grey value).  Others (Ka, Ke, Tf, map_Bump, ...) are skipped.
-COLOR_KEYS = ("kd", "ks")
+# given as one grey value).  Others (Ka, Tf, map_Bump, ...) are skipped.
+COLOR_KEYS = ("kd", "ks", "ke")
 NUMBER_KEYS = ("ns", "d", "tr", "illum", "ni")
 MAP_KEYS = ("map_kd", "map_d", "refl")          # image textures, by their file name
 

@@ -17,12 +17,12 @@ from raytrace.scene.formats.mesh import MAX_COORD, check_readable
 from raytrace.scene.model import Camera, Light, Material, Plane, Scene, Sphere
 
 TOP_KEYS = ("name", "description", "background", "camera", "materials", "lights", "objects",
-            "animation")
+            "animation", "integrator")
 CAMERA_KEYS = ("position", "look_at", "up", "fov", "width", "height")
 ANIMATION_KEYS = ("frames", "keys")
 KEY_KEYS = ("frame", "position", "look_at", "fov")
 MATERIAL_KEYS = ("color", "ambient", "diffuse", "specular", "shininess", "checker", "reflect",
-                 "transmit", "ior")
+                 "transmit", "ior", "emission")
 IOR_RANGE = (1.0, 10.0)   # air to beyond diamond (2.42); below 1 is no material in air
 LIGHT_KEYS = ("type", "position", "color", "intensity", "size", "direction", "samples")
 AREA_ONLY = ("size", "direction", "samples")
@@ -32,6 +32,7 @@ OBJECT_KEYS = {
     "teapot": ("type", "detail", "material", *PLACEMENT),
     "sphere": ("type", "center", "radius", "material"),
     "plane": ("type", "point", "normal", "material"),
+    "quad": ("type", "vertices", "material"),
 }
 
 
@@ -117,6 +118,8 @@ def _read_scene_file(path):
     top.string("description")
     if top.has("background"):
         scene.background = top.color("background")
+    scene.integrator = top.string("integrator", default=None,
+                                  choices=BY_NAME["integrator"].choice_list())
     if top.has("animation"):
         scene.animation = _animation(path, top.table["animation"], scene.camera)
     return scene
@@ -217,7 +220,8 @@ def _materials(path, top):
                              checker=f.number("checker", default=d.checker, lo=0.0),
                              reflect=f.number("reflect", default=d.reflect, lo=0.0, hi=1.0),
                              transmit=f.number("transmit", default=d.transmit, lo=0.0, hi=1.0),
-                             ior=f.number("ior", default=d.ior, lo=IOR_RANGE[0], hi=IOR_RANGE[1]))
+                             ior=f.number("ior", default=d.ior, lo=IOR_RANGE[0], hi=IOR_RANGE[1]),
+                             emission=f.color("emission", default=d.emission))
         if out[name].reflect + out[name].transmit > 1.0:
             f.fail("transmit", f"reflect + transmit must be at most 1 (the light a surface "
                                f"returns), got {out[name].reflect:g} + {out[name].transmit:g}")
@@ -271,6 +275,8 @@ def _objects(path, i, table, material):
         return [Plane(point=f.vec3("point", default=(0.0, 0.0, 0.0)),
                       normal=f.vec3("normal", default=(0.0, 1.0, 0.0), nonzero=True),
                       material=material(f))]
+    if kind == "quad":
+        return [_quad(f, material(f), i)]
     if kind == "teapot":
         from raytrace.scene.builtin import teapot_mesh
         meshes = [teapot_mesh(f.integer("detail", default=DETAIL.default, lo=DETAIL.lo,
@@ -288,6 +294,22 @@ def _objects(path, i, table, material):
             if not (np.abs(mesh.vertices) <= MAX_COORD).all():
                 f.fail("scale", f"translate, rotate and scale put a vertex beyond {MAX_COORD:g}")
     return meshes
+
+
+def _quad(f, material, i):
+    """A quad's four corners, in order around it, as a flat two-triangle
+    Mesh; the winding (right-handed) sets its front, where an emission
+    leaves it."""
+    from raytrace.scene.model import Mesh
+    corners = f.table.get("vertices")
+    if not isinstance(corners, list) or len(corners) != 4 or not all(
+            isinstance(c, list) and len(c) == 3 for c in corners):
+        f.fail("vertices", "expected 4 corners, each [x, y, z]")
+    v = np.array([[f.check_number(f"vertices[{k}][{a}]", x) for a, x in enumerate(c)]
+                  for k, c in enumerate(corners)])
+    if not (np.abs(v) <= MAX_COORD).all():
+        f.fail("vertices", f"a corner beyond {MAX_COORD:g}")
+    return Mesh(v, np.array([[0, 1, 2], [0, 2, 3]]), material, name=f"quad objects[{i}]")
 
 
 def _mesh_file(path, f, material):
