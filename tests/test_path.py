@@ -64,6 +64,21 @@ def furnace(a, e):
                  background=(0.0, 0.0, 0.0))
 
 
+@pytest.fixture(scope="module", autouse=True)
+def path_stage_compiled_once(tmp_path_factory):
+    """Two workers of `pytest -n` reaching these tests at once would each
+    compile the path stage (9 s): neither finds it cached yet.  The first
+    to take this lock (a file in the workers' shared temporary directory)
+    compiles it; the other then loads it from the kernel cache."""
+    import fcntl
+    with open(tmp_path_factory.getbasetemp().parent / "path_stage.lock", "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            render_paths(furnace(0.5, 0.7), 2, 1)
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
 def test_furnace_closed_sphere_is_e_over_one_minus_albedo():
     """Inside a closed surface of albedo a emitting E everywhere, every
     path meets surfaces only, so every pixel's expectation is E (1 + a +
