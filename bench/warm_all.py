@@ -12,10 +12,10 @@ under 0.5 s.  Each is run --repeat times, in rounds (every row once, then
 again), and its min and median are shown, with the load average.
 
 Beside them, "Numba's own first call": a one-line function in its own
-cache, first called in a fresh process set up as the API rows are.  Any
-first call of a kernel pays it (Numba's typing and target contexts, its
-builtin implementations imported and registered), whatever raytrace does;
-the rest of a row is raytrace's.  Bytecode is cached for the children
+cache, first called in a fresh process set up as the API rows are: what a
+cache load costs where Numba refreshes its target context first (every
+compile registry imported and installed).  raytrace's cache loads without
+that refresh (kernels/kernel_cache.py), so its rows can be below it.  Bytecode is cached for the children
 (PYTHONDONTWRITEBYTECODE dropped), as an installed package has it: without,
 each first call compiles raytrace's modules from source too.  Markdown on
 stdout.
