@@ -165,13 +165,15 @@ def _call_entry(block, args, entries):
     kept in ``entries`` after the first call.  Numba's dispatcher types a
     Geometry and a layout (named tuples) in Python on every call: 7-8 us of
     a call of one ray.  So ``entries`` must serve arguments of one set of
-    types only: one prepared scene's, with the rays as _closest_alone
-    takes them (a wrong entry would read the arrays as another type)."""
+    types only: one prepared scene's, with the rays as closest_alone takes
+    them (a wrong entry would read the arrays as another type)."""
     key = (block, args[2].dtype)
     entry = entries.get(key)
     if entry is None:
         block(*args)
-        entries[key] = block.overloads[tuple(block.typeof_pyval(a) for a in args)].entry_point
+        compiled = block.overloads.get(tuple(block.typeof_pyval(a) for a in args))
+        if compiled is not None:     # else the dispatcher serves every call
+            entries[key] = compiled.entry_point
     else:
         entry(*args)
 

@@ -225,6 +225,9 @@ def _load_without_refresh(root):
     A compile still refreshes the context first (Numba's compiler does)."""
     from numba.core.runtime import rtsys
     original = caching.Cache.load_overload
+    if not all(hasattr(caching.Cache, n) for n in ("_load_overload",
+                                                   "_guard_against_spurious_io_errors")):
+        return       # another Numba's internals: its own loading, with the refresh
 
     def load_overload(self, sig, target_context):
         path = os.path.abspath(self._cache_path)
