@@ -152,3 +152,27 @@ def test_a_cached_query_kernel_is_found_by_its_index_name():
     assert kernel_cached(query_ahead._INDEX["closest"])
     assert kernel_cached(query_ahead._INDEX["occluded"])
     assert not kernel_cached("cast._no_such_kernel-*.nbi")
+
+
+def test_the_second_process_imports_this_processs_raytrace_from_any_directory(tmp_path,
+                                                                              monkeypatch):
+    """The README's first render runs in a clone, with raytrace installed
+    elsewhere: the second process must compile the same files as this one
+    (Numba's cache keys a kernel by its source file), not the working
+    directory's copy, which ``python -m`` would import first."""
+    import subprocess
+    import sys
+
+    import raytrace
+    from raytrace.kernels import ahead
+    (tmp_path / "raytrace").mkdir()
+    (tmp_path / "raytrace" / "__init__.py").write_text("")    # another copy, in the way
+    monkeypatch.chdir(tmp_path)
+    where = [sys.executable, "-c", "import raytrace; print(raytrace.__file__)"]
+    plain = subprocess.run(where, capture_output=True, text=True, check=True).stdout.strip()
+    assert plain == str(tmp_path / "raytrace" / "__init__.py")      # what -m and -c do
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    child = subprocess.run(where, capture_output=True, text=True, check=True,
+                           **ahead.child_setting(str(cache))).stdout.strip()
+    assert child == raytrace.__file__

@@ -42,16 +42,30 @@ def launch(key, module, args):
     cache = None
     try:
         cache = tempfile.mkdtemp(prefix="raytrace-ahead-")
-        env = dict(os.environ, RAYTRACE_QUIET="1", NUMBA_CACHE_DIR=cache)
         process = subprocess.Popen([sys.executable, "-m", module, *map(str, args)],
                                    stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                                   stderr=subprocess.DEVNULL, env=env)
+                                   stderr=subprocess.DEVNULL, **child_setting(cache))
     except OSError:
         if cache:
             shutil.rmtree(cache, ignore_errors=True)
         return
     _runs[key] = {"process": process, "cache": cache}
     atexit.register(stop, key)
+
+
+def child_setting(cache):
+    """The second process's environment and working directory: its own
+    cache, and this process's raytrace, whatever the working directory
+    holds.  ``python -m`` imports first from the working directory, and
+    the README's first run is in a clone, so the second process compiled
+    the clone's raytrace while this one ran the installed copy.  Numba's
+    cache keys a kernel by its source file, so none of its kernels was
+    found, and the first render compiled all of them alone (26 s, not 13)."""
+    import raytrace
+    root = str(Path(raytrace.__file__).resolve().parent.parent)
+    path = os.pathsep.join(p for p in (root, os.environ.get("PYTHONPATH")) if p)
+    env = dict(os.environ, RAYTRACE_QUIET="1", NUMBA_CACHE_DIR=cache, PYTHONPATH=path)
+    return {"env": env, "cwd": cache}
 
 
 def wait(key):
