@@ -46,6 +46,8 @@ COMMANDS = [
     ["whitted"], ["glass_teapot"], ["textured"], [str(TOYS), "--view", "front"],
     ["whitted", "--shadows", "soft"], ["textured", "--accel", "grid"],
     ["teapot", "--turntable", "2", "-o", "spin.gif"],
+    ["cornell", "--spp", "1"], ["teapot", "--integrator", "path", "--accel", "grid"],
+    ["textured", "--integrator", "path", "--spp", "1"],
 ]
 
 # name: (setup, call); each in a process of its own.  mesh: a closed

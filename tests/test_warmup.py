@@ -105,3 +105,17 @@ def test_loading_warmup_compiles_what_mesh_files_use(tmp_path):
     for name in ("m.obj", "m.ply"):
         raytrace.load_scene(str(tmp_path / name))
     assert _kernel_signatures(kernels) == warmed
+
+
+@pytest.mark.parametrize("name, textures", [("cornell", False), ("whitted", False),
+                                            ("textured", True)])
+def test_path_warmup_scene_has_the_path_kernel_types_of_real_scenes(name, textures):
+    """--with path renders tiny_scene(textures, mirrors) path traced: mirrors
+    change nothing there, textures give the stage a variant of its own."""
+    real = raytrace.load_scene(name, width=8, height=6)
+    assert _types(real, integrator="path") == _types(_scene(textures, True), integrator="path")
+    assert _types(real, integrator="path") != _types(_scene(not textures, True), integrator="path")
+    labels = [s.label for s in plan(["bvh", "bvh:lbvh", "grid"], ["hard"], ["path", "textures"])]
+    assert [x for x in labels if x.startswith("path")] == [
+        "path tracer: bvh", "path tracer: bvh, textures", "path tracer: grid",
+        "path tracer: grid, textures"]

@@ -455,8 +455,8 @@ def compare_cmd(ctx, scene, accel_list, scene_args, repeat, quick, output, as_js
 @click.option("--shadows", "shadow_list", default="hard", metavar="LIST", show_default=True,
               help="Shadow modes: none and hard share a kernel, soft has its own.")
 @click.option("--with", "feature_list", default="", metavar="LIST",
-              help="Also: textures, mirrors (and glass), queries (RayScene), loading (big teapots "
-                   "and meshes).")
+              help="Also: textures, mirrors (and glass), path (--integrator path), queries "
+                   "(RayScene), loading (big teapots and meshes).")
 @click.option("-q", "--quiet", is_flag=True, help="No progress lines.")
 def warmup_cmd(everything, accel_list, shadow_list, feature_list, quiet):
     """Compile kernels into the cache now, so later commands and API calls

@@ -16,7 +16,7 @@ import numpy as np
 
 from raytrace.scene.kinds import scene_kind, tiny_scene
 
-FEATURES = ("textures", "mirrors", "queries", "loading")
+FEATURES = ("textures", "mirrors", "path", "queries", "loading")
 
 
 @dataclass
@@ -30,6 +30,14 @@ def _render(accel, shadows, textures, mirrors):
     return lambda: render(tiny_scene(textures, mirrors), accel=accel.split(":")[0],
                           bvh_build=accel.split(":")[1] if ":" in accel else "sah",
                           shadows=shadows, light_samples=4, pattern="stratified")
+
+
+def _path(accel, textures):
+    """The path tracer's stage (its own, whatever the structure; a textured
+    scene's variant apart) and the structure's ray kernels it calls."""
+    from raytrace.renderer.driver import render
+    return lambda: render(tiny_scene(textures, True), accel=accel.split(":")[0],
+                          integrator="path", spp=1)
 
 
 def _queries(accel):
@@ -109,6 +117,10 @@ def plan(accels, shadows=("hard",), features=()):
             (False, True) if "mirrors" in features else (False,)):
         words = [accel] + ["textures"] * tex + ["mirrors and glass"] * mir
         steps.append(Step(f"render: {', '.join(words)}", _render(accel, mode, tex, mir)))
+    if "path" in features:
+        for accel, tex in itertools.product(dict.fromkeys(a.split(":")[0] for a in accels),
+                                            (False, True) if "textures" in features else (False,)):
+            steps.append(Step(f"path tracer: {accel}" + ", textures" * tex, _path(accel, tex)))
     steps.append(Step("builders for big scenes", _big_builders(accels)))
     if "queries" in features:
         steps += [Step(f"ray queries: {a}", _queries(a))
