@@ -61,7 +61,7 @@ def child_setting(cache):
     the clone's raytrace while this one ran the installed copy.  Numba's
     cache keys a kernel by its source file, so none of its kernels was
     found, and the first render compiled all of them alone (26 s, not 13)."""
-    root = str(Path(__file__).resolve().parents[2])      # the folder holding raytrace/
+    root = str(Path(__file__).parents[2])      # the folder holding raytrace/, as imported
     path = os.pathsep.join(p for p in (root, os.environ.get("PYTHONPATH")) if p)
     env = dict(os.environ, RAYTRACE_QUIET="1", NUMBA_CACHE_DIR=cache, PYTHONPATH=path)
     return {"env": env, "cwd": cache}
