@@ -2,6 +2,7 @@
 function-level import, a module that imports it back; and its modules and
 functions stay small enough to read (issue 41's limits)."""
 import ast
+import functools
 from pathlib import Path
 
 PKG = Path(__file__).resolve().parents[1] / "raytrace"
@@ -36,6 +37,7 @@ def imports(path, modules):
     return out
 
 
+@functools.cache      # read-only for the tests; parsing every module is most of their time
 def graph():
     files = {module_name(p): p for p in PKG.rglob("*.py")}
     edges = {}
