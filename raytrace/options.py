@@ -105,8 +105,8 @@ OPTIONS = (
     Option("pattern", "choice", "stratified", "light sample placement (grid and stratified need a "
            "square number)", choices=("grid", "random", "stratified", "halton"),
            noun="sampling pattern"),
-    Option("max_depth", "int", 5, "mirror and glass bounces a ray is followed for", lo=0, hi=MAX_BOUNCES,
-           metavar="N"),
+    Option("max_depth", "int", None, "mirror and glass bounces a ray is followed for; a path's "
+           "bounces", lo=0, hi=MAX_BOUNCES, default_text="5; path: 16", metavar="N"),
     Option("integrator", "choice", None, "`path`: path tracing, with indirect light and emission",
            choices=("whitted", "path"), default_text="`whitted`, or the scene's"),
     Option("texture_filter", "choice", "box", "checker averaged over each pixel's footprint and "

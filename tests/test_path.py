@@ -205,3 +205,30 @@ def test_a_whitted_render_imports_none_of_the_path_tracer():
             "and m.startswith('raytrace')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]", out.stdout
+
+
+def test_path_refuses_options_it_cannot_honour_and_writes_linear_files(tmp_path):
+    """--shadows none and --light-samples mean nothing to the path tracer
+    (docs/pathtracer.md): usage errors in one line, exit 2, no file.  Its
+    --max-depth defaults to 16, whitted's to 5.  Its linear output keeps
+    radiance above 1 (the light) in .pfm and .exr."""
+    from raytrace.renderer.linear import read_pfm
+    for args in (["--shadows", "none"], ["--light-samples", "16"]):
+        out = tmp_path / "x.png"
+        r = CliRunner().invoke(main, ["cornell", "--width", "4", "--height", "4", "-o", str(out),
+                                      *args])
+        assert r.exit_code == 2 and args[0] in r.output and not out.exists(), r.output
+        assert "path trace" in r.output.strip().splitlines()[-1]
+    scene = cornell(12)
+    ref = raytrace.render(scene, spp=1)
+    assert ref.stats["max_depth"] == 16
+    from raytrace.renderer.driver import max_depth_of
+    assert max_depth_of(RenderOptions(integrator="whitted"), scene) == 5
+    r = CliRunner().invoke(main, ["cornell", "--width", "12", "--height", "12", "-o",
+                                  str(tmp_path / "c.pfm")])
+    assert r.exit_code == 0, r.output
+    back = read_pfm(tmp_path / "c.pfm")
+    assert back.max() > 1.0 and np.array_equal(back, ref.linear)
+    OpenEXR = pytest.importorskip("OpenEXR")
+    with OpenEXR.File(str(ref.save(tmp_path / "c.exr"))) as exr:
+        assert np.array_equal(exr.channels()["RGB"].pixels, ref.linear)
