@@ -50,11 +50,16 @@ from raytrace.kernels.ray import Hit, make_ray
 from raytrace.kernels.render import camera_ray, hit_frame, point_albedo, sky, surface_albedo
 from raytrace.kernels.sampling import hash_key, rand01
 from raytrace.kernels.shade import smooth_point
+from raytrace.kernels.sobol import sobol_pair01
 from raytrace.kernels.wavefront import CAMERA, camera_wave, store_wave
 
 # Paths.strategy: both techniques weighted by MIS, or one alone (tests:
 # each is unbiased, so all three agree in the mean).
 MIS, BSDF_ONLY, LIGHTS_ONLY = 0, 1, 2
+# Paths.sampler: a path's numbers hashed independently, or Owen-scrambled
+# Sobol points (kernels/sobol.py), a pair of dimensions at a time.
+INDEPENDENT, SOBOL = 0, 1
+SAMPLERS = {"independent": INDEPENDENT, "sobol": SOBOL}
 # Bounces before Russian roulette may end a path, and the most a path is
 # kept with (a path of white walls is not kept forever).
 ROULETTE_DEPTH = 3
@@ -64,6 +69,9 @@ ROULETTE_MAX = 0.95
 EMITTER_GAP = 2.0 ** -20
 # The third key of a path's random numbers (its camera sample's are 0x5EED).
 _PATH_SALT = 0x9A7
+# The Sobol sampler's per-pixel key, and its pair for the film point.
+_SOBOL_SALT = 0x50B01
+_FILM_PAIR = 0x7FFFFFFF
 _INV_PI = 1.0 / np.pi
 
 # A generation of paths: rays as cast.py takes them, their hits, the
@@ -90,6 +98,25 @@ def power_heuristic(pa, pb):
 
 
 @njit(**JIT)
+def path_pair(paths, rng, i):
+    """A path's numbers of dimensions (i, 0) and (i, 1), in [0, 1); rng =
+    (its sample's hash key, its pixel's key, the sample's index).
+    Independent: hashes of the key; Sobol: the pixel's shuffled, scrambled
+    2-D Sobol point number ``sample`` of pair i."""
+    if paths.sampler == SOBOL:
+        return sobol_pair01(rng[1], rng[2], i)
+    return rand01(rng[0], i, 0), rand01(rng[0], i, 1)
+
+
+@njit(**JIT)
+def path_rand(paths, rng, i, dim):
+    """The one number of dimension (i, dim) (path_pair's)."""
+    if paths.sampler == SOBOL:
+        return sobol_pair01(rng[1], rng[2], i)[dim]
+    return rand01(rng[0], i, dim)
+
+
+@njit(**JIT)
 def emitter_pdf(paths, cos_l, dist2):
     """The solid-angle density of the area-weighted emitter sample at a
     point dist2 (squared) away, seen at cos_l from its normal."""
@@ -98,8 +125,8 @@ def emitter_pdf(paths, cos_l, dist2):
 
 @njit(**JIT)
 def pick_emitter(paths, u):
-    """The emissive triangle whose share of the total area holds u (binary
-    search of the running sum)."""
+    """The index in emit_tri of the emissive triangle whose share of the
+    total area holds u (binary search of the running sum)."""
     lo, hi = 0, paths.emit_cdf.shape[0] - 1
     while lo < hi:
         mid = (lo + hi) // 2
@@ -107,7 +134,25 @@ def pick_emitter(paths, u):
             lo = mid + 1
         else:
             hi = mid
-    return paths.emit_tri[lo]
+    return lo
+
+
+@njit(**JIT)
+def emitter_numbers(paths, rng, dim):
+    """The emitter sample's triangle (its index in emit_tri) and the two
+    numbers of its point.  Independent: three dimensions, as the first
+    slice drew them.  Sobol: one pair; its first number picks the
+    triangle and, rescaled within the triangle's share, serves again
+    (pbrt's remapped discrete sample), so the pair's stratification covers
+    the emitters' whole area."""
+    u, v = path_pair(paths, rng, dim + 1)
+    j = pick_emitter(paths, u)
+    if paths.sampler != SOBOL:
+        return j, v, path_rand(paths, rng, dim, 1)
+    lo = paths.emit_cdf[j - 1] if j > 0 else 0.0
+    share = paths.emit_cdf[j] - lo
+    r = min(max((u - lo) / share, 0.0), 1.0 - 2.0 ** -53) if share > 0.0 else 0.5
+    return j, r, v
 
 
 @njit(**JIT)
@@ -133,10 +178,10 @@ def next_event(shading, paths, f, origin, frame, shadow, m, counters):
     reflectance, throughput, camera sample, row).
     Returns the next free row of shadow."""
     geo, lights = shading.geo, shading.lights
-    (key, dim, lifted), alb, thr, k, row = frame
+    (rng, dim, lifted), alb, thr, k, row = frame
     nx, ny, nz, gx, gy, gz = f.nx, f.ny, f.nz, f.gx, f.gy, f.gz
     for li in range(lights.pos.shape[0]):
-        su, sv = rand01(key, dim + 2 + li, 0), rand01(key, dim + 2 + li, 1)
+        su, sv = path_pair(paths, rng, dim + 2 + li)
         tx = lights.pos[li, 0] + (su - 0.5) * lights.u[li, 0] + (sv - 0.5) * lights.v[li, 0]
         ty = lights.pos[li, 1] + (su - 0.5) * lights.u[li, 1] + (sv - 0.5) * lights.v[li, 1]
         tz = lights.pos[li, 2] + (su - 0.5) * lights.u[li, 2] + (sv - 0.5) * lights.v[li, 2]
@@ -155,10 +200,10 @@ def next_event(shading, paths, f, origin, frame, shadow, m, counters):
     if paths.emit_area <= 0.0 or paths.strategy == BSDF_ONLY:
         return m
     counters[row, EMITTER_SAMPLES] += 1
-    t = pick_emitter(paths, rand01(key, dim + 1, 0))
+    j, r1, r2 = emitter_numbers(paths, rng, dim)
+    t = paths.emit_tri[j]
     # A uniform point of the triangle (Osada et al. 2002's square-root map).
-    r1 = np.sqrt(rand01(key, dim + 1, 1))
-    r2 = rand01(key, dim, 1)
+    r1 = np.sqrt(r1)
     b0, b1 = 1.0 - r1, r2 * r1
     b2 = 1.0 - b0 - b1
     v0, v1, v2 = geo.tri_v0, geo.tri_v1, geo.tri_v2
@@ -281,11 +326,20 @@ def shade_paths(shading, textures, paths, wave, gen, ij, nxt, q, shadow, counter
                            thr[2] * w * par[MAT_EMISSION + 2]))
         if depth >= paths.max_depth:
             continue
-        key = hash_key(shading.seed, wave.y[k] * shading.width + wave.x[k], wave.sample[k],
-                       _PATH_SALT)
-        q, m = scatter(shading, paths, (f, hit, ray), alb, (thr, k, row, depth, key),
+        q, m = scatter(shading, paths, (f, hit, ray), alb, (thr, k, row, depth, path_key(
+                       shading, paths, wave, k)),
                        (nxt, q, shadow, m), counters)
     return i, m, q
+
+
+@njit(**JIT)
+def path_key(shading, paths, wave, k):
+    """Camera sample k's rng for path_rand: its hash key, its pixel's key
+    (Sobol's; 0 when unused) and its index in the pixel."""
+    pixel = wave.y[k] * shading.width + wave.x[k]
+    key = hash_key(shading.seed, pixel, wave.sample[k], _PATH_SALT)
+    pkey = hash_key(shading.seed, pixel, 0, _SOBOL_SALT) if paths.sampler == SOBOL else key
+    return key, pkey, wave.sample[k]
 
 
 @njit(**JIT)
@@ -301,7 +355,7 @@ def scatter(shading, paths, fh, alb, path, outs, counters):
     geo = shading.geo
     f, hit, ray = fh
     dx, dy, dz = ray.dx, ray.dy, ray.dz
-    thr, k, row, depth, key = path
+    thr, k, row, depth, rng = path
     nxt, q, shadow, m = outs
     n_lights = shading.lights.pos.shape[0]
     base = depth * (4 + n_lights)
@@ -312,7 +366,7 @@ def scatter(shading, paths, fh, alb, path, outs, counters):
     if kt > 0.0:
         eta = 1.0 / par[MAT_IOR] if f.front else par[MAT_IOR]
     own, w_refl, w_refr = bounce_weights(par[MAT_REFLECT], kt, -(dx * nx + dy * ny + dz * nz), eta)
-    u = rand01(key, base, 0)
+    u = path_rand(paths, rng, base, 0)
     # The event, chosen with its share: its weight over its probability
     # leaves the colour (Whitted's tint, or the lobe's albedo) as the
     # throughput's factor.
@@ -340,17 +394,17 @@ def scatter(shading, paths, fh, alb, path, outs, counters):
         sx, sy, sz = smooth_point(geo, hit, f.px, f.py, f.pz, f.side)
         lifted = (sx - f.px) * gx + (sy - f.py) * gy + (sz - f.pz) * gz > eps
         origin = (sx + eps * gx, sy + eps * gy, sz + eps * gz)
-        m = next_event(shading, paths, f, origin, ((key, base, lifted), alb, thr, k, row), shadow,
+        m = next_event(shading, paths, f, origin, ((rng, base, lifted), alb, thr, k, row), shadow,
                        m, counters)
-        direction, cos_n = cosine_direction(nx, ny, nz, rand01(key, base + 2 + n_lights, 0),
-                                            rand01(key, base + 2 + n_lights, 1))
+        u1, u2 = path_pair(paths, rng, base + 2 + n_lights)
+        direction, cos_n = cosine_direction(nx, ny, nz, u1, u2)
         if direction[0] * gx + direction[1] * gy + direction[2] * gz <= 0.0 or cos_n <= 0.0:
             return q, m     # below the flat surface: absorbed
         pdf = cos_n * _INV_PI
     thr = (thr[0] * alb[0], thr[1] * alb[1], thr[2] * alb[2])
     if depth + 1 >= paths.roulette_depth:
         keep = min(ROULETTE_MAX, max(thr[0], thr[1], thr[2]))
-        if rand01(key, base + 3 + n_lights, 0) >= keep:
+        if path_rand(paths, rng, base + 3 + n_lights, 0) >= keep:
             counters[row, ROULETTE_ENDED] += 1
             return q, m
         thr = (thr[0] / keep, thr[1] / keep, thr[2] / keep)
@@ -370,9 +424,19 @@ def finish_paths(wave, shadow, m, counters):
 
 
 @njit(**STAGE)
-def first_paths(wave, n, gen):
-    """The wave's n camera rays as generation 0, their samples' colours 0."""
+def first_paths(shading, paths, wave, n, gen):
+    """The wave's n camera rays as generation 0, their samples' colours 0.
+    The Sobol sampler moves each film point (camera_wave's hashed one,
+    with several samples per pixel) to its own pair of dimensions."""
     for k in range(n):
+        if paths.sampler == SOBOL and shading.spp > 1:
+            rng = path_key(shading, paths, wave, k)
+            jx, jy = path_pair(paths, rng, _FILM_PAIR)
+            fx, fy = (wave.x[k] + jx) / shading.width, (wave.y[k] + jy) / shading.height
+            ray, _, _ = camera_ray(shading.cam, fx, fy)
+            wave.film[k, 0], wave.film[k, 1] = fx, fy
+            wave.origins[k, 0], wave.origins[k, 1], wave.origins[k, 2] = ray.ox, ray.oy, ray.oz
+            wave.dirs[k, 0], wave.dirs[k, 1], wave.dirs[k, 2] = ray.dx, ray.dy, ray.dz
         for a in range(3):
             gen.origins[k, a] = wave.origins[k, a]
             gen.dirs[k, a] = wave.dirs[k, a]
@@ -398,7 +462,7 @@ def run_path_stage(step, shading, textures, paths, wave, bufs, counters, band, a
     a, b, c, d, e = args
     if step == CAMERA:
         n = camera_wave(shading, wave, a, b, (c, d), counters, band.row0, e != 0)
-        return first_paths(wave, n, gen), 0, 0
+        return first_paths(shading, paths, wave, n, gen), 0, 0
     if step == SHADE:
         return shade_paths(shading, textures, paths, wave, gen, (a, b), nxt, c, shadow, counters)
     if step == FINISH:

@@ -238,6 +238,9 @@ def check_path_options(opts, scene):
     light through walls), and takes one light sample per light at each
     bounce (more per pixel: --spp)."""
     if integrator_of(opts, scene) != "path":
+        if opts.sampler != BY_NAME["sampler"].default:
+            _path_refuses("sampler", f"sampler {opts.sampler!r} is the path tracer's (add "
+                                     "--integrator path)")
         return
     if opts.shadows == "none":
         _path_refuses("shadows", "shadow mode 'none' cannot be path traced: its light samples "
@@ -258,7 +261,7 @@ def _path_refuses(name, why):
     raise exc
 
 
-def bounce_record(scene, max_depth, integrator="whitted", geo=None):
+def bounce_record(scene, max_depth, integrator="whitted", geo=None, sampler="independent"):
     """The kernel's mirror-and-glass record: Bounces only when a material
     reflects or transmits, so other scenes compile and cast no such rays;
     the path tracer's record (Paths, with its emitters) for ``path``."""
@@ -266,7 +269,7 @@ def bounce_record(scene, max_depth, integrator="whitted", geo=None):
     from raytrace.scene.model import Mesh, Plane, Sphere
     if integrator == "path":
         from raytrace.renderer.emitters import path_record
-        return path_record(geo, int(max_depth))
+        return path_record(geo, int(max_depth), sampler=sampler)
     if any(o.material.bounces() for o in scene.objects if isinstance(o, (Mesh, Sphere, Plane))):
         return Bounces(max_depth=int(max_depth))
     return NoBounces()
@@ -397,7 +400,8 @@ def prepare(scene, opts, drop_meshes=False):
     background = f64(scene.background)
     shadows = shadow_record(opts.shadows, opts.pattern)
     textures = texture_record(opts.texture_filter, width, height, int(opts.spp), geo)
-    bounces = bounce_record(scene, max_depth_of(opts, scene), integrator_of(opts, scene), geo)
+    bounces = bounce_record(scene, max_depth_of(opts, scene), integrator_of(opts, scene), geo,
+                            opts.sampler)
     t_import = time.perf_counter() - t_start - t_corners
     peaks["flatten"] = peak_memory_mb()
     if drop_meshes:
