@@ -34,7 +34,15 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from raytrace.kernels.buffers import MAT_DIFFUSE, MAT_EMISSION, MAT_IOR, MAT_REFLECT, MAT_TRANSMIT
+from raytrace.kernels.buffers import (
+    MAT_DIFFUSE,
+    MAT_EMISSION,
+    MAT_GLOSSY,
+    MAT_IOR,
+    MAT_REFLECT,
+    MAT_SHININESS,
+    MAT_TRANSMIT,
+)
 from raytrace.kernels.counters import (
     BOUNCE_RAYS,
     EMITTER_SAMPLES,
@@ -44,6 +52,7 @@ from raytrace.kernels.counters import (
     SHADOW_POINTS,
     SHADOW_RAYS,
 )
+from raytrace.kernels.glossy import lobe_value, phong_direction
 from raytrace.kernels.jit import BLOCK, JIT, STAGE
 from raytrace.kernels.optics import bounce_weights, reflect, refract
 from raytrace.kernels.ray import Hit, make_ray
@@ -172,13 +181,15 @@ def _light_ray(shadow, m, origin, target, gap, entry):
 @njit(**JIT)
 def next_event(shading, paths, f, origin, frame, shadow, m, counters):
     """Shadow rays from ``origin`` (the lifted shading point) to one point
-    of each light and of one emissive triangle, for the Lambertian lobe of
-    reflectance ``frame[1]`` (an RGB tuple) at frame f; frame = ((random
-    key, first dimension, whether origin is lifted above the flat surface),
-    reflectance, throughput, camera sample, row).
+    of each light and of one emissive triangle, for the surface's lobe at
+    frame f; frame = ((random key, first dimension, whether origin is
+    lifted above the flat surface), lobe, throughput, camera sample, row),
+    the lobe as glossy.lobe_value takes it: with no glossy weight, the
+    Lambertian lobe of reflectance lobe[0] (an RGB tuple) alone.
     Returns the next free row of shadow."""
     geo, lights = shading.geo, shading.lights
-    (rng, dim, lifted), alb, thr, k, row = frame
+    (rng, dim, lifted), lobe, thr, k, row = frame
+    alb, glossy = lobe[0], lobe[1] > 0.0
     nx, ny, nz, gx, gy, gz = f.nx, f.ny, f.nz, f.gx, f.gy, f.gz
     for li in range(lights.pos.shape[0]):
         su, sv = path_pair(paths, rng, dim + 2 + li)
@@ -194,6 +205,11 @@ def next_event(shading, paths, f, origin, frame, shadow, m, counters):
         rgb = (thr[0] * alb[0] * ndl * lights.color[li, 0],
                thr[1] * alb[1] * ndl * lights.color[li, 1],
                thr[2] * alb[2] * ndl * lights.color[li, 2])
+        if glossy:      # pi f cos: for the Lambertian lobe, albedo x cos as above
+            fc, _ = lobe_value(lobe, nx, ny, nz, lx, ly, lz)
+            rgb = (np.pi * thr[0] * fc[0] * lights.color[li, 0],
+                   np.pi * thr[1] * fc[1] * lights.color[li, 1],
+                   np.pi * thr[2] * fc[2] * lights.color[li, 2])
         m = _light_ray(shadow, m, origin, (tx, ty, tz), 0.0, (k, row, rgb))
         counters[row, SHADOW_POINTS] += 1
         counters[row, SHADOW_RAYS] += 1
@@ -225,12 +241,17 @@ def next_event(shading, paths, f, origin, frame, shadow, m, counters):
     if cos_l <= 0.0 or ndl <= 0.0 or (gx * lx + gy * ly + gz * lz <= 0.0 and not lifted):
         return m
     pdf_l = emitter_pdf(paths, cos_l, dist2)
-    w = 1.0 if paths.strategy == LIGHTS_ONLY else power_heuristic(pdf_l, ndl * _INV_PI)
-    s = w * ndl * _INV_PI / pdf_l
+    if glossy:
+        fc, pdf_b = lobe_value(lobe, nx, ny, nz, lx, ly, lz)
+    else:
+        fc, pdf_b = (alb[0], alb[1], alb[2]), ndl * _INV_PI
+    w = 1.0 if paths.strategy == LIGHTS_ONLY else power_heuristic(pdf_l, pdf_b)
+    # Lambertian alone: albedo x (cos / pi), as the first slice computed it.
+    s = w / pdf_l if glossy else w * ndl * _INV_PI / pdf_l
     mat = geo.tri_mat[t]
     e = geo.mat_param[mat]
-    rgb = (thr[0] * alb[0] * e[MAT_EMISSION] * s, thr[1] * alb[1] * e[MAT_EMISSION + 1] * s,
-           thr[2] * alb[2] * e[MAT_EMISSION + 2] * s)
+    rgb = (thr[0] * fc[0] * e[MAT_EMISSION] * s, thr[1] * fc[1] * e[MAT_EMISSION + 1] * s,
+           thr[2] * fc[2] * e[MAT_EMISSION + 2] * s)
     counters[row, SHADOW_POINTS] += 1
     counters[row, SHADOW_RAYS] += 1
     return _light_ray(shadow, m, origin, y, EMITTER_GAP, (k, row, rgb))
@@ -394,13 +415,26 @@ def scatter(shading, paths, fh, alb, path, outs, counters):
         sx, sy, sz = smooth_point(geo, hit, f.px, f.py, f.pz, f.side)
         lifted = (sx - f.px) * gx + (sy - f.py) * gy + (sz - f.pz) * gz > eps
         origin = (sx + eps * gx, sy + eps * gy, sz + eps * gz)
-        m = next_event(shading, paths, f, origin, ((rng, base, lifted), alb, thr, k, row), shadow,
+        g = par[MAT_GLOSSY]
+        # The glossy lobe's share of the directions drawn (0: Lambertian only).
+        pg = g / (g + max(alb[0], alb[1], alb[2])) if g > 0.0 else 0.0
+        lobe = (alb, g, par[MAT_SHININESS], reflect(dx, dy, dz, nx, ny, nz), pg)
+        m = next_event(shading, paths, f, origin, ((rng, base, lifted), lobe, thr, k, row), shadow,
                        m, counters)
         u1, u2 = path_pair(paths, rng, base + 2 + n_lights)
-        direction, cos_n = cosine_direction(nx, ny, nz, u1, u2)
+        if g > 0.0 and u < own * pg:    # the event's number, rescaled, picks the lobe
+            direction = phong_direction(lobe[3], lobe[2], u1, u2)
+            cos_n = nx * direction[0] + ny * direction[1] + nz * direction[2]
+        else:
+            direction, cos_n = cosine_direction(nx, ny, nz, u1, u2)
         if direction[0] * gx + direction[1] * gy + direction[2] * gz <= 0.0 or cos_n <= 0.0:
             return q, m     # below the flat surface: absorbed
         pdf = cos_n * _INV_PI
+        if g > 0.0:         # the throughput's factor f cos / pdf, pdf the mixture's
+            fc, pdf = lobe_value(lobe, nx, ny, nz, direction[0], direction[1], direction[2])
+            if pdf <= 0.0:
+                return q, m
+            alb = (fc[0] / pdf, fc[1] / pdf, fc[2] / pdf)
     thr = (thr[0] * alb[0], thr[1] * alb[1], thr[2] * alb[2])
     if depth + 1 >= paths.roulette_depth:
         keep = min(ROULETTE_MAX, max(thr[0], thr[1], thr[2]))

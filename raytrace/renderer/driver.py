@@ -74,12 +74,15 @@ def _check_materials(scene):
             continue
         emission = list(np.ravel(np.asarray(m.emission, dtype=object)))
         values = [*np.ravel(np.asarray(m.color, dtype=object)), m.ambient, m.diffuse, m.specular,
-                  m.shininess, m.checker, m.reflect, m.transmit, m.ior, *emission]
+                  m.shininess, m.checker, m.reflect, m.transmit, m.ior, *emission, m.glossy]
         name = getattr(obj, 'name', type(obj).__name__)
         for x in values:
             if isinstance(x, (bool, np.bool_)) or not isinstance(x, Real) or not math.isfinite(x):
                 raise RaytraceError(f"object {k} ({name}): its material has {x!r} among its "
                                     "colour, weights and emission; they must be finite numbers")
+        if not 0.0 <= m.glossy <= 1.0:
+            raise RaytraceError(f"object {k} ({name}): its material's glossy weight must be "
+                                f"between 0 and 1, got {m.glossy!r}")
         if len(emission) != 3 or min(emission) < 0:
             raise RaytraceError(f"object {k} ({name}): its material's emission must be three "
                                 f"numbers of at least 0 (r, g, b), got {m.emission!r}")
