@@ -39,8 +39,8 @@ from common import fmt_g, fmt_s, interleaved, log, markdown_table, median  # noq
 SAMPLERS = ("independent", "sobol")
 SEED, REFERENCE_SEEDS = 0, (101, 102)     # seeds SEED, SEED + 1, ... for the cells
 FIT_FROM_SPP = 4
-FULL = dict(size=96, spp=(1, 2, 4, 8, 16, 32, 64, 128, 256), reference_spp=4096,
-            accels=("bvh", "grid", "kdtree"), seeds=6)
+FULL = dict(size=64, spp=(1, 2, 4, 8, 16, 32, 64, 128), reference_spp=4096,
+            accels=("bvh", "grid", "kdtree"), seeds=4)
 QUICK = dict(size=48, spp=(1, 2, 4, 8, 16, 32, 64), reference_spp=1024, accels=("bvh",),
              seeds=3)
 
