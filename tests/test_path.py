@@ -209,12 +209,13 @@ def test_bad_integrator_and_emission_are_one_line_errors(tmp_path):
 
 def test_a_whitted_render_imports_none_of_the_path_tracer():
     """Scenes without --integrator path compile none of it: its modules
-    are not even imported (a fresh process; this one has them)."""
+    (with its sampler's and glossy lobe's) are not even imported (a fresh
+    process; this one has them)."""
     import subprocess
     import sys
     code = ("import sys, raytrace; raytrace.render(raytrace.load_scene('teapot'), width=8, "
-            "height=6); print(sorted(m for m in sys.modules if 'path' in m.split('.')[-1] "
-            "and m.startswith('raytrace')))")
+            "height=6); print(sorted(m for m in sys.modules if m.startswith('raytrace') and "
+            "('path' in m.split('.')[-1] or m.split('.')[-1] in ('sobol', 'glossy'))))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]", out.stdout
 
