@@ -355,8 +355,8 @@ def shade_paths(shading, textures, paths, wave, gen, ij, nxt, q, shadow, counter
 
 @njit(**JIT)
 def path_key(shading, paths, wave, k):
-    """Camera sample k's rng for path_rand: its hash key, its pixel's key
-    (Sobol's; 0 when unused) and its index in the pixel."""
+    """Camera sample k's rng for path_pair: its hash key, its pixel's key
+    (Sobol's; the hash key again when unused) and its index in the pixel."""
     pixel = wave.y[k] * shading.width + wave.x[k]
     key = hash_key(shading.seed, pixel, wave.sample[k], _PATH_SALT)
     pkey = hash_key(shading.seed, pixel, 0, _SOBOL_SALT) if paths.sampler == SOBOL else key
