@@ -18,7 +18,8 @@ error in quadrature; "RMSE, net" subtracts it.  The slope is the
 least-squares slope of log net RMSE against log render seconds for spp >=
 4 (below that a render's fixed cost, the wave set-up, is a large share of
 its time): -0.5 is plain Monte Carlo.  "At equal time" compares the
-samplers' fitted lines at the independent sampler's 64-spp time.  Every
+samplers' fitted lines at the independent sampler's 64-spp time (32
+with --quick).  Every
 structure gives the same image, so only their times differ.
 
     python bench/path_convergence.py [--quick] [--plot FILE] [--json FILE]
@@ -41,8 +42,8 @@ SEED, REFERENCE_SEEDS = 0, (101, 102)     # seeds SEED, SEED + 1, ... for the ce
 FIT_FROM_SPP = 4
 FULL = dict(size=64, spp=(1, 2, 4, 8, 16, 32, 64, 128), reference_spp=4096,
             accels=("bvh", "grid", "kdtree"), seeds=4)
-QUICK = dict(size=48, spp=(1, 2, 4, 8, 16, 32, 64), reference_spp=1024, accels=("bvh",),
-             seeds=3)
+QUICK = dict(size=32, spp=(1, 2, 4, 8, 16, 32), reference_spp=1024, accels=("bvh",),
+             seeds=2)
 
 
 def fit(rows):
@@ -95,12 +96,13 @@ def run(quick, plot_path=None):
                                     [r["spp"] for r in pr if r["spp"] >= FIT_FROM_SPP],
                                     [r["rmse_net"] for r in pr if r["spp"] >= FIT_FROM_SPP])}
     equal = {}
+    at_spp = min(64, max(cfg["spp"]))
     for a in cfg["accels"]:
         t = next(r["render_s"] for r in rows if r["accel"] == a and r["sampler"] == "independent"
-                 and r["spp"] == 64)
+                 and r["spp"] == at_spp)
         e = {s: math.exp(fits[f"{a}/{s}"]["intercept"] + fits[f"{a}/{s}"]["slope_time"]
                          * math.log(t)) for s in SAMPLERS}
-        equal[a] = {"at_s": t, "independent": e["independent"], "sobol": e["sobol"],
+        equal[a] = {"at_spp": at_spp, "at_s": t, "independent": e["independent"], "sobol": e["sobol"],
                     "ratio": e["independent"] / e["sobol"]}
     res = {"scene": "cornell", "size": n, "seed": SEED, "fit_from_spp": FIT_FROM_SPP,
            "reference": {"spp": cfg["reference_spp"], "sampler": "sobol",
@@ -170,7 +172,8 @@ def markdown(res):
                  f"reference: the mean of two {ref['spp']}-spp Sobol renders "
                  f"(seeds {ref['seeds']}), its own noise {fmt_g(ref['noise_rmse'])} RMSE, "
                  f"subtracted in quadrature (net). Fits from the fitted lines; equal time at the "
-                 f"independent sampler's 64-spp render time. Render time: median of the "
+                 f"independent sampler's {next(iter(res['equal_time'].values()))['at_spp']}-spp "
+                 f"render time. Render time: median of the "
                  f"{res['seeds']} interleaved runs.")]
     if res.get("plot"):
         out += ["", f"Plot: `{res['plot']}`."]
@@ -178,7 +181,7 @@ def markdown(res):
 
 
 @click.command()
-@click.option("--quick", is_flag=True, help="48x48, up to 64 spp, 3 seeds, the BVH only.")
+@click.option("--quick", is_flag=True, help="32x32, up to 32 spp, 2 seeds, the BVH only.")
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
               default="bench-out/path_convergence.png", show_default=True)
 @click.option("--json", "json_path", type=click.Path(dir_okay=False))
