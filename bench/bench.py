@@ -23,6 +23,9 @@ workload     issue 40's public suite: the teapot alone at 1k, 118k and 1M
              llvm variant where they import (workload.py).
 convergence  soft-shadow error against run time for each sampling pattern
              (convergence.py).
+path_convergence  the path tracer's error against run time on the Cornell
+             box, per sampler and structure, with fitted slopes
+             (path_convergence.py; bench-out/path_convergence.png).
 turntable    a 36-frame teapot turntable in this process against --workers 2
              (a local Dask cluster): frames/s, Dask's overhead as a ratio,
              compile/load per worker (turntable.py; needs the distributed extra).
@@ -50,7 +53,7 @@ import common  # noqa: E402
 from common import ACCELS, STRUCTURES, fmt_g, fmt_s, interleaved, log, markdown_table, median  # noqa: E402
 
 SECTIONS = ("coldstart", "workshop", "scaling", "structures", "peer", "workload", "convergence",
-            "turntable", "meshfiles")
+            "path_convergence", "turntable", "meshfiles")
 # The scaling table's structures: those whose cost grows slower than the
 # mesh, each with a visit counter of its own (nodes, cells).
 HIERARCHICAL = tuple(n for n, s in STRUCTURES.items() if s.visit_metric)
@@ -365,6 +368,8 @@ def _run_section(name, cfg, quick, plot_path):
         return {"rows": rows, "chain": chain}, module.markdown(rows, chain)
     if name == "convergence":
         res = module.run(quick, plot_path)
+    elif name == "path_convergence":
+        res = module.run(quick, Path(plot_path).with_name("path_convergence.png"))
     elif name == "turntable":
         # Quick: a third of the frames; the cluster's start-up is the same.
         res = module.measure(frames=12 if quick else 36, repeat=1 if quick else 3)

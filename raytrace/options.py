@@ -105,10 +105,12 @@ OPTIONS = (
     Option("pattern", "choice", "stratified", "light sample placement (grid and stratified need a "
            "square number)", choices=("grid", "random", "stratified", "halton"),
            noun="sampling pattern"),
-    Option("max_depth", "int", 5, "mirror and glass bounces a ray is followed for", lo=0, hi=MAX_BOUNCES,
-           metavar="N"),
-    Option("integrator", "choice", None, "`path`: path tracing, with indirect light and emission",
+    Option("max_depth", "int", None, "bounces: mirror and glass, or a path's", lo=0,
+           hi=MAX_BOUNCES, default_text="5; path: 16", metavar="N"),
+    Option("integrator", "choice", None, "`path`: indirect light and emission",
            choices=("whitted", "path"), default_text="`whitted`, or the scene's"),
+    Option("sampler", "choice", "independent", "path tracer: hashed or Owen-scrambled Sobol "
+           "numbers", choices=("independent", "sobol")),
     Option("texture_filter", "choice", "box", "checker averaged over each pixel's footprint and "
            "image textures bilinear, or `none`: point-sampled, nearest texel",
            choices=("box", "none"), noun="texture filter"),

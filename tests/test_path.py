@@ -110,7 +110,17 @@ def cornell(size):
     return scene
 
 
-@pytest.mark.parametrize("name", ["cornell", "furnace"])
+def glossy_cornell(size):
+    """The Cornell box with its white surfaces half glossy (exponent 20)."""
+    import dataclasses
+    scene = cornell(size)
+    for o in scene.objects:
+        if o.material.color == (0.725, 0.71, 0.68):
+            o.material = dataclasses.replace(o.material, diffuse=0.5, glossy=0.5, shininess=20.0)
+    return scene
+
+
+@pytest.mark.parametrize("name", ["cornell", "furnace", "glossy"])
 def test_mis_and_each_technique_alone_agree_in_the_mean(name):
     """Light samples alone, bounce rays alone and the two weighted by MIS
     estimate the same image: per pixel their differences average 0,
@@ -120,14 +130,15 @@ def test_mis_and_each_technique_alone_agree_in_the_mean(name):
     the furnace, where bounce rays meet the emitter everywhere, by many
     standard errors; the Cornell box's small light leaves MIS nearly all
     to light samples)."""
-    scene = cornell(16) if name == "cornell" else furnace(0.5, 0.7)
+    scene = {"cornell": lambda: cornell(16), "furnace": lambda: furnace(0.5, 0.7),
+             "glossy": lambda: glossy_cornell(16)}[name]()
     images = {s: render_paths(scene, 16, 16, strategy=s, max_depth=3)
               for s in (MIS, BSDF_ONLY, LIGHTS_ONLY)}
     for a, b in ((MIS, BSDF_ONLY), (MIS, LIGHTS_ONLY), (LIGHTS_ONLY, BSDF_ONLY)):
         d = (images[a] - images[b]).reshape(-1, 3)
         se = d.std(axis=0, ddof=1) / np.sqrt(len(d))
         assert (np.abs(d.mean(axis=0)) <= SIGMAS * se).all(), (a, b, d.mean(axis=0), se)
-    if name == "cornell":    # light samples find its small light: MIS is less noisy
+    if name != "furnace":    # light samples find its small light: MIS is less noisy
         assert images[MIS].std() < images[BSDF_ONLY].std()
 
 
@@ -149,9 +160,10 @@ def test_direct_light_at_depth_one_is_the_whitted_diffuse_term():
     np.testing.assert_allclose(path.linear, whitted, rtol=1e-5, atol=1e-6)
 
 
-def test_same_bits_for_any_tiles_threads_and_structure():
+@pytest.mark.parametrize("sampler", ["independent", "sobol"])
+def test_same_bits_for_any_tiles_threads_and_structure(sampler):
     scene = cornell(16)
-    kw = dict(integrator="path", spp=2, seed=7)
+    kw = dict(integrator="path", spp=2, seed=7, sampler=sampler)
     ref = raytrace.render(scene, threads=2, **kw)
     assert ref.stats["counters"]["roulette_ended"] > 0
     assert ref.stats["counters"]["emitter_samples"] > 0
@@ -197,11 +209,96 @@ def test_bad_integrator_and_emission_are_one_line_errors(tmp_path):
 
 def test_a_whitted_render_imports_none_of_the_path_tracer():
     """Scenes without --integrator path compile none of it: its modules
-    are not even imported (a fresh process; this one has them)."""
+    (with its sampler's and glossy lobe's) are not even imported (a fresh
+    process; this one has them)."""
     import subprocess
     import sys
     code = ("import sys, raytrace; raytrace.render(raytrace.load_scene('teapot'), width=8, "
-            "height=6); print(sorted(m for m in sys.modules if 'path' in m.split('.')[-1] "
-            "and m.startswith('raytrace')))")
+            "height=6); print(sorted(m for m in sys.modules if m.startswith('raytrace') and "
+            "('path' in m.split('.')[-1] or m.split('.')[-1] in ('sobol', 'glossy'))))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]", out.stdout
+
+
+def test_path_refuses_options_it_cannot_honour_and_writes_linear_files(tmp_path):
+    """--shadows none and --light-samples mean nothing to the path tracer
+    (docs/pathtracer.md): usage errors in one line, exit 2, no file.  Its
+    --max-depth defaults to 16, whitted's to 5.  Its linear output keeps
+    radiance above 1 (the light) in .pfm and .exr."""
+    from raytrace.renderer.linear import read_pfm
+    for args in (["--shadows", "none"], ["--light-samples", "16"]):
+        out = tmp_path / "x.png"
+        r = CliRunner().invoke(main, ["cornell", "--width", "4", "--height", "4", "-o", str(out),
+                                      *args])
+        assert r.exit_code == 2 and args[0] in r.output and not out.exists(), r.output
+        assert "path trace" in r.output.strip().splitlines()[-1]
+    scene = cornell(12)
+    ref = raytrace.render(scene, spp=1)
+    assert ref.stats["max_depth"] == 16
+    from raytrace.renderer.driver import max_depth_of
+    assert max_depth_of(RenderOptions(integrator="whitted"), scene) == 5
+    r = CliRunner().invoke(main, ["cornell", "--width", "12", "--height", "12", "-o",
+                                  str(tmp_path / "c.pfm")])
+    assert r.exit_code == 0, r.output
+    back = read_pfm(tmp_path / "c.pfm")
+    assert back.max() > 1.0 and np.array_equal(back, ref.linear)
+    OpenEXR = pytest.importorskip("OpenEXR")
+    with OpenEXR.File(str(ref.save(tmp_path / "c.exr"))) as exr:
+        assert np.array_equal(exr.channels()["RGB"].pixels, ref.linear)
+
+
+def test_sobol_is_unbiased_and_less_noisy_in_the_cornell_box():
+    """Owen-scrambled Sobol (--sampler sobol) estimates the same image as
+    independent numbers: per pixel, its 16-sample image less a 256-sample
+    independent one averages 0 within SIGMAS standard errors; and it is
+    closer to that reference than 16 independent samples are (measured:
+    about 2x at 16 spp, docs/benchmarks.md).  Refused under whitted."""
+    scene = cornell(16)
+    ref = raytrace.render(scene, spp=256, seed=11).linear.astype(np.float64)
+    sob = raytrace.render(scene, spp=16, seed=1, sampler="sobol").linear.astype(np.float64)
+    ind = raytrace.render(scene, spp=16, seed=1).linear.astype(np.float64)
+    d = (sob - ref).reshape(-1, 3)
+    assert (np.abs(d.mean(axis=0)) <= SIGMAS * d.std(axis=0, ddof=1) / np.sqrt(len(d))).all()
+    assert np.sqrt(((sob - ref) ** 2).mean()) < np.sqrt(((ind - ref) ** 2).mean())
+    with pytest.raises(RaytraceError, match="path tracer"):
+        raytrace.render(scene, integrator="whitted", sampler="sobol")
+
+
+def phong_reflectance(theta_o, n, steps=600):
+    """What a plane of glossy weight 1 (exponent n) under the sky returns
+    towards a view theta_o from its normal: the integral over the
+    hemisphere of f cos x sky, f = (n + 2) / (2 pi) cos^n(alpha) about
+    the mirror direction, the sky 0.8 + 0.2 cos(theta) (kernels/render.sky
+    of a white background), by the midpoint rule."""
+    th = (np.arange(steps) + 0.5) * (np.pi / 2) / steps
+    ph = (np.arange(2 * steps) + 0.5) * np.pi / steps
+    t, p = np.meshgrid(th, ph, indexing="ij")
+    w = np.stack([np.sin(t) * np.cos(p), np.cos(t), np.sin(t) * np.sin(p)], axis=-1)
+    r = np.array([np.sin(theta_o), np.cos(theta_o), 0.0])     # the view mirrored about y
+    c = np.clip(w @ r, 0.0, None)
+    f = (n + 2) / (2 * np.pi) * c ** n
+    return float(np.sum(f * np.cos(t) * (0.8 + 0.2 * np.cos(t)) * np.sin(t))
+                 * (np.pi / 2 / steps) * (np.pi / steps))
+
+
+@pytest.mark.parametrize("theta", [20.0, 70.0])
+def test_glossy_lobe_returns_its_integral(theta):
+    """A glossy plane (glossy 1, diffuse 0, exponent 10) under a white sky,
+    seen from theta off its normal through a narrow camera: every path is
+    one glossy bounce into the sky, so the pixels' mean estimates the
+    lobe's integral of f cos x sky (phong_reflectance), whatever its
+    sampling; within SIGMAS standard errors.  A wrong normalisation
+    ((n + 1) for (n + 2): 8%), a sampling density that is not the one
+    divided by, or a lobe not cut at the horizon (at 70 degrees a fifth
+    of it falls below), all fail it."""
+    t = np.radians(theta)
+    mat = Material(color=(0.5, 0.5, 0.5), ambient=0.0, diffuse=0.0, specular=0.0,
+                   shininess=10.0, glossy=1.0)
+    eye = (-5.0 * np.sin(t), 5.0 * np.cos(t), 0.0)
+    scene = Scene("glossy", Camera(eye=eye, look_at=(0.0, 0.0, 0.0), fov=0.2, width=4, height=4),
+                  objects=[Plane((0, 0, 0), (0, 1, 0), mat)], background=(1.0, 1.0, 1.0))
+    img = raytrace.render(scene, integrator="path", spp=256, max_depth=1).linear[..., 0]
+    expected = phong_reflectance(t, 10.0)
+    se = img.std(ddof=1) / np.sqrt(img.size)
+    assert abs(img.mean() - expected) <= SIGMAS * se, (img.mean(), expected, se)
+    assert 0.25 < expected < 1.0      # the lobe does reflect, less at grazing views

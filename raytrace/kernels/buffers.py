@@ -42,8 +42,10 @@ Geometry = namedtuple(
 # Columns of mat_param.
 (MAT_AMBIENT, MAT_DIFFUSE, MAT_SPECULAR, MAT_SHININESS, MAT_CHECKER, MAT_REFLECT, MAT_TRANSMIT,
  MAT_IOR, MAT_EMISSION) = range(9)
-# MAT_EMISSION .. MAT_EMISSION + 2: emitted RGB radiance (the path tracer's).
-N_MAT_PARAMS = 11
+# MAT_EMISSION .. MAT_EMISSION + 2: emitted RGB radiance (the path tracer's);
+# MAT_GLOSSY: the path tracer's glossy weight (kernels/glossy.py).
+MAT_GLOSSY = 11
+N_MAT_PARAMS = 12
 
 def f64(a, cols=None):
     a = np.ascontiguousarray(a, dtype=FLOAT)

@@ -34,7 +34,15 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from raytrace.kernels.buffers import MAT_DIFFUSE, MAT_EMISSION, MAT_IOR, MAT_REFLECT, MAT_TRANSMIT
+from raytrace.kernels.buffers import (
+    MAT_DIFFUSE,
+    MAT_EMISSION,
+    MAT_GLOSSY,
+    MAT_IOR,
+    MAT_REFLECT,
+    MAT_SHININESS,
+    MAT_TRANSMIT,
+)
 from raytrace.kernels.counters import (
     BOUNCE_RAYS,
     EMITTER_SAMPLES,
@@ -44,17 +52,23 @@ from raytrace.kernels.counters import (
     SHADOW_POINTS,
     SHADOW_RAYS,
 )
+from raytrace.kernels.glossy import lobe_value, phong_direction
 from raytrace.kernels.jit import BLOCK, JIT, STAGE
 from raytrace.kernels.optics import bounce_weights, reflect, refract
 from raytrace.kernels.ray import Hit, make_ray
 from raytrace.kernels.render import camera_ray, hit_frame, point_albedo, sky, surface_albedo
 from raytrace.kernels.sampling import hash_key, rand01
 from raytrace.kernels.shade import smooth_point
+from raytrace.kernels.sobol import sobol_pair01
 from raytrace.kernels.wavefront import CAMERA, camera_wave, store_wave
 
 # Paths.strategy: both techniques weighted by MIS, or one alone (tests:
 # each is unbiased, so all three agree in the mean).
 MIS, BSDF_ONLY, LIGHTS_ONLY = 0, 1, 2
+# Paths.sampler: a path's numbers hashed independently, or Owen-scrambled
+# Sobol points (kernels/sobol.py), a pair of dimensions at a time.
+INDEPENDENT, SOBOL = 0, 1
+SAMPLERS = {"independent": INDEPENDENT, "sobol": SOBOL}
 # Bounces before Russian roulette may end a path, and the most a path is
 # kept with (a path of white walls is not kept forever).
 ROULETTE_DEPTH = 3
@@ -64,6 +78,9 @@ ROULETTE_MAX = 0.95
 EMITTER_GAP = 2.0 ** -20
 # The third key of a path's random numbers (its camera sample's are 0x5EED).
 _PATH_SALT = 0x9A7
+# The Sobol sampler's per-pixel key, and its pair for the film point.
+_SOBOL_SALT = 0x50B01
+_FILM_PAIR = 0x7FFFFFFF
 _INV_PI = 1.0 / np.pi
 
 # A generation of paths: rays as cast.py takes them, their hits, the
@@ -90,6 +107,25 @@ def power_heuristic(pa, pb):
 
 
 @njit(**JIT)
+def path_pair(paths, rng, i):
+    """A path's numbers of dimensions (i, 0) and (i, 1), in [0, 1); rng =
+    (its sample's hash key, its pixel's key, the sample's index).
+    Independent: hashes of the key; Sobol: the pixel's shuffled, scrambled
+    2-D Sobol point number ``sample`` of pair i."""
+    if paths.sampler == SOBOL:
+        return sobol_pair01(rng[1], rng[2], i)
+    return rand01(rng[0], i, 0), rand01(rng[0], i, 1)
+
+
+@njit(**JIT)
+def path_rand(paths, rng, i, dim):
+    """The one number of dimension (i, dim) (path_pair's)."""
+    if paths.sampler == SOBOL:
+        return sobol_pair01(rng[1], rng[2], i)[dim]
+    return rand01(rng[0], i, dim)
+
+
+@njit(**JIT)
 def emitter_pdf(paths, cos_l, dist2):
     """The solid-angle density of the area-weighted emitter sample at a
     point dist2 (squared) away, seen at cos_l from its normal."""
@@ -98,8 +134,8 @@ def emitter_pdf(paths, cos_l, dist2):
 
 @njit(**JIT)
 def pick_emitter(paths, u):
-    """The emissive triangle whose share of the total area holds u (binary
-    search of the running sum)."""
+    """The index in emit_tri of the emissive triangle whose share of the
+    total area holds u (binary search of the running sum)."""
     lo, hi = 0, paths.emit_cdf.shape[0] - 1
     while lo < hi:
         mid = (lo + hi) // 2
@@ -107,7 +143,25 @@ def pick_emitter(paths, u):
             lo = mid + 1
         else:
             hi = mid
-    return paths.emit_tri[lo]
+    return lo
+
+
+@njit(**JIT)
+def emitter_numbers(paths, rng, dim):
+    """The emitter sample's triangle (its index in emit_tri) and the two
+    numbers of its point.  Independent: three dimensions, as the first
+    slice drew them.  Sobol: one pair; its first number picks the
+    triangle and, rescaled within the triangle's share, serves again
+    (pbrt's remapped discrete sample), so the pair's stratification covers
+    the emitters' whole area."""
+    u, v = path_pair(paths, rng, dim + 1)
+    j = pick_emitter(paths, u)
+    if paths.sampler != SOBOL:
+        return j, v, path_rand(paths, rng, dim, 1)
+    lo = paths.emit_cdf[j - 1] if j > 0 else 0.0
+    share = paths.emit_cdf[j] - lo
+    r = min(max((u - lo) / share, 0.0), 1.0 - 2.0 ** -53) if share > 0.0 else 0.5
+    return j, r, v
 
 
 @njit(**JIT)
@@ -127,16 +181,18 @@ def _light_ray(shadow, m, origin, target, gap, entry):
 @njit(**JIT)
 def next_event(shading, paths, f, origin, frame, shadow, m, counters):
     """Shadow rays from ``origin`` (the lifted shading point) to one point
-    of each light and of one emissive triangle, for the Lambertian lobe of
-    reflectance ``frame[1]`` (an RGB tuple) at frame f; frame = ((random
-    key, first dimension, whether origin is lifted above the flat surface),
-    reflectance, throughput, camera sample, row).
+    of each light and of one emissive triangle, for the surface's lobe at
+    frame f; frame = ((random key, first dimension, whether origin is
+    lifted above the flat surface), lobe, throughput, camera sample, row),
+    the lobe as glossy.lobe_value takes it: with no glossy weight, the
+    Lambertian lobe of reflectance lobe[0] (an RGB tuple) alone.
     Returns the next free row of shadow."""
     geo, lights = shading.geo, shading.lights
-    (key, dim, lifted), alb, thr, k, row = frame
+    (rng, dim, lifted), lobe, thr, k, row = frame
+    alb, glossy = lobe[0], lobe[1] > 0.0
     nx, ny, nz, gx, gy, gz = f.nx, f.ny, f.nz, f.gx, f.gy, f.gz
     for li in range(lights.pos.shape[0]):
-        su, sv = rand01(key, dim + 2 + li, 0), rand01(key, dim + 2 + li, 1)
+        su, sv = path_pair(paths, rng, dim + 2 + li)
         tx = lights.pos[li, 0] + (su - 0.5) * lights.u[li, 0] + (sv - 0.5) * lights.v[li, 0]
         ty = lights.pos[li, 1] + (su - 0.5) * lights.u[li, 1] + (sv - 0.5) * lights.v[li, 1]
         tz = lights.pos[li, 2] + (su - 0.5) * lights.u[li, 2] + (sv - 0.5) * lights.v[li, 2]
@@ -149,16 +205,21 @@ def next_event(shading, paths, f, origin, frame, shadow, m, counters):
         rgb = (thr[0] * alb[0] * ndl * lights.color[li, 0],
                thr[1] * alb[1] * ndl * lights.color[li, 1],
                thr[2] * alb[2] * ndl * lights.color[li, 2])
+        if glossy:      # pi f cos: for the Lambertian lobe, albedo x cos as above
+            fc, _ = lobe_value(lobe, nx, ny, nz, lx, ly, lz)
+            rgb = (np.pi * thr[0] * fc[0] * lights.color[li, 0],
+                   np.pi * thr[1] * fc[1] * lights.color[li, 1],
+                   np.pi * thr[2] * fc[2] * lights.color[li, 2])
         m = _light_ray(shadow, m, origin, (tx, ty, tz), 0.0, (k, row, rgb))
         counters[row, SHADOW_POINTS] += 1
         counters[row, SHADOW_RAYS] += 1
     if paths.emit_area <= 0.0 or paths.strategy == BSDF_ONLY:
         return m
     counters[row, EMITTER_SAMPLES] += 1
-    t = pick_emitter(paths, rand01(key, dim + 1, 0))
+    j, r1, r2 = emitter_numbers(paths, rng, dim)
+    t = paths.emit_tri[j]
     # A uniform point of the triangle (Osada et al. 2002's square-root map).
-    r1 = np.sqrt(rand01(key, dim + 1, 1))
-    r2 = rand01(key, dim, 1)
+    r1 = np.sqrt(r1)
     b0, b1 = 1.0 - r1, r2 * r1
     b2 = 1.0 - b0 - b1
     v0, v1, v2 = geo.tri_v0, geo.tri_v1, geo.tri_v2
@@ -180,12 +241,17 @@ def next_event(shading, paths, f, origin, frame, shadow, m, counters):
     if cos_l <= 0.0 or ndl <= 0.0 or (gx * lx + gy * ly + gz * lz <= 0.0 and not lifted):
         return m
     pdf_l = emitter_pdf(paths, cos_l, dist2)
-    w = 1.0 if paths.strategy == LIGHTS_ONLY else power_heuristic(pdf_l, ndl * _INV_PI)
-    s = w * ndl * _INV_PI / pdf_l
+    if glossy:
+        fc, pdf_b = lobe_value(lobe, nx, ny, nz, lx, ly, lz)
+    else:
+        fc, pdf_b = (alb[0], alb[1], alb[2]), ndl * _INV_PI
+    w = 1.0 if paths.strategy == LIGHTS_ONLY else power_heuristic(pdf_l, pdf_b)
+    # Lambertian alone: albedo x (cos / pi), as the first slice computed it.
+    s = w / pdf_l if glossy else w * ndl * _INV_PI / pdf_l
     mat = geo.tri_mat[t]
     e = geo.mat_param[mat]
-    rgb = (thr[0] * alb[0] * e[MAT_EMISSION] * s, thr[1] * alb[1] * e[MAT_EMISSION + 1] * s,
-           thr[2] * alb[2] * e[MAT_EMISSION + 2] * s)
+    rgb = (thr[0] * fc[0] * e[MAT_EMISSION] * s, thr[1] * fc[1] * e[MAT_EMISSION + 1] * s,
+           thr[2] * fc[2] * e[MAT_EMISSION + 2] * s)
     counters[row, SHADOW_POINTS] += 1
     counters[row, SHADOW_RAYS] += 1
     return _light_ray(shadow, m, origin, y, EMITTER_GAP, (k, row, rgb))
@@ -281,11 +347,20 @@ def shade_paths(shading, textures, paths, wave, gen, ij, nxt, q, shadow, counter
                            thr[2] * w * par[MAT_EMISSION + 2]))
         if depth >= paths.max_depth:
             continue
-        key = hash_key(shading.seed, wave.y[k] * shading.width + wave.x[k], wave.sample[k],
-                       _PATH_SALT)
-        q, m = scatter(shading, paths, (f, hit, ray), alb, (thr, k, row, depth, key),
+        q, m = scatter(shading, paths, (f, hit, ray), alb, (thr, k, row, depth, path_key(
+                       shading, paths, wave, k)),
                        (nxt, q, shadow, m), counters)
     return i, m, q
+
+
+@njit(**JIT)
+def path_key(shading, paths, wave, k):
+    """Camera sample k's rng for path_pair: its hash key, its pixel's key
+    (Sobol's; the hash key again when unused) and its index in the pixel."""
+    pixel = wave.y[k] * shading.width + wave.x[k]
+    key = hash_key(shading.seed, pixel, wave.sample[k], _PATH_SALT)
+    pkey = hash_key(shading.seed, pixel, 0, _SOBOL_SALT) if paths.sampler == SOBOL else key
+    return key, pkey, wave.sample[k]
 
 
 @njit(**JIT)
@@ -301,7 +376,7 @@ def scatter(shading, paths, fh, alb, path, outs, counters):
     geo = shading.geo
     f, hit, ray = fh
     dx, dy, dz = ray.dx, ray.dy, ray.dz
-    thr, k, row, depth, key = path
+    thr, k, row, depth, rng = path
     nxt, q, shadow, m = outs
     n_lights = shading.lights.pos.shape[0]
     base = depth * (4 + n_lights)
@@ -312,7 +387,7 @@ def scatter(shading, paths, fh, alb, path, outs, counters):
     if kt > 0.0:
         eta = 1.0 / par[MAT_IOR] if f.front else par[MAT_IOR]
     own, w_refl, w_refr = bounce_weights(par[MAT_REFLECT], kt, -(dx * nx + dy * ny + dz * nz), eta)
-    u = rand01(key, base, 0)
+    u = path_rand(paths, rng, base, 0)
     # The event, chosen with its share: its weight over its probability
     # leaves the colour (Whitted's tint, or the lobe's albedo) as the
     # throughput's factor.
@@ -340,17 +415,30 @@ def scatter(shading, paths, fh, alb, path, outs, counters):
         sx, sy, sz = smooth_point(geo, hit, f.px, f.py, f.pz, f.side)
         lifted = (sx - f.px) * gx + (sy - f.py) * gy + (sz - f.pz) * gz > eps
         origin = (sx + eps * gx, sy + eps * gy, sz + eps * gz)
-        m = next_event(shading, paths, f, origin, ((key, base, lifted), alb, thr, k, row), shadow,
+        g = par[MAT_GLOSSY]
+        # The glossy lobe's share of the directions drawn (0: Lambertian only).
+        pg = g / (g + max(alb[0], alb[1], alb[2])) if g > 0.0 else 0.0
+        lobe = (alb, g, par[MAT_SHININESS], reflect(dx, dy, dz, nx, ny, nz), pg)
+        m = next_event(shading, paths, f, origin, ((rng, base, lifted), lobe, thr, k, row), shadow,
                        m, counters)
-        direction, cos_n = cosine_direction(nx, ny, nz, rand01(key, base + 2 + n_lights, 0),
-                                            rand01(key, base + 2 + n_lights, 1))
+        u1, u2 = path_pair(paths, rng, base + 2 + n_lights)
+        if g > 0.0 and u < own * pg:    # the event's number, rescaled, picks the lobe
+            direction = phong_direction(lobe[3], lobe[2], u1, u2)
+            cos_n = nx * direction[0] + ny * direction[1] + nz * direction[2]
+        else:
+            direction, cos_n = cosine_direction(nx, ny, nz, u1, u2)
         if direction[0] * gx + direction[1] * gy + direction[2] * gz <= 0.0 or cos_n <= 0.0:
             return q, m     # below the flat surface: absorbed
         pdf = cos_n * _INV_PI
+        if g > 0.0:         # the throughput's factor f cos / pdf, pdf the mixture's
+            fc, pdf = lobe_value(lobe, nx, ny, nz, direction[0], direction[1], direction[2])
+            if pdf <= 0.0:
+                return q, m
+            alb = (fc[0] / pdf, fc[1] / pdf, fc[2] / pdf)
     thr = (thr[0] * alb[0], thr[1] * alb[1], thr[2] * alb[2])
     if depth + 1 >= paths.roulette_depth:
         keep = min(ROULETTE_MAX, max(thr[0], thr[1], thr[2]))
-        if rand01(key, base + 3 + n_lights, 0) >= keep:
+        if path_rand(paths, rng, base + 3 + n_lights, 0) >= keep:
             counters[row, ROULETTE_ENDED] += 1
             return q, m
         thr = (thr[0] / keep, thr[1] / keep, thr[2] / keep)
@@ -370,9 +458,19 @@ def finish_paths(wave, shadow, m, counters):
 
 
 @njit(**STAGE)
-def first_paths(wave, n, gen):
-    """The wave's n camera rays as generation 0, their samples' colours 0."""
+def first_paths(shading, paths, wave, n, gen):
+    """The wave's n camera rays as generation 0, their samples' colours 0.
+    The Sobol sampler moves each film point (camera_wave's hashed one,
+    with several samples per pixel) to its own pair of dimensions."""
     for k in range(n):
+        if paths.sampler == SOBOL and shading.spp > 1:
+            rng = path_key(shading, paths, wave, k)
+            jx, jy = path_pair(paths, rng, _FILM_PAIR)
+            fx, fy = (wave.x[k] + jx) / shading.width, (wave.y[k] + jy) / shading.height
+            ray, _, _ = camera_ray(shading.cam, fx, fy)
+            wave.film[k, 0], wave.film[k, 1] = fx, fy
+            wave.origins[k, 0], wave.origins[k, 1], wave.origins[k, 2] = ray.ox, ray.oy, ray.oz
+            wave.dirs[k, 0], wave.dirs[k, 1], wave.dirs[k, 2] = ray.dx, ray.dy, ray.dz
         for a in range(3):
             gen.origins[k, a] = wave.origins[k, a]
             gen.dirs[k, a] = wave.dirs[k, a]
@@ -398,7 +496,7 @@ def run_path_stage(step, shading, textures, paths, wave, bufs, counters, band, a
     a, b, c, d, e = args
     if step == CAMERA:
         n = camera_wave(shading, wave, a, b, (c, d), counters, band.row0, e != 0)
-        return first_paths(wave, n, gen), 0, 0
+        return first_paths(shading, paths, wave, n, gen), 0, 0
     if step == SHADE:
         return shade_paths(shading, textures, paths, wave, gen, (a, b), nxt, c, shadow, counters)
     if step == FINISH:

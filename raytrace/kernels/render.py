@@ -45,9 +45,10 @@ Bounces = namedtuple("Bounces", ["max_depth"])
 # to max_depth bounces, ``strategy`` (pathtrace.MIS, or one technique
 # alone, for tests), Russian roulette from bounce ``roulette_depth`` on,
 # and the emissive triangles (emit_tri) with their areas' running sum
-# over the total (emit_cdf) and that total (emit_area; 0: none).
+# over the total (emit_cdf) and that total (emit_area; 0: none); its
+# random numbers' ``sampler`` (pathtrace.INDEPENDENT or SOBOL).
 Paths = namedtuple("Paths", ["max_depth", "strategy", "roulette_depth", "emit_tri", "emit_cdf",
-                             "emit_area"])
+                             "emit_area", "sampler"])
 # The geometry, its structure, the lights, the shadow mode and the
 # sampling seed.
 Lighting = namedtuple("Lighting", ["geo", "acc", "lights", "shadows", "seed"])

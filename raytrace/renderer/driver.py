@@ -74,12 +74,15 @@ def _check_materials(scene):
             continue
         emission = list(np.ravel(np.asarray(m.emission, dtype=object)))
         values = [*np.ravel(np.asarray(m.color, dtype=object)), m.ambient, m.diffuse, m.specular,
-                  m.shininess, m.checker, m.reflect, m.transmit, m.ior, *emission]
+                  m.shininess, m.checker, m.reflect, m.transmit, m.ior, *emission, m.glossy]
         name = getattr(obj, 'name', type(obj).__name__)
         for x in values:
             if isinstance(x, (bool, np.bool_)) or not isinstance(x, Real) or not math.isfinite(x):
                 raise RaytraceError(f"object {k} ({name}): its material has {x!r} among its "
                                     "colour, weights and emission; they must be finite numbers")
+        if not 0.0 <= m.glossy <= 1.0:
+            raise RaytraceError(f"object {k} ({name}): its material's glossy weight must be "
+                                f"between 0 and 1, got {m.glossy!r}")
         if len(emission) != 3 or min(emission) < 0:
             raise RaytraceError(f"object {k} ({name}): its material's emission must be three "
                                 f"numbers of at least 0 (r, g, b), got {m.emission!r}")
@@ -96,6 +99,7 @@ def validate(opts, scene):
     for opt in OPTIONS:
         opt.check(getattr(opts, opt.name))
     BY_NAME["integrator"].check(integrator_of(opts, scene))
+    check_path_options(opts, scene)
     w = scene.camera.width if opts.width is None else opts.width
     h = scene.camera.height if opts.height is None else opts.height
     BY_NAME["width"].check(w)
@@ -219,7 +223,48 @@ def integrator_of(opts, scene):
     return opts.integrator or getattr(scene, "integrator", None) or "whitted"
 
 
-def bounce_record(scene, max_depth, integrator="whitted", geo=None):
+# --max-depth's default per integrator.  Whitted: 5 mirror and glass
+# bounces.  Path: 16, the most the option allows; Russian roulette ends
+# nearly every path before it, and 5 cut 1.6% of the Cornell box's light
+# (docs/pathtracer.md).
+MAX_DEPTH = {"whitted": 5, "path": 16}
+
+
+def max_depth_of(opts, scene):
+    """The render's --max-depth: the option, else its integrator's default."""
+    return MAX_DEPTH[integrator_of(opts, scene)] if opts.max_depth is None else opts.max_depth
+
+
+def check_path_options(opts, scene):
+    """Raise OptionError for an option the path tracer cannot honour: it
+    needs its shadow rays (a light sample unchecked for occlusion is
+    light through walls), and takes one light sample per light at each
+    bounce (more per pixel: --spp)."""
+    if integrator_of(opts, scene) != "path":
+        if opts.sampler != BY_NAME["sampler"].default:
+            _path_refuses("sampler", f"sampler {opts.sampler!r} is the path tracer's (add "
+                                     "--integrator path)")
+        return
+    if opts.shadows == "none":
+        _path_refuses("shadows", "shadow mode 'none' cannot be path traced: its light samples "
+                                 "need their shadow rays (use hard or soft)")
+    if opts.light_samples != BY_NAME["light_samples"].default:
+        _path_refuses("light_samples", "light samples cannot be set for the path tracer: it takes "
+                                       "one per light at each bounce (for more, raise --spp)")
+    for k, light in enumerate(scene.lights):
+        if light.samples and opts.shadows == "soft":
+            raise RaytraceError(f"{light.where or f'light {k}'}: its samples cannot be set for the "
+                                "path tracer (one light sample per light at each bounce; for "
+                                "more, raise --spp)")
+
+
+def _path_refuses(name, why):
+    exc = OptionError(why)
+    exc.flag = BY_NAME[name].flag
+    raise exc
+
+
+def bounce_record(scene, max_depth, integrator="whitted", geo=None, sampler="independent"):
     """The kernel's mirror-and-glass record: Bounces only when a material
     reflects or transmits, so other scenes compile and cast no such rays;
     the path tracer's record (Paths, with its emitters) for ``path``."""
@@ -227,7 +272,7 @@ def bounce_record(scene, max_depth, integrator="whitted", geo=None):
     from raytrace.scene.model import Mesh, Plane, Sphere
     if integrator == "path":
         from raytrace.renderer.emitters import path_record
-        return path_record(geo, int(max_depth))
+        return path_record(geo, int(max_depth), sampler=sampler)
     if any(o.material.bounces() for o in scene.objects if isinstance(o, (Mesh, Sphere, Plane))):
         return Bounces(max_depth=int(max_depth))
     return NoBounces()
@@ -358,7 +403,8 @@ def prepare(scene, opts, drop_meshes=False):
     background = f64(scene.background)
     shadows = shadow_record(opts.shadows, opts.pattern)
     textures = texture_record(opts.texture_filter, width, height, int(opts.spp), geo)
-    bounces = bounce_record(scene, opts.max_depth, integrator_of(opts, scene), geo)
+    bounces = bounce_record(scene, max_depth_of(opts, scene), integrator_of(opts, scene), geo,
+                            opts.sampler)
     t_import = time.perf_counter() - t_start - t_corners
     peaks["flatten"] = peak_memory_mb()
     if drop_meshes:

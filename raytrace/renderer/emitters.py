@@ -7,10 +7,11 @@ from raytrace.kernels.buffers import MAT_EMISSION, f64, i64
 from raytrace.kernels.render import Paths
 
 
-def path_record(geo, max_depth, strategy=0, roulette_depth=None):
-    """Paths for the flattened scene ``geo``; strategy and roulette_depth
-    as kernels/pathtrace.py defines them (MIS; its ROULETTE_DEPTH)."""
-    from raytrace.kernels.pathtrace import ROULETTE_DEPTH
+def path_record(geo, max_depth, strategy=0, roulette_depth=None, sampler="independent"):
+    """Paths for the flattened scene ``geo``; strategy, roulette_depth and
+    sampler (a name) as kernels/pathtrace.py defines them (MIS; its
+    ROULETTE_DEPTH; SAMPLERS)."""
+    from raytrace.kernels.pathtrace import ROULETTE_DEPTH, SAMPLERS
     glow = geo.mat_param[:, MAT_EMISSION:MAT_EMISSION + 3].sum(axis=1) > 0.0
     tri = np.flatnonzero(glow[geo.tri_mat]) if len(geo.tri_mat) else np.zeros(0, np.int64)
     e1 = geo.tri_v1[tri] - geo.tri_v0[tri]
@@ -25,4 +26,5 @@ def path_record(geo, max_depth, strategy=0, roulette_depth=None):
         tri, cdf = np.zeros(1, np.int64), np.ones(1)     # never read: emit_area 0
     return Paths(max_depth=int(max_depth), strategy=int(strategy),
                  roulette_depth=int(ROULETTE_DEPTH if roulette_depth is None else roulette_depth),
-                 emit_tri=i64(tri), emit_cdf=f64(cdf), emit_area=total)
+                 emit_tri=i64(tri), emit_cdf=f64(cdf), emit_area=total,
+                 sampler=SAMPLERS[sampler])

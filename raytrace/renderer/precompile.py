@@ -23,6 +23,7 @@ def load_stages(scene, opts=None):
         bounce_record,
         camera_buffer,
         light_buffers,
+        max_depth_of,
         shadow_record,
         texture_record,
         validate,
@@ -35,7 +36,7 @@ def load_stages(scene, opts=None):
                         shadow_record(opts.shadows, opts.pattern), int(opts.seed))
     render = Render(lighting=lighting, cam=camera_buffer(scene.camera, width, height),
                     textures=texture_record(opts.texture_filter, width, height, int(opts.spp), geo),
-                    bounces=bounce_record(scene, opts.max_depth), background=f64(scene.background),
+                    bounces=bounce_record(scene, max_depth_of(opts, scene)), background=f64(scene.background),
                     width=width, height=height, spp=int(opts.spp))
     band = Band(image=np.empty((0, width, 3), np.float32), aovs=aov_buffers(width, height, False),
                 stats_rows=np.zeros((0, N_COUNTERS), np.int64), row0=0)

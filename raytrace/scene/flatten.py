@@ -320,7 +320,8 @@ def flatten(scene, with_sources=False, shading=True):
         pl_mat=i64([mat_id(p.material) for p in planes]),
         mat_color=f64([m.color for m in materials], 3),
         mat_param=f64([[m.ambient, m.diffuse, m.specular, m.shininess, m.checker, m.reflect,
-                        m.transmit, m.ior, *m.emission] for m in materials], N_MAT_PARAMS),
+                        m.transmit, m.ior, *m.emission, m.glossy] for m in materials],
+                       N_MAT_PARAMS),
         mat_tex=mat_tex, tex_rgb=tex_rgb,
     )
     info = {"triangles": n_tris, "degenerate_dropped": dropped,

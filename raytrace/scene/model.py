@@ -22,6 +22,9 @@ class Material:
     # Linear RGB radiance emitted from the front face (a triangle's winding,
     # a sphere's outside); lights the scene only under the path tracer.
     emission: tuple = (0.0, 0.0, 0.0)
+    # Under the path tracer: the weight, 0..1, of a normalised Phong lobe of
+    # exponent ``shininess`` beside the diffuse one (kernels/glossy.py).
+    glossy: float = 0.0
     # (h, w, 3) linear RGB image multiplying ``color`` on meshes with
     # texture coordinates (an OBJ's map_Kd, a glTF baseColorTexture).
     texture: np.ndarray = field(default=None, compare=False, repr=False)

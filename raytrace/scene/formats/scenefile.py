@@ -22,7 +22,7 @@ CAMERA_KEYS = ("position", "look_at", "up", "fov", "width", "height")
 ANIMATION_KEYS = ("frames", "keys")
 KEY_KEYS = ("frame", "position", "look_at", "fov")
 MATERIAL_KEYS = ("color", "ambient", "diffuse", "specular", "shininess", "checker", "reflect",
-                 "transmit", "ior", "emission")
+                 "transmit", "ior", "emission", "glossy")
 IOR_RANGE = (1.0, 10.0)   # air to beyond diamond (2.42); below 1 is no material in air
 LIGHT_KEYS = ("type", "position", "color", "intensity", "size", "direction", "samples")
 AREA_ONLY = ("size", "direction", "samples")
@@ -221,7 +221,8 @@ def _materials(path, top):
                              reflect=f.number("reflect", default=d.reflect, lo=0.0, hi=1.0),
                              transmit=f.number("transmit", default=d.transmit, lo=0.0, hi=1.0),
                              ior=f.number("ior", default=d.ior, lo=IOR_RANGE[0], hi=IOR_RANGE[1]),
-                             emission=f.color("emission", default=d.emission))
+                             emission=f.color("emission", default=d.emission),
+                             glossy=f.number("glossy", default=d.glossy, lo=0.0, hi=1.0))
         if out[name].reflect + out[name].transmit > 1.0:
             f.fail("transmit", f"reflect + transmit must be at most 1 (the light a surface "
                                f"returns), got {out[name].reflect:g} + {out[name].transmit:g}")
