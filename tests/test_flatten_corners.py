@@ -101,3 +101,20 @@ def test_big_mesh_kernels_compile_in_the_compile_phase(monkeypatch):
         calls = [k for k, name in enumerate(names) if name == kernel]
         assert calls and calls[0] < names.index(phase) < calls[-1], (kernel, names)
         assert len({events[k][1] for k in calls}) == 1, (kernel, [events[k][1] for k in calls])
+
+
+def test_dropped_faces_leave_the_normal_rows_and_the_callers_arrays_alone():
+    """With degenerate faces dropped, the kept faces are copied as int32
+    and offset in place (flatten): two meshes' normal rows are those of the
+    NumPy reference, and neither mesh's faces array (int32 or int64) changes."""
+    v, f = awkward_mesh(4, 2_000)
+    normals = np.tile([0.0, 0.0, 1.0], (len(v), 1))
+    meshes = [Mesh(v, f.astype(np.int32), normals=normals), Mesh(v, f.copy(), normals=normals)]
+    before = [m.faces.copy() for m in meshes]
+    geo, _, info = flatten(Scene("m", None, meshes))
+    keep = _kept_corners(v, f)[3]
+    want = np.concatenate([f[keep], f[keep] + len(v)])
+    assert info["degenerate_dropped"] == 2 * np.count_nonzero(~keep) > 0
+    assert geo.tri_normal.dtype == np.int32 and np.array_equal(geo.tri_normal, want)
+    assert all(np.array_equal(m.faces, b) and m.faces.dtype == b.dtype
+               for m, b in zip(meshes, before))

@@ -50,3 +50,20 @@ def test_workers_are_kept_between_calls_and_a_forked_child_starts_its_own():
         os._exit(0 if got == [1] else 3)
     _, status = os.waitpid(pid, 0)
     assert os.waitstatus_to_exitcode(status) == 0
+
+
+def test_an_idle_worker_holds_nothing_of_its_last_job():
+    """A worker waiting for work keeps no reference to the job it ran: a
+    job's arrays (a build's, a mesh's corners) are freed when the caller
+    drops them, not when the worker next gets work."""
+    import gc
+    import weakref
+
+    class Payload:
+        pass
+    held = [Payload(), Payload()]
+    gone = [weakref.ref(p) for p in held]
+    run_on_threads([lambda p=p: None for p in held])
+    del held
+    gc.collect()
+    assert [ref() for ref in gone] == [None, None]

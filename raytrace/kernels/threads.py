@@ -38,6 +38,9 @@ def _work(inbox):
             job()
         except BaseException as exc:  # noqa: BLE001 -- handed to the caller
             failed.append(exc)
+        # An idle worker holds nothing: the job's arrays (a build's, a
+        # mesh's corners) are freed when the caller drops them.
+        job = None
         with _idle_lock:
             _idle.append(inbox)
         done.release()

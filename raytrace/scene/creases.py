@@ -7,9 +7,10 @@ faces share, where the two faces' normals are within the crease angle;
 ``fan_groups`` finds the groups and numbers the output vertices of the
 position, ``fan_normals`` writes them.  A position's work reads only its
 own fan and writes only its own corners and output rows, so runs of
-positions go to threads with nothing shared.  Face normals and corner
-angles are recomputed where needed, not stored: (m, 3) arrays of each
-were 200 MB at 4.2M triangles.  Arithmetic is the NumPy path's
+positions go to threads with nothing shared.  Corner angles are
+recomputed where needed, not stored; face normals are stored for the
+grouping, made once a face (``face_normal_rows``), and dropped before the
+normals are summed.  Arithmetic is the NumPy path's
 (flatten.cross_rows, flatten.unit_rows, the arctan2 of twice the area
 and a dot product), operation for operation.
 """
@@ -161,13 +162,23 @@ def group_fan(fan, far, nrm, cos_crease, parent):
 
 
 @njit(**ENTRY)
-def fan_groups(v, f, pf, offsets, corners, cos_crease, keep, first, last, packed, counts):
+def face_normal_rows(v, f, first, last, out):
+    """out[face] = face_unit_normal of faces [first, last): once a face,
+    where a fan's corners needed them three times (each face is in three
+    fans), each time with three random reads of the vertices."""
+    for face in range(first, last):
+        out[face, 0], out[face, 1], out[face, 2] = face_unit_normal(v, f, face)
+
+
+@njit(**ENTRY)
+def fan_groups(fn, f, pf, offsets, corners, cos_crease, keep, first, last, packed, counts):
     """For positions [first, last): each corner's (group, output vertex)
     numbers within its position, packed as group << 32 | vertex into
     ``packed``, and the position's number of output vertices into
     ``counts``.  A group is one output vertex, or with ``keep`` one per
     input vertex index in it (vertices at one position may carry different
-    colours or texture coordinates)."""
+    colours or texture coordinates).  fn: the faces' unit normals
+    (face_normal_rows)."""
     widest = 1
     for p in range(first, last):
         widest = max(widest, offsets[p + 1] - offsets[p])
@@ -182,8 +193,7 @@ def fan_groups(v, f, pf, offsets, corners, cos_crease, keep, first, last, packed
         for i in range(d):
             c = fan[i]
             face, k = c // 3, c % 3
-            nx, ny, nz = face_unit_normal(v, f, face)
-            nrm[i, 0], nrm[i, 1], nrm[i, 2] = nx, ny, nz
+            nrm[i, 0], nrm[i, 1], nrm[i, 2] = fn[face, 0], fn[face, 1], fn[face, 2]
             far[i, 0], far[i, 1] = pf[face, (k + 1) % 3], pf[face, (k + 2) % 3]
         group_fan(fan, far, nrm, cos_crease, parent)
         n_groups = 0

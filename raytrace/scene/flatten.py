@@ -113,23 +113,41 @@ def mesh_triangles(mesh, shading=True):
     _check_finite(mesh.name, v)
     v0, v1, v2, keep = _kept_corners(v, f)
     kept = np.flatnonzero(keep)
-    if len(kept) < len(f):
-        # np.take of rows, not f[keep]: a boolean mask over rows of 3 is
-        # several times slower.
-        f = np.take(f, kept, axis=0)
     if not shading:
-        return v0, v1, v2, None, None, kept, f
+        return v0, v1, v2, None, None, kept, _kept_faces(f, kept, len(v))
     # Made unit here, a second time for normals that scene/normals.py made unit
     # (a pass that may move a last bit; the images and exact counters are
     # made with it).  Per vertex, then gathered: per-corner results at a
-    # sixth of the work.
+    # sixth of the work.  Before the kept faces are copied: this is
+    # flattening's peak for a big mesh.
     if mesh.normals is not None:
         nrm = unit_rows(np.asarray(mesh.normals, dtype=np.float64))
-        at = f
+        taken = _kept_faces(f, kept, len(v))
+        # The normals' row numbers are int32 (flatten), an array of the
+        # caller's own: it adds its offset in place.
+        at = taken if taken is not f and taken.dtype == np.int32 else taken.astype(np.int32)
+        f = taken
     else:
         nrm = unit_rows(unit_rows(cross_rows(v1 - v0, v2 - v0)))
-        at = np.repeat(np.arange(len(f)), 3).reshape(-1, 3)
+        f = _kept_faces(f, kept, len(v))
+        at = np.repeat(np.arange(len(f), dtype=np.int32), 3).reshape(-1, 3)
     return v0, v1, v2, nrm, at, kept, f
+
+
+def _kept_faces(f, kept, n_vertices):
+    """The rows ``kept`` of the (m, 3) int64 faces ``f``: ``f`` itself if
+    every row is kept, else a new array, int32 where n_vertices fit (half
+    the bytes, a chunk at a time: no int64 copy of a big mesh's faces).
+    np.take of rows, not f[keep]: a boolean mask over rows of 3 is several
+    times slower."""
+    if len(kept) == len(f):
+        return f
+    if n_vertices <= 2**31:
+        out = np.empty((len(kept), 3), np.int32)
+        for k in range(0, len(kept), DEGENERATE_CHUNK):
+            out[k:k + DEGENERATE_CHUNK] = np.take(f, kept[k:k + DEGENERATE_CHUNK], axis=0)
+        return out
+    return np.take(f, kept, axis=0)
 
 
 def _kept_corners(v, f):
@@ -251,14 +269,6 @@ def flatten(scene, with_sources=False, shading=True):
             if k:
                 for dst, src in zip(tris, (v0, v1, v2)):
                     dst.append(src)
-                if shading:
-                    normals.append(nrm)
-                    # int32 before the offset, added in place: no (n, 3)
-                    # int64 temporary nor a second int32 one
-                    rows = at.astype(np.int32)
-                    rows += np.int32(n_normals)
-                    normal_at.append(rows)
-                    n_normals += len(nrm)
                 tri_mat.append(np.full(k, mat_id(obj.material)))
                 colors.append(_corner_values(obj, "colors", 3, faces) if shading else None)
                 # Texture coordinates only where a texture uses them.
@@ -267,6 +277,13 @@ def flatten(scene, with_sources=False, shading=True):
                     raise RaytraceError(f"{obj.name}: its material has a texture but the mesh "
                                         "has no texture coordinates (uv)")
                 uvs.append(_corner_values(obj, "uv", 2, faces) if textured else None)
+                if shading:
+                    normals.append(nrm)
+                    # int32 rows of this mesh's own (mesh_triangles; they may
+                    # be ``faces``, used above), offset in place: no copy.
+                    at += np.int32(n_normals)
+                    normal_at.append(at)
+                    n_normals += len(nrm)
                 if with_sources:      # RayScene's map back to the user's faces only
                     tri_src.append(np.stack([np.full(k, j), kept], axis=1))
                 obj_ranges.append((n_tris, k))
@@ -363,9 +380,10 @@ def _corner_buffer(per_mesh, counts, cols, fill):
     skips it)."""
     if all(v is None for v in per_mesh):
         return np.zeros((0, 3, cols))
-    return np.ascontiguousarray(np.concatenate(
-        [np.full((k, 3, cols), fill) if v is None else v for v, k in zip(per_mesh, counts)]),
-        dtype=np.float64)
+    parts = [np.full((k, 3, cols), fill) if v is None else v for v, k in zip(per_mesh, counts)]
+    # One mesh: its buffer as it is (a copy was 72 bytes a triangle at the peak).
+    return np.ascontiguousarray(parts[0] if len(parts) == 1 else np.concatenate(parts),
+                                dtype=np.float64)
 
 
 def _textures(materials):

@@ -72,7 +72,7 @@ def crease_split(vertices, faces, crease=DEFAULT_CREASE, keep=False):
     order of their position's first vertex, so a mesh without creases or
     repeated positions keeps its numbering.
     """
-    from raytrace.scene.creases import corner_lists, fan_groups, fan_normals
+    from raytrace.scene.creases import corner_lists, face_normal_rows, fan_groups, fan_normals
     v = np.ascontiguousarray(vertices, dtype=np.float64)
     f = np.ascontiguousarray(faces, dtype=np.int64)
     n, m = len(v), len(f)
@@ -90,9 +90,11 @@ def crease_split(vertices, faces, crease=DEFAULT_CREASE, keep=False):
     counts = np.zeros(n_positions, np.int64)
     cos_crease = math.cos(math.radians(crease))
     position_runs = _runs(offsets)
-    _on_threads(fan_groups, [(v, f, pf, offsets, corners, cos_crease, bool(keep), a, b, packed,
+    fn = np.empty((m, 3))
+    _on_threads(face_normal_rows, [(v, f, a, b, fn) for a, b in _face_runs(m)])
+    _on_threads(fan_groups, [(fn, f, pf, offsets, corners, cos_crease, bool(keep), a, b, packed,
                               counts) for a, b in position_runs])
-    del pf, position
+    del pf, position, fn
     out_offsets = np.zeros(n_positions + 1, np.int64)
     np.cumsum(counts, out=out_offsets[1:])
     del counts
@@ -104,13 +106,24 @@ def crease_split(vertices, faces, crease=DEFAULT_CREASE, keep=False):
     return source, packed.reshape(m, 3), normals
 
 
+def _threads(n_corners):
+    """Threads for work over n_corners corners: one for each 2^16, at most Numba's."""
+    import numba
+    return max(1, min(numba.get_num_threads(), (int(n_corners) >> 16) + 1))
+
+
 def _runs(offsets):
     """Runs of positions, one a thread, of about equal numbers of corners."""
-    import numba
-    threads = max(1, min(numba.get_num_threads(), (int(offsets[-1]) >> 16) + 1))
+    threads = _threads(offsets[-1])
     cuts = np.searchsorted(offsets, [offsets[-1] * k // threads for k in range(threads + 1)])
     cuts[0], cuts[-1] = 0, len(offsets) - 1
     return [(int(a), int(b)) for a, b in zip(cuts[:-1], cuts[1:]) if b > a]
+
+
+def _face_runs(m):
+    """Runs of m faces, one a thread."""
+    from raytrace.kernels.threads import runs
+    return runs(m, _threads(3 * m))
 
 
 def _on_threads(kernel, calls):
