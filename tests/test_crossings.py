@@ -293,12 +293,13 @@ def test_contains_leaves_the_box_the_short_way():
     (votes=3: along each axis, to the nearer side), also from outside it."""
     from raytrace.cast.rayscene import _exit_directions
     bounds = (np.array([-1.0, -2.0, -3.0]), np.array([1.0, 2.0, 3.0]))
+    # The last point is as near the x side as the y side: x, the first, goes.
     q = np.array([[0.9, 0.0, 0.0], [0.0, -1.9, 0.0], [0.0, 0.0, 2.5], [-5.0, 0.0, 0.0],
-                  [0.0, 0.0, -0.5]])
+                  [0.0, 0.0, -0.5], [0.5, 1.5, 0.0]])
     (d,) = _exit_directions(q, bounds, 1)
     main = np.argmax(np.abs(d), axis=1)
-    assert main.tolist() == [0, 1, 2, 0, 0]
-    assert np.sign(d[np.arange(5), main]).tolist() == [1, -1, 1, -1, -1]
+    assert main.tolist() == [0, 1, 2, 0, 0, 0]
+    assert np.sign(d[np.arange(6), main]).tolist() == [1, -1, 1, -1, -1, 1]
     three = _exit_directions(q, bounds, 3)
     assert [np.sign(x[0, a]) for a, x in enumerate(three)] == [1, -1, -1]   # a tie goes -
     assert all(np.all(x != 0) for x in three) and np.all(d != 0)

@@ -247,19 +247,24 @@ def _exit_directions(q, bounds, votes):
             return near_rows[:1]
     else:
         lo, hi = bounds
-        # Per axis: the distance to the nearer side and whether that is + (a
-        # point outside the box has a negative distance on its side: out it goes).
-        near = [np.minimum(q[:, a] - lo[a], hi[a] - q[:, a]) for a in range(3)]
-        plus = [hi[a] - q[:, a] < q[:, a] - lo[a] for a in range(3)]
-        rows = [a + 3 * plus[a] for a in range(3)]
-        near_rows = [_EXITS[r] for r in rows]
-        far_rows = [_EXITS[(r + 3) % 6] for r in rows]
+        # Per axis (columns): the distance to the nearer side and whether
+        # that is + (a point outside the box has a negative distance on its
+        # side: out it goes).  Whole arrays, not a column at a time: a
+        # call of one point is mostly NumPy's per-call cost.
+        below, above = q - lo, hi - q
+        rows = _AXES + 3 * (above < below)
+        if votes == 1:
+            n0, n1, n2 = np.minimum(below, above).T
+            axis = np.where(n0 <= n1, np.where(n0 <= n2, 0, 2), np.where(n1 <= n2, 1, 2))
+            return [_EXITS[rows[np.arange(len(q)), axis]]]
+        near_rows = [_EXITS[rows[:, a]] for a in range(3)]
+        far_rows = [_EXITS[(rows[:, a] + 3) % 6] for a in range(3)]
     if votes >= 3:
         out = (near_rows + far_rows)[:votes]
         return out + list(_spread_directions(votes - len(out))) if votes > 6 else out
-    axis = np.where(near[0] <= near[1], np.where(near[0] <= near[2], 0, 2),
-                    np.where(near[1] <= near[2], 1, 2))
-    return [_EXITS[np.choose(axis, rows)]]
+
+
+_AXES = np.arange(3)
 
 
 def _max_hits(max_hits, prepared):
