@@ -166,15 +166,17 @@ def test_calls_of_one_ray_on_scenes_of_two_structures_keep_their_own_kernels():
     o = rng.normal(size=(30, 3)) * 3
     d = rng.normal(size=(30, 3)) * 0.5 - o        # towards the soup: most hit, some miss
     scenes = [RayScene((v, f), accel=a) for a in ("bvh", "grid")]
-    batch = [(s.cast_rays(o, d), s.occluded(o, d)) for s in scenes]
+    batch = [(s.cast_rays(o, d), s.occluded(o, d), s.count_intersections(o, d)) for s in scenes]
     for i in range(len(o)):
-        for s, (h, blocked) in zip(scenes, batch):
+        for s, (h, blocked, counts) in zip(scenes, batch):
             one = s.cast_rays(o[i], d[i])
             assert (one["t"][0], one["prim_id"][0]) == (h["t"][i], h["prim_id"][i])
             assert s.occluded(o[i], d[i])[0] == blocked[i]
+            assert s.count_intersections(o[i], d[i])[0] == counts[i]
     assert 0 < (batch[0][0]["prim_id"] >= 0).sum() < len(o) and batch[0][1].any()
+    assert (batch[0][2] > 1).any()
     first = scenes[0]._built()
-    assert len(first.entries) == 2           # closest and any hit
+    assert len(first.entries) == 3           # closest, any hit and counting
     scenes[0].add_mesh(SQUARE_V + [100, 0, 0], SQUARE_F)     # away from the soup
     assert scenes[0].cast_rays([100.5, 0.5, 1.0], DOWN)["geometry_id"][0] == 1
     assert scenes[0]._built() is not first and len(scenes[0]._built().entries) == 1

@@ -281,10 +281,14 @@ def _max_hits(max_hits, prepared):
 def _counts(prepared, rays, check=True):
     """How many hits each ray has (cast_counts); RaytraceError if a ray is
     bad (with ``check``; else its count is 0)."""
-    from raytrace.kernels.cast import cast_counts
+    from raytrace.kernels.cast import cast_counts, counts_alone
     counts = np.empty(len(rays[0]), np.int64)
     cnt = _counter_rows(len(counts))
-    cast_counts(prepared.geo, prepared.counting(), *rays, counts, cnt, _clock())
+    if len(cnt) == 1:     # a small call: its kernel's entry point (kernels/cast.py)
+        counts_alone(prepared.geo, prepared.counting(), rays, counts, cnt, _clock(),
+                     prepared.entries)
+    else:
+        cast_counts(prepared.geo, prepared.counting(), *rays, counts, cnt, _clock())
     if check:
         _check_rays(cnt, rays)
     return counts

@@ -322,6 +322,12 @@ def _counts_block(geo, acc, origins, dirs, t_min, t_max, out_count, cnt, clock):
     count_rays(geo, acc, origins, dirs, t_min, t_max, out_count, cnt, clock, CHUNK)
 
 
+def counts_alone(geo, acc, rays, out_count, cnt, clock, entries):
+    """cast_counts of a call of one counter row ``cnt`` (1, COLUMNS) through
+    _call_entry, as closest_alone; ``acc`` the scene's counting layout."""
+    _call_entry(_counts_block, (geo, acc, *rays, out_count, cnt[0], clock), entries)
+
+
 def cast_counts(geo, acc, origins, dirs, t_min, t_max, out_count, cnt_rows, clock):
     """How many times ray i meets the surfaces with t_min[i] < t < t_max[i],
     each crossing of a closed surface once: one traversal that never
