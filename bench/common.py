@@ -207,3 +207,16 @@ def run_cli(args, env=None, cwd=None):
 def log(msg):
     """Progress goes to stderr, so stdout stays the Markdown report."""
     print(msg, file=sys.stderr, flush=True)
+
+
+def save_figure(fig, path):
+    """Write a matplotlib figure (its folder made if need be), close it and
+    say so; returns the path as a string."""
+    import matplotlib.pyplot as plt
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    log(f"wrote {path}")
+    return str(path)

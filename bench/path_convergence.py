@@ -144,13 +144,7 @@ def plot(res, path):
                  f"time (reference 2 x {ref['spp']} spp; numbers: spp)", fontsize=9)
     ax.grid(True, which="both", lw=0.3)
     ax.legend(fontsize=8)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
-    log(f"wrote {path}")
-    return str(path)
+    return common.save_figure(fig, path)
 
 
 def markdown(res):
