@@ -25,6 +25,8 @@ SLOW = {
         "needs a running Dask scheduler",
     "raytrace assets/textured.toml --shadows soft --spp 4": "soft shadows with textures: a compile "
                                                             "of its own",
+    "raytrace teapot_room --spp 128 --sampler sobol": "128 path-traced samples a pixel at 640x480: "
+                                                      "half a minute",
     # Seconds each, which CI's budget does not have: covered in small by
     # test_cli.py, test_cli_files.py and test_compare.py.
     "raytrace teapot --no-bvol --heatmap cost.png": "brute force over 640x480 with shadows",

@@ -188,3 +188,21 @@ def test_teapot_details_read_ahead_and_forgive_a_bad_file(tmp_path):
     odd = tmp_path / "odd.toml"
     odd.write_text('objects = "teapot"\n')
     assert teapot_details(odd) == ()
+
+
+def test_the_teapot_room_faces_inward_and_its_panel_lights_the_floor():
+    """assets/teapot_room.toml: every quad's front (its corners' order)
+    faces the room's inside, the emitting panel's down, so the path tracer
+    sees the lit side of each."""
+    s = read_scene_file(assets_dir() / "teapot_room.toml")
+    quads = [o for o in s.objects if isinstance(o, Mesh) and len(o.faces) == 2]
+    assert len(quads) == 6 and s.integrator == "path"
+    centre = np.array([0.0, 4.5, 0.0])
+    for q in quads:
+        a, b, c = q.vertices[q.faces[0]]
+        n = np.cross(b - a, c - a)
+        assert np.dot(n, centre - a) > 0, q.name
+    panel = [q for q in quads if any(q.material.emission)]
+    assert len(panel) == 1
+    a, b, c = panel[0].vertices[panel[0].faces[0]]
+    assert np.cross(b - a, c - a)[1] < 0
