@@ -81,9 +81,25 @@ def test_no_second_process_when_switched_off_or_the_stages_are_cached(monkeypatc
     # The control: a first run with two cores starts one, for the scene's kind.
     monkeypatch.setattr(core.os, "cpu_count", lambda: 2)
     ahead.start(None)
-    assert len(started) == 1 and started[0][-3:] == ["raytrace.renderer.precompile", "0", "0"]
+    assert len(started) == 1 and started[0][-4:] == ["raytrace.renderer.precompile", "0", "0", "0"]
     ahead.start(None)                   # once a process
     assert len(started) == 1
+    core.stop("render")
+
+
+def test_a_path_traced_first_run_compiles_the_path_stage_ahead(monkeypatch, started):
+    """--integrator path: the second process compiles the path tracer's
+    stage (PATH 1), whether or not Whitted's stages are cached, and none
+    once the path stage is."""
+    monkeypatch.setattr(core.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr("raytrace.kernels.cachedir.render_kernel_cached", lambda: True)
+    monkeypatch.setattr("raytrace.kernels.cachedir.kernel_cached", lambda *globs: True)
+    ahead.start(None, "path")
+    assert started == []
+    monkeypatch.setattr("raytrace.kernels.cachedir.kernel_cached",
+                        lambda *globs: not any("run_path_stage" in g for g in globs))
+    ahead.start(None, "path")
+    assert len(started) == 1 and started[0][-4:] == ["raytrace.renderer.precompile", "0", "0", "1"]
     core.stop("render")
 
 

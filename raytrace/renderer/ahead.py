@@ -13,17 +13,19 @@ from raytrace.kernels import ahead
 _KEY = "render"
 
 
-def start(scene):
-    """Start compiling the stages ``scene``'s render will use, if this is
-    a first run on a machine with cores to spare."""
+def start(scene, integrator="whitted"):
+    """Start compiling the stages ``scene``'s render will use (the path
+    tracer's for ``integrator`` "path"), if this is a first run on a
+    machine with cores to spare."""
     if not ahead.worthwhile(_KEY):
         return
-    from raytrace.kernels.cachedir import render_kernel_cached
-    if render_kernel_cached():
+    from raytrace.kernels.cachedir import kernel_cached, render_kernel_cached
+    path = integrator == "path"
+    if kernel_cached("pathtrace.run_path_stage-*.nbi") if path else render_kernel_cached():
         return
     from raytrace.scene.kinds import scene_kind
     textures, mirrors = scene_kind(scene)
-    ahead.launch(_KEY, "raytrace.renderer.precompile", [int(textures), int(mirrors)])
+    ahead.launch(_KEY, "raytrace.renderer.precompile", [int(textures), int(mirrors), int(path)])
 
 
 def wait():

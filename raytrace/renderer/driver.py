@@ -482,8 +482,8 @@ def _render(scene, opts, drop_meshes):
     from raytrace.renderer import ahead
     from raytrace.renderer.stats import counters_from_rows, derive
     validate(opts, scene)
-    if integrator_of(opts, scene) == "whitted":
-        ahead.start(scene)    # a first run: the shading compiles beside prepare
+    # A first run: the shading (or the path tracer's stage) compiles beside prepare.
+    ahead.start(scene, integrator_of(opts, scene))
     setup = prepare(scene, opts, drop_meshes)
     cam = camera_buffer(scene.camera, setup.width, setup.height)
     width, height = setup.width, setup.height

@@ -3,7 +3,7 @@ stages for a tiny scene of a kind, and nothing else (no structure is
 built).  Its own module, run with ``python -m``, so that nothing imports
 it and the driver and ahead.py import each other nowhere.
 
-    python -m raytrace.renderer.precompile TEXTURES MIRRORS     (0 or 1 each)
+    python -m raytrace.renderer.precompile TEXTURES MIRRORS PATH     (0 or 1 each)
 """
 import sys
 
@@ -22,6 +22,7 @@ def load_stages(scene, opts=None):
         aov_buffers,
         bounce_record,
         camera_buffer,
+        integrator_of,
         light_buffers,
         max_depth_of,
         shadow_record,
@@ -36,17 +37,23 @@ def load_stages(scene, opts=None):
                         shadow_record(opts.shadows, opts.pattern), int(opts.seed))
     render = Render(lighting=lighting, cam=camera_buffer(scene.camera, width, height),
                     textures=texture_record(opts.texture_filter, width, height, int(opts.spp), geo),
-                    bounces=bounce_record(scene, max_depth_of(opts, scene)), background=f64(scene.background),
+                    bounces=bounce_record(scene, max_depth_of(opts, scene), integrator_of(opts, scene),
+                                          geo, opts.sampler),
+                    background=f64(scene.background),
                     width=width, height=height, spp=int(opts.spp))
     band = Band(image=np.empty((0, width, 3), np.float32), aovs=aov_buffers(width, height, False),
                 stats_rows=np.zeros((0, N_COUNTERS), np.int64), row0=0)
     load_shading(render, band)
 
 
-def main(textures, mirrors):
+def main(textures, mirrors, path=False):
+    from raytrace.renderer.driver import RenderOptions
     from raytrace.scene.kinds import tiny_scene
-    load_stages(tiny_scene(textures, mirrors))
+    # The path tracer's stage: the types `raytrace warmup --with path`
+    # compiles for (a tiny scene with mirrors, one sample).
+    opts = RenderOptions(integrator="path", spp=1) if path else None
+    load_stages(tiny_scene(textures, mirrors or path), opts)
 
 
 if __name__ == "__main__":
-    main(*(bool(int(a)) for a in sys.argv[1:3]))
+    main(*(bool(int(a)) for a in sys.argv[1:4]))
