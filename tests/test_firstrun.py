@@ -109,8 +109,16 @@ def test_cache_dir_is_found_without_numba_and_tells_a_first_run(tmp_path, monkey
     firstrun.announce_if_cold("teapot: bvh, hard shadows", 14)
     firstrun.announce_if_cold("again", 1)                       # once per process
     assert err.getvalue() == "compiling kernels for teapot: bvh, hard shadows (first run only, about 14 s)\n"
+    # A cache only path-traced renders filled: warm, not a first run.
+    path_index = cachedir.cache_dir(numba.__version__) / "kernels_x" / "pathtrace.run_path_stage-94.py311.nbi"
+    path_index.parent.mkdir(parents=True)
+    path_index.touch()
+    assert not cachedir.render_kernel_cached() and cachedir.any_render_kernel_cached()
+    monkeypatch.setitem(firstrun._state, "shown", False)
+    firstrun.announce_if_cold("warm from path", 1)
+    assert "warm from path" not in err.getvalue()
+    path_index.unlink()
     index = cachedir.cache_dir(numba.__version__) / "kernels_x" / "wavefront.run_stage-481.py311.nbi"
-    index.parent.mkdir(parents=True)
     index.touch()
     assert cachedir.render_kernel_cached()
     monkeypatch.setitem(firstrun._state, "shown", False)

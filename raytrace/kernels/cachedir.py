@@ -56,3 +56,10 @@ def render_kernel_cached():
     """Whether any version of the render kernels (the shading stages, or
     the mirror-and-glass kernel) is in the cache."""
     return kernel_cached("wavefront.run_stage-*.nbi", "bounces.run_bounce_stage-*.nbi")
+
+
+def any_render_kernel_cached():
+    """render_kernel_cached, or the path tracer's stage: whether anything
+    has been rendered with this cache (a cache only path-traced renders
+    filled is not a first run's)."""
+    return render_kernel_cached() or kernel_cached("pathtrace.run_path_stage-*.nbi")

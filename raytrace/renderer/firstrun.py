@@ -117,8 +117,8 @@ def announce_if_cold(what, seconds):
     the cache at all (a first run: a compile is certain)."""
     if _state["shown"] or _quiet():
         return
-    from raytrace.kernels.cachedir import render_kernel_cached
-    if not render_kernel_cached():
+    from raytrace.kernels.cachedir import any_render_kernel_cached
+    if not any_render_kernel_cached():
         _state["shown"] = True
         try:
             sys.stderr.write(_label(what, seconds) + "\n")
