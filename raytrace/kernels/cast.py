@@ -39,6 +39,7 @@ import numpy as np
 from numba import njit
 
 from raytrace.kernels.counters import BAD_RAYS, N_COUNTERS
+from raytrace.kernels.entry import Entry
 from raytrace.kernels.jit import BLOCK, JIT
 from raytrace.kernels.lowlevel import PACKET, frame_array, take_rows, take_ticket
 from raytrace.kernels.query import (
@@ -160,22 +161,18 @@ def _run_blocks(block, args, cnt_rows, clock):
 _ONE_ROW = np.empty(0, np.int64)
 
 
-def _call_entry(block, args, entries):
-    """block(*args) in the calling thread through its compiled entry point,
-    kept in ``entries`` after the first call.  Numba's dispatcher types a
-    Geometry and a layout (named tuples) in Python on every call: 7-8 us of
-    a call of one ray.  So ``entries`` must serve arguments of one set of
-    types only: one prepared scene's, with the rays as closest_alone takes
-    them (a wrong entry would read the arrays as another type)."""
+def _call_entry(block, args, entries, lookup=True):
+    """block(*args) in the calling thread through its compiled entry point
+    (entry.py's Entry, ``lookup`` its), kept in ``entries``.  So
+    ``entries`` must serve arguments of one set of types only: one
+    prepared scene's, with the rays as closest_alone takes them, or one
+    render thread's buffers (a wrong entry would read the arrays as
+    another type)."""
     key = (block, args[2].dtype)
     entry = entries.get(key)
     if entry is None:
-        block(*args)
-        compiled = block.overloads.get(tuple(block.typeof_pyval(a) for a in args))
-        if compiled is not None:     # else the dispatcher serves every call
-            entries[key] = compiled.entry_point
-    else:
-        entry(*args)
+        entry = entries[key] = Entry(block, lookup)
+    entry(*args)
 
 
 def closest_alone(geo, acc, rays, outs, cnt, clock, entries):
@@ -207,19 +204,21 @@ def cast_occluded(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows, cloc
                 (geo, acc, origins, dirs, t_min, t_max, out_hit), cnt_rows, clock)
 
 
-# The renderer's calls (kernels/wavefront.py): one thread's rays, ray i
+# The renderer's calls (kernels/waves.py): one thread's rays, ray i
 # counting into row rows[i] of cnt (its image row's, or its pixel's), one
 # ray at a time through the same compiled kernels as a small cast_closest
-# or cast_occluded call.
-def closest_rays(geo, acc, rays, outs, cnt, rows):
+# or cast_occluded call; ``entries``: the thread's, as _call_entry's.
+def closest_rays(geo, acc, rays, outs, cnt, rows, entries):
     """Closest hits of rays = (origins, dirs, t_min, t_max) into outs =
     (t, prim, u, v), in the calling thread."""
-    _closest_single(geo, acc, *rays, outs, cnt, rows, np.zeros(1, np.int64))
+    _call_entry(_closest_single, (geo, acc, *rays, outs, cnt, rows, np.zeros(1, np.int64)),
+                entries, lookup=False)
 
 
-def occluded_rays(geo, acc, rays, out_hit, cnt, rows):
+def occluded_rays(geo, acc, rays, out_hit, cnt, rows, entries):
     """cast_occluded of rays = (origins, dirs, t_min, t_max), as closest_rays."""
-    _occluded_single(geo, acc, *rays, out_hit, cnt, rows, np.zeros(1, np.int64))
+    _call_entry(_occluded_single, (geo, acc, *rays, out_hit, cnt, rows, np.zeros(1, np.int64)),
+                entries, lookup=False)
 
 
 # Shell sort's gaps (Ciura 2001, "Best Increments for the Average Case of

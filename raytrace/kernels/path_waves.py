@@ -6,6 +6,7 @@ in turn.  Imported only by a path-traced render (waves._stages), so
 nothing of it compiles for any other."""
 from raytrace.kernels import pathtrace
 from raytrace.kernels.cast import closest_rays, occluded_rays
+from raytrace.kernels.entry import Entry
 from raytrace.kernels.wavefront import CAMERA, SHADOW_BATCH, TILE, WAVE_RAYS, wave_buffers
 
 
@@ -25,12 +26,14 @@ class PathStages:
         self.shadow = pathtrace.light_ray_buffers(max(min(SHADOW_BATCH, size * per_hit),
                                                       per_hit))
         self.counters = self.wave.cnt if len(band.aovs.cost) else band.stats_rows
+        self.entries = {}       # as waves._Stages'
+        self.run_path_stage = Entry(pathtrace.run_path_stage)
 
     def stage(self, step, args):
         """pathtrace.run_path_stage with this thread's records."""
         gen, nxt = self.gens
-        return pathtrace.run_path_stage(step, self.shading, self.textures, self.paths, self.wave,
-                                        (gen, nxt, self.shadow), self.counters, self.band, args)
+        return self.run_path_stage(step, self.shading, self.textures, self.paths, self.wave,
+                                   (gen, nxt, self.shadow), self.counters, self.band, args)
 
     def strip(self, top, y_end):
         """The strip of TILE rows from ``top``, a wave of squares at a time."""
@@ -47,13 +50,13 @@ class PathStages:
             gen = self.gens[0]
             closest_rays(geo, acc, (gen.origins[:p], gen.dirs[:p], gen.t_min[:p], gen.t_max[:p]),
                          (gen.hit_t[:p], gen.hit_prim[:p], gen.hit_u[:p], gen.hit_v[:p]),
-                         self.counters, gen.row[:p])
+                         self.counters, gen.row[:p], self.entries)
             i = q = 0
             while i < p:
                 i, m, q = self.stage(pathtrace.SHADE, (i, p, q, 0, 0))
                 if m:
                     occluded_rays(geo, acc, (s.origins[:m], s.dirs[:m], s.t_min[:m], s.t_max[:m]),
-                                  s.blocked[:m], self.counters, s.row[:m])
+                                  s.blocked[:m], self.counters, s.row[:m], self.entries)
                     self.stage(pathtrace.FINISH, (m, 0, 0, 0, 0))
             self.gens.reverse()
             p = q

@@ -11,6 +11,7 @@ import numpy as np
 
 from raytrace.kernels import bounces
 from raytrace.kernels.cast import closest_rays, occluded_rays
+from raytrace.kernels.entry import Entry
 from raytrace.kernels.render import NoBounces, Paths, SoftShadows
 from raytrace.kernels.threads import run_on_threads
 from raytrace.kernels.wavefront import (
@@ -49,6 +50,10 @@ class _Stages:
         # per pixel for the cost AOV; otherwise straight into its image row.
         self.counters = self.wave.cnt if len(band.aovs.cost) else band.stats_rows
         self.views = {}
+        # The thread's buffers keep their types: each kernel through its
+        # compiled entry (entry.py), not the dispatcher, after the first call.
+        self.entries = {}
+        self.run_stage = Entry(run_stage)
 
     def strip(self, top, y_end):
         """The strip of TILE rows from ``top``, a wave of squares at a time."""
@@ -59,14 +64,15 @@ class _Stages:
     def camera(self, top, y_end, q0, q1):
         """The wave's camera rays and their closest hits; returns how many."""
         wave = self.wave
-        n, _ = run_stage(CAMERA, self.shading, self.textures, wave, self.shadow, self.counters,
-                         self.band, (top, y_end, q0, q1, int(self.counters is wave.cnt)))
+        n, _ = self.run_stage(CAMERA, self.shading, self.textures, wave, self.shadow,
+                              self.counters, self.band,
+                              (top, y_end, q0, q1, int(self.counters is wave.cnt)))
         if n not in self.views:
             self.views[n] = ((wave.origins[:n], wave.dirs[:n], wave.t_min[:n], wave.t_max[:n]),
                              (wave.hit_t[:n], wave.hit_prim[:n], wave.hit_u[:n], wave.hit_v[:n]),
                              wave.row[:n])
         rays, hits, rows = self.views[n]
-        closest_rays(self.shading.geo, self.acc, rays, hits, self.counters, rows)
+        closest_rays(self.shading.geo, self.acc, rays, hits, self.counters, rows, self.entries)
         return n
 
     def occlude(self, m):
@@ -74,17 +80,17 @@ class _Stages:
         s = self.shadow
         occluded_rays(self.shading.geo, self.acc, (s.origins[:m], s.dirs[:m], s.t_min[:m],
                                                    s.t_max[:m]), s.blocked[:m], self.counters,
-                      s.row[:m])
+                      s.row[:m], self.entries)
 
     def trace(self, top, y_end, q0, q1):
         args = self.shading, self.textures, self.wave, self.shadow, self.counters, self.band
         n = self.camera(top, y_end, q0, q1)
         k = 0
         while k < n:
-            k1, m = run_stage(SHADE, *args, (k, n, 0, 0, 0))
+            k1, m = self.run_stage(SHADE, *args, (k, n, 0, 0, 0))
             if m:
                 self.occlude(m)
-            run_stage(FINISH, *args, (k, k1, n, 0, 0))
+            self.run_stage(FINISH, *args, (k, k1, n, 0, 0))
             k = k1
 
 
@@ -98,11 +104,12 @@ class _Generations(_Stages):
         size = len(self.wave.x)
         self.gens = [bounces.generation_buffers(size), bounces.generation_buffers(2 * size)]
         self.light = bounces.light_buffers(2 * size, size)
+        self.run_bounce_stage = Entry(bounces.run_bounce_stage)
 
     def stage(self, step, bufs, args):
         """bounces.run_bounce_stage with this thread's records."""
-        return bounces.run_bounce_stage(step, self.shading, self.textures, self.wave, bufs,
-                                        self.counters, self.band, args)
+        return self.run_bounce_stage(step, self.shading, self.textures, self.wave, bufs,
+                                     self.counters, self.band, args)
 
     def trace(self, top, y_end, q0, q1):
         gen, nxt = self.gens
@@ -119,7 +126,7 @@ class _Generations(_Stages):
             closest_rays(self.shading.geo, self.acc,
                          (gen.origins[:p], gen.dirs[:p], gen.t_min[:p], gen.t_max[:p]),
                          (gen.hit_t[:p], gen.hit_prim[:p], gen.hit_u[:p], gen.hit_v[:p]),
-                         self.counters, gen.row[:p])
+                         self.counters, gen.row[:p], self.entries)
             bufs = (gen, nxt, self.shadow, self.light)
             i = q = 0
             while i < p:
@@ -160,9 +167,9 @@ def load_rays(render, band):
     wave, shadow = wave_buffers(0), shadow_buffers(0, 0)
     geo, acc = render.lighting.geo, render.lighting.acc
     closest_rays(geo, acc, (wave.origins, wave.dirs, wave.t_min, wave.t_max),
-                 (wave.hit_t, wave.hit_prim, wave.hit_u, wave.hit_v), band.stats_rows, wave.row)
+                 (wave.hit_t, wave.hit_prim, wave.hit_u, wave.hit_v), band.stats_rows, wave.row, {})
     occluded_rays(geo, acc, (shadow.origins, shadow.dirs, shadow.t_min, shadow.t_max),
-                  shadow.blocked, band.stats_rows, shadow.row)
+                  shadow.blocked, band.stats_rows, shadow.row, {})
 
 
 def load_shading(render, band):
