@@ -159,6 +159,7 @@ def test_an_estimate_worked_out_when_the_compile_starts_is_in_the_notice(monkeyp
 @pytest.fixture
 def cold(tmp_path, monkeypatch):
     """An empty kernel cache and a notice not yet shown in this process."""
+    import raytrace.kernels.jitconfig  # noqa: F401 -- Numba's own cache stays the suite's
     from raytrace.renderer import firstrun
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "empty"))
     monkeypatch.delenv("RAYTRACE_QUIET", raising=False)
