@@ -68,8 +68,8 @@ def looks_like_mesh(path):
     if ext == ".ply":
         return head[:3] == b"ply" and head[3:4] in (b"\n", b"\r")
     if ext == ".stl":
-        count = int.from_bytes(head[80:84], "little")
-        return (st.st_size >= 84 and st.st_size == 84 + 50 * count) or head.lstrip()[:5].lower() == b"solid"
+        binary = st.st_size >= 84 and st.st_size == 84 + 50 * int.from_bytes(head[80:84], "little")
+        return binary or head.lstrip()[:5].lower() == b"solid"
     if ext == ".obj":
         return re.search(rb"(?m)^[ \t]*v[ \t]", head) is not None
     return {".glb": head[:4] == b"glTF", ".gltf": head.lstrip()[:1] == b"{",
