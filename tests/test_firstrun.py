@@ -5,6 +5,7 @@ import subprocess
 import sys
 import textwrap
 
+import numpy as np
 import pytest
 
 NOTICE = "compiling kernels for"
@@ -153,3 +154,79 @@ def test_an_estimate_worked_out_when_the_compile_starts_is_in_the_notice(monkeyp
         firstrun._compile_started(None)
     assert asked == [1]
     assert err.getvalue() == "compiling kernels for a toy (first run only, about 7 s)\n"
+
+
+@pytest.fixture
+def cold(tmp_path, monkeypatch):
+    """An empty kernel cache and a notice not yet shown in this process."""
+    import raytrace.kernels.jitconfig  # noqa: F401 -- Numba's own cache stays the suite's
+    from raytrace.renderer import firstrun
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "empty"))
+    monkeypatch.delenv("RAYTRACE_QUIET", raising=False)
+    monkeypatch.setitem(firstrun._state, "shown", False)
+    monkeypatch.setitem(firstrun._state, "quiet", False)
+    return tmp_path
+
+
+def test_a_garbage_file_gets_its_error_alone(cold):
+    """No 'compiling ... about 14 s' before 'not a readable PLY mesh': the
+    file's first bytes are read before the notice (CliRunner, cold cache)."""
+    from click.testing import CliRunner
+
+    from raytrace.cli.main import main
+    bad = cold / "bad.ply"
+    bad.write_text("garbage\n")
+    result = CliRunner().invoke(main, [str(bad), "-o", str(cold / "bad.png")])
+    assert result.exit_code == 1
+    assert result.stderr == f"Error: {bad}: not a readable PLY mesh (Not a ply file!)\n"
+
+
+def test_the_early_notice_reads_the_file_and_the_integrator(cold, capsys):
+    """Good files of each format pass looks_like_mesh; garbage and a bad
+    scene file get no notice; --integrator path, or a scene file's
+    integrator = "path", gets the path tracer's estimate."""
+    import trimesh
+
+    from raytrace.cli.main import _announce_first_run
+    from raytrace.renderer import firstrun
+    from raytrace.scene.assets import assets_dir
+    from raytrace.scene.formats.mesh import looks_like_mesh
+    box = trimesh.creation.box()
+    good = [assets_dir() / "toys.obj", assets_dir() / "palette.ply"]
+    for ext in ("stl", "off", "glb", "gltf", "ply"):
+        good.append(cold / f"box.{ext}")
+        box.export(good[-1])
+    (cold / "ascii.stl").write_bytes(trimesh.exchange.stl.export_stl_ascii(box).encode())
+    assert all(looks_like_mesh(p) for p in [*good, cold / "ascii.stl"])
+    for ext in ("obj", "ply", "stl", "off", "glb", "gltf"):
+        (cold / f"bad.{ext}").write_text("garbage\n")
+        assert not looks_like_mesh(cold / f"bad.{ext}")
+    (cold / "bad.toml").write_text("camera = [\n")
+    (cold / "path.toml").write_text('integrator = "path"\n')
+
+    def notice(scene, kind, **options):
+        firstrun._state["shown"] = False
+        _announce_first_run(str(scene), kind, options)
+        return capsys.readouterr().err
+
+    assert notice(cold / "bad.ply", "mesh") == notice(cold / "bad.toml", "toml") == ""
+    assert notice(good[1], "mesh") == ("compiling kernels for palette.ply: bvh, hard shadows "
+                                       "(first run only, about 14 s)\n")
+    path = f"path tracer (first run only, about {firstrun.PATH_S} s)\n"
+    assert notice("teapot", "builtin", integrator="path").endswith(f"hard shadows, {path}")
+    assert notice(cold / "path.toml", "toml").endswith(f"path.toml: bvh, hard shadows, {path}")
+    assert notice(cold / "path.toml", "toml", integrator="whitted").endswith("about 14 s)\n")
+
+
+def test_a_path_traced_render_estimates_the_path_stage(monkeypatch):
+    """raytrace.render's notice: a path-traced scene's estimate is the path
+    tracer's (mirrors included in its one stage), textures adding theirs."""
+    from raytrace.renderer import firstrun
+    from raytrace.scene.model import Camera, Material, Mesh, Scene, Sphere
+    monkeypatch.setattr(firstrun, "has_cache_entries", lambda dispatcher: False)
+    mirror = Scene("m", Camera((0, 0, 5), (0, 0, 0)), [Sphere((0, 0, 0), 1.0, Material(reflect=0.5))])
+    uv = Mesh(np.eye(3), np.array([[0, 1, 2]]), uv=np.zeros((3, 2)))
+    textured = Scene("t", Camera((0, 0, 5), (0, 0, 0)), [uv])
+    assert firstrun.scene_estimate(mirror, "kdtree") == firstrun.RENDER_S["kdtree"] + firstrun.BOUNCES_S
+    assert firstrun.scene_estimate(mirror, "kdtree", "path") == firstrun.PATH_S
+    assert firstrun.scene_estimate(textured, "bvh", "path") == firstrun.PATH_S + firstrun.TEXTURES_S

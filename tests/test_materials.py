@@ -171,3 +171,52 @@ def test_toys_example_keeps_its_mtl_colours():
 
 def meshes_of(scene):
     return [o for o in scene.objects if isinstance(o, Mesh)]
+
+
+def test_mesh_files_set_the_path_tracers_glossy_lobe(tmp_path):
+    """MTL Ks and Ns, glTF metallic and roughness reach the renderer's
+    material table as the glossy lobe's weight and exponent (the mean of
+    Ks, or F0; at most what the diffuse albedo leaves)."""
+    import trimesh
+    from trimesh.visual.material import PBRMaterial
+
+    from raytrace.kernels.buffers import MAT_DIFFUSE, MAT_GLOSSY, MAT_SHININESS
+    from raytrace.scene.flatten import flatten
+    (tmp_path / "g.mtl").write_text(
+        "newmtl varnish\nKd 0.5 0.25 0.25\nKs 0.3 0.2 0.1\nNs 5000\nillum 2\n"
+        "newmtl bright\nKd 0.9 0.9 0.9\nKs 0.6 0.6 0.6\nNs 40\n"
+        "newmtl mirror\nKd 0.5 0.5 0.5\nKs 0.9 0.9 0.9\nillum 3\n"
+        "newmtl matte\nKd 0.4 0.4 0.4\nKs 0.9 0.9 0.9\nillum 1\n")
+    (tmp_path / "g.obj").write_text(
+        "mtllib g.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nusemtl varnish\nf 1 2 3\n"
+        "usemtl bright\nf 2 4 3\nusemtl mirror\nf 1 2 5\nusemtl matte\nf 1 5 3\n")
+    plastic = trimesh.creation.box()
+    plastic.visual = trimesh.visual.TextureVisuals(material=PBRMaterial(
+        name="plastic", baseColorFactor=[0.2, 0.4, 0.6, 1.0], metallicFactor=0.0, roughnessFactor=0.5))
+    metal = trimesh.creation.box().apply_translation((2, 0, 0))
+    metal.visual = trimesh.visual.TextureVisuals(material=PBRMaterial(
+        name="metal", baseColorFactor=[0.9, 0.6, 0.3, 1.0], metallicFactor=1.0, roughnessFactor=0.5))
+    trimesh.Scene([plastic, metal]).export(tmp_path / "g.glb")
+
+    def lobes(path):
+        scene = raytrace.load_scene(path)
+        geo, _, _, (prim_object, _) = flatten(scene, with_sources=True)
+        rows = {}
+        for p, k in enumerate(prim_object[:len(geo.tri_mat)]):
+            par = geo.mat_param[geo.tri_mat[p]]
+            rows[scene.objects[k].material.color] = (par[MAT_GLOSSY], par[MAT_SHININESS],
+                                                     par[MAT_DIFFUSE])
+        return rows
+
+    obj = lobes(tmp_path / "g.obj")
+    kd = obj[(0.9, 0.9, 0.9)][2]
+    assert obj[(0.5, 0.25, 0.25)][:2] == (pytest.approx(0.2), 1000.0)   # mean Ks; Ns within 1..1000
+    assert obj[(0.9, 0.9, 0.9)][:2] == (pytest.approx(1.0 - 0.9 * kd), 40.0)  # room left by Kd
+    # A mirror's Ks is its traced reflection, illum 1 has no highlight: no lobe.
+    assert obj[(0.5, 0.5, 0.5)][0] == 0.0 and obj[(0.4, 0.4, 0.4)][0] == 0.0 and len(obj) == 4
+    glb = lobes(tmp_path / "g.glb")
+    blue, gold = (tuple(np.round(np.array(c) * 255) / 255) for c in ((0.2, 0.4, 0.6), (0.9, 0.6, 0.3)))
+    # Roughness 0.5: exponent 2 / 0.5^4 - 2 = 30 (Walter et al. 2007); F0 0.04, or the metal's colour.
+    assert glb[blue][:2] == (pytest.approx(0.04), pytest.approx(30.0))
+    assert glb[gold][:2] == (pytest.approx(np.mean(gold)), pytest.approx(30.0))
+    assert glb[gold][2] * max(gold) + np.mean(gold) <= 1.0     # room enough: not cut

@@ -169,6 +169,36 @@ def _scene_kind(scene, scene_args):
     return kind
 
 
+def _announce_first_run(scene, kind, options):
+    """A first run's notice, before Numba loads (so at once), with a path
+    tracer's estimate for --integrator path or a scene file's integrator
+    (its TOML read here: milliseconds).  None for a mesh file whose first
+    bytes are not its format's, or a scene file that is not TOML: their
+    error comes alone, not after a promise of seconds of compiling."""
+    from pathlib import Path
+
+    from raytrace.renderer import firstrun
+    if not firstrun.first_run():
+        return
+    integrator = options.get("integrator")
+    if kind == "mesh":
+        from raytrace.scene.formats.mesh import looks_like_mesh
+        if not looks_like_mesh(scene):
+            return
+    elif kind == "toml":
+        from raytrace.scene.formats.scenefile import written_integrator
+        try:
+            written = written_integrator(scene)
+        except RaytraceError:
+            return
+        if written not in (None, *BY_NAME["integrator"].choice_list()):
+            return
+        integrator = integrator or written
+    accel, shadows = options.get("accel") or "bvh", options.get("shadows") or "hard"
+    firstrun.announce_if_cold(firstrun.render_what(Path(scene).name, accel, shadows, integrator),
+                              firstrun.command_estimate(accel, integrator))
+
+
 @main.command("render")
 @click.argument("scene")
 @click.option("--bvol/--no-bvol", default=None,
@@ -214,10 +244,7 @@ def render_cmd(scene, bvol, scene_args, output, aov, heatmap, show_depth, work, 
     options = {k: v for k, v in options.items() if v is not None}
     kind = _scene_kind(scene, scene_args)
     if kind == "builtin" or _is_file(scene):      # no notice before "no such file"
-        from raytrace.renderer.firstrun import RENDER_S, announce_if_cold
-        accel = options.get("accel") or "bvh"
-        announce_if_cold(f"{Path(scene).name}: {accel}, {options.get('shadows') or 'hard'} shadows",
-                         RENDER_S.get(accel, 12) + 2)
+        _announce_first_run(scene, kind, options)
     animated = work.turntable is not None or _is_frame_path(output)
     still_extras = [flag for flag, value in (("--aov", aov), ("--heatmap", heatmap),
                                              ("--show-structure", show_depth)) if value is not None]
@@ -248,11 +275,11 @@ def render_cmd(scene, bvol, scene_args, output, aov, heatmap, show_depth, work, 
                 from raytrace.accel.registry import DEFAULT, get
                 get(options.get("accel", DEFAULT)).check_outline()
             _load_threads(options)
-            from raytrace.renderer.firstrun import RENDER_S, expecting
+            from raytrace.renderer.firstrun import command_estimate, expecting
             accel, shadows = options.get("accel", "bvh"), options.get("shadows", "hard")
             t_load = time.perf_counter()
-            with expecting(f"{scene}: {accel}, {shadows} shadows", RENDER_S.get(accel, 12) + 2,
-                           load=False):
+            with expecting(f"{scene}: {accel}, {shadows} shadows",
+                           command_estimate(accel, options.get("integrator")), load=False):
                 t_kernels = load_kernels(scene, scene_args.detail)   # compile time, not loading's
             with _warnings_once():
                 sc = load_scene(scene, width=width, height=height, **scene_kwargs(scene_args))

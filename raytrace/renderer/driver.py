@@ -473,7 +473,7 @@ def render(scene, opts=None, *, drop_meshes=False, **kw):
     """
     from raytrace.renderer.firstrun import expecting_render
     opts = options_with(opts, kw)
-    with expecting_render(scene, opts):
+    with expecting_render(scene, opts, integrator_of(opts, scene)):
         return _render(scene, opts, drop_meshes)
 
 

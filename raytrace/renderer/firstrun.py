@@ -22,6 +22,10 @@ TEXTURES_S = 5
 # A new variant of a kernel already in the cache (soft shadows after hard,
 # another structure's render kernel): the "then ..." rows of that table.
 VARIANT_S = 6
+# A cold path-traced render, whatever its structure: the path tracer's stage,
+# compiled in the second process, outlasts the structure's kernels
+# (docs/pathtracer.md, "Cold compile on a quiet machine").
+PATH_S = 23
 # The first cast_rays (its structure's builder and the closest-hit kernel).
 QUERY_S = {"none": 4, "bvol": 4, "bvh": 6, "grid": 7, "kdtree": 8}
 
@@ -112,13 +116,18 @@ def expect(what, seconds=None):
     _state["fallback"] = _label(what, seconds)
 
 
-def announce_if_cold(what, seconds):
-    """Say it now, before Numba is even imported, if no render kernel is in
-    the cache at all (a first run: a compile is certain)."""
+def first_run():
+    """Whether no render kernel is in the cache at all (a compile is
+    certain) and the notice is neither shown yet nor silenced."""
     if _state["shown"] or _quiet():
-        return
+        return False
     from raytrace.kernels.cachedir import any_render_kernel_cached
-    if not any_render_kernel_cached():
+    return not any_render_kernel_cached()
+
+
+def announce_if_cold(what, seconds):
+    """Say it now, before Numba is even imported, on a first run."""
+    if first_run():
         _state["shown"] = True
         try:
             sys.stderr.write(_label(what, seconds) + "\n")
@@ -137,8 +146,13 @@ def has_cache_entries(dispatcher):
         return False
 
 
-def render_estimate(accel, bounces, textures):
+def render_estimate(accel, bounces, textures, integrator="whitted"):
     """Seconds a cold render compile takes, about."""
+    if integrator == "path":      # one stage, mirrors and glass included
+        from raytrace.kernels.pathtrace import run_path_stage
+        if has_cache_entries(run_path_stage):
+            return VARIANT_S
+        return PATH_S + TEXTURES_S * bool(textures)
     from raytrace.kernels.wavefront import run_stage
     if has_cache_entries(run_stage):
         return VARIANT_S
@@ -146,23 +160,31 @@ def render_estimate(accel, bounces, textures):
     return base + BOUNCES_S * bool(bounces) + TEXTURES_S * bool(textures)
 
 
-def render_what(scene_name, opts):
-    return f"{scene_name}: {opts.accel}, {opts.shadows} shadows"
+def command_estimate(accel, integrator):
+    """The command's first-run estimate, from its options alone."""
+    return PATH_S if integrator == "path" else RENDER_S.get(accel, 12) + 2
 
 
-def scene_estimate(scene, accel):
+def render_what(scene_name, accel, shadows, integrator):
+    path = ", path tracer" if integrator == "path" else ""
+    return f"{scene_name}: {accel}, {shadows} shadows{path}"
+
+
+def scene_estimate(scene, accel, integrator="whitted"):
     """render_estimate for a Scene, read from its description (before flattening)."""
     from raytrace.scene.model import Mesh
     objects = getattr(scene, "objects", None) or []
     bounces = any(o.material.bounces() for o in objects if hasattr(o, "material"))
     textures = any(isinstance(o, Mesh) and (o.colors is not None or o.uv is not None)
                    for o in objects)
-    return render_estimate(accel, bounces, textures)
+    return render_estimate(accel, bounces, textures, integrator)
 
 
-def expecting_render(scene, opts):
-    """The block that flattens, builds and renders ``scene`` with ``opts``.
-    The estimate reads the render kernel's cache index (has_cache_entries),
-    which a warm render's load reads anyway: only when a compile starts."""
-    return expecting(render_what(getattr(scene, "name", "the scene"), opts),
-                     lambda: scene_estimate(scene, opts.accel))
+def expecting_render(scene, opts, integrator="whitted"):
+    """The block that flattens, builds and renders ``scene`` with ``opts``
+    (and its ``integrator``).  The estimate reads the render kernel's cache
+    index (has_cache_entries), which a warm render's load reads anyway: only
+    when a compile starts."""
+    return expecting(render_what(getattr(scene, "name", "the scene"), opts.accel, opts.shadows,
+                                 integrator),
+                     lambda: scene_estimate(scene, opts.accel, integrator))

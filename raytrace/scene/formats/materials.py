@@ -3,8 +3,9 @@ Material, and a warning for what it can only approximate.
 
 The renderer has one colour (times a base-colour texture and vertex
 colours), a white highlight (a scalar ``specular``), mirror and glass
-weights (``reflect``, ``transmit``, ``ior``) and emitted radiance
-(``emission``, from MTL's Ke and glTF's emissiveFactor): a material needing what it
+weights (``reflect``, ``transmit``, ``ior``), emitted radiance
+(``emission``, from MTL's Ke and glTF's emissiveFactor) and the path
+tracer's glossy lobe (``glossy``, exponent ``shininess``): a material needing what it
 lacks is approximated, and ``warn`` is told once per material and problem.
 """
 from dataclasses import replace
@@ -30,26 +31,44 @@ def _clip01(values):
     return tuple(float(x) for x in np.clip(values, 0.0, 1.0))
 
 
+def glossy_weight(reflectance, mat):
+    """The path tracer's glossy weight for a specular reflectance at normal
+    incidence (the normalised lobe reflects exactly its weight there), at
+    most what ``mat``'s diffuse albedo leaves: diffuse x the colour's
+    largest component + glossy <= 1, so no surface returns more light than
+    it receives (MTL's Kd + Ks often exceeds 1).  Whitted never reads it."""
+    room = 1.0 - mat.diffuse * max(mat.color)
+    return float(np.clip(min(reflectance, room), 0.0, 1.0))
+
+
 def mtl_material(entry, base, source, warn, image=None, has_uv=False):
     """The Material of an MtlMaterial: Kd is the colour, times map_Kd's
     ``image`` (as trimesh read it) where the mesh has texture coordinates;
     the mean of Ks the specular weight (the highlight is white, so a
     coloured Ks keeps its energy, not its hue); Ns the shininess (at least
-    1); illum 0 or 1 (no highlight) gives specular 0.  Everything else
-    comes from ``base``."""
+    1); illum 0 or 1 (no highlight) gives specular 0.  The same mean is the
+    path tracer's ``glossy`` weight (glossy_weight), with Ns its exponent,
+    where Ks is a highlight: not under illum 0 or 1, nor under the mirror
+    and glass modes, whose Ks is the traced reflection (their mirror or
+    glass event draws it).  Everything else comes from ``base``."""
     v = entry.values
     mat = replace(base)
     if "kd" in v:
         mat.color = _clip01(v["kd"])
     if "ks" in v:
         mat.specular = float(np.clip(np.mean(v["ks"]), 0.0, 1.0))
-    if "ns" in v:
+    if "ns" in v:       # MTL's range is 0..1000; the lobe's exponent is at least 1 here
         mat.shininess = float(np.clip(v["ns"][0], 1.0, 1000.0))
     if "ke" in v:       # emitted radiance (the path tracer's lights)
         mat.emission = tuple(max(0.0, float(x)) for x in v["ke"])
     illum = int(v["illum"][0]) if "illum" in v else None
     if illum in (0, 1):
         mat.specular = 0.0
+    elif "ks" in v and illum not in MIRROR_ILLUM + GLASS_ILLUM:
+        # The mean, not the largest, of a coloured Ks: the lobe is white, so
+        # the mean keeps the reflected energy where the largest would add
+        # light to the weaker channels (gold's 1, 0.77, 0.34: 0.70, not 1).
+        mat.glossy = glossy_weight(mat.specular, mat)
     what = f"{source}: material {entry.name!r}"
     opacity = float(np.clip(v["d"][0] if "d" in v else (1.0 - v["tr"][0] if "tr" in v else 1.0),
                             0.0, 1.0))
@@ -127,8 +146,11 @@ def gltf_material(pbr, base, source, warn, has_uv=False):
     normalisation (Akenine-Moller et al., Real-Time Rendering), since the
     renderer's highlight is not normalised; at most 1.  A metal keeps half
     of ``base``'s diffuse weight: the renderer's highlight is white, so its
-    colour can show only as diffuse light.  Absent factors take glTF's
-    defaults (colour 1, 1, 1, 1; metallic 1; roughness 1).
+    colour can show only as diffuse light.  Under the path tracer F0 itself
+    is the ``glossy`` weight (glossy_weight; the lobe is normalised), with
+    the same exponent.  Absent factors take glTF's defaults (colour 1, 1,
+    1, 1; metallic 1; roughness 1).  KHR_materials_specular is not read
+    (trimesh drops it).
     """
     mat = replace(base)
     rgba = _base_color(getattr(pbr, "baseColorFactor", None))
@@ -139,6 +161,7 @@ def gltf_material(pbr, base, source, warn, has_uv=False):
     f0 = DIELECTRIC_F0 * (1.0 - metallic) + float(np.mean(rgba[:3])) * metallic
     mat.specular = float(min(1.0, f0 * (mat.shininess + 8.0) / 8.0))
     mat.diffuse = base.diffuse * (1.0 - 0.5 * metallic)
+    mat.glossy = glossy_weight(f0, mat)
     emissive = getattr(pbr, "emissiveFactor", None)
     if emissive is not None:    # glTF's emitted colour (its default: none)
         e = np.asarray(emissive, dtype=np.float64).ravel()

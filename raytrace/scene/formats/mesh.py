@@ -43,6 +43,39 @@ def is_mesh_path(name):
     return Path(str(name)).suffix.lower() in MESH_EXTENSIONS
 
 
+# How far looks_like_mesh reads: an OBJ's first vertex comes after its
+# comments and mtllib lines; the other formats say what they are at once.
+HEAD_BYTES = {".obj": 1 << 16}
+
+
+def looks_like_mesh(path):
+    """Whether a mesh file begins as its format does (PLY's "ply" line,
+    GLB's "glTF", a glTF's JSON object, an OFF header, an ASCII STL's
+    "solid" or a binary one's size, an OBJ vertex line), read from its first
+    bytes; False for a file it cannot read.  Not a check: reading the file
+    names any problem.  The command tells of a first run's compile before
+    loading only for a file that passes, so garbage gets its error alone."""
+    path = Path(path)
+    ext = path.suffix.lower()
+    try:
+        st = path.stat()
+        if not stat.S_ISREG(st.st_mode):
+            return False
+        with path.open("rb") as f:
+            head = f.read(HEAD_BYTES.get(ext, 4096)).removeprefix(b"\xef\xbb\xbf")
+    except OSError:
+        return False
+    if ext == ".ply":
+        return head[:3] == b"ply" and head[3:4] in (b"\n", b"\r")
+    if ext == ".stl":
+        binary = st.st_size >= 84 and st.st_size == 84 + 50 * int.from_bytes(head[80:84], "little")
+        return binary or head.lstrip()[:5].lower() == b"solid"
+    if ext == ".obj":
+        return re.search(rb"(?m)^[ \t]*v[ \t]", head) is not None
+    return {".glb": head[:4] == b"glTF", ".gltf": head.lstrip()[:1] == b"{",
+            ".off": b"OFF" in head}.get(ext, False)
+
+
 # An OBJ face corner whose vertex index is 0: OBJ counts from 1 (negative
 # counts back from the last vertex), so 0 is out of range -- the usual sign
 # of an exporter writing 0-based indices.  trimesh does not reject it: it

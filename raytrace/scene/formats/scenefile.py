@@ -83,6 +83,13 @@ def teapot_details(path):
                  if isinstance(o, dict) and o.get("type") == "teapot")
 
 
+def written_integrator(path):
+    """The file's ``integrator`` as written (not yet checked), or None: the
+    command's first-run notice reads it before loading, which names any
+    problem.  RaytraceError for a file that is not TOML."""
+    return parse_toml(path).get("integrator")
+
+
 def read_scene_file(path):
     """A Scene from a TOML scene file; mesh paths are relative to it."""
     try:
