@@ -39,14 +39,22 @@ def cache_dir(numba_version):
     return Path(root) / f"numba-{digest.hexdigest()[:16]}"
 
 
+@functools.cache
+def _numba_version():
+    """Numba's version from its metadata, once a process (about 1.7 ms a
+    read: three a render() call asked for it)."""
+    from importlib.metadata import version
+    return version("numba")
+
+
 def kernel_cached(*index_globs):
     """Whether any version of a kernel is in the cache: an index file
     matching one of ``index_globs`` (file names, as Numba names a
     function's index).  If not, this is a first run and a compile is
     certain."""
-    from importlib.metadata import PackageNotFoundError, version
+    from importlib.metadata import PackageNotFoundError
     try:
-        where = cache_dir(version("numba"))
+        where = cache_dir(_numba_version())
     except (PackageNotFoundError, OSError):
         return True                  # unknown: leave it to Numba's compile event
     return any(any(where.glob(f"*/{name}")) for name in index_globs)

@@ -6,7 +6,7 @@ the compiled version: for a render's stage entries (a Shading record of
 some eighty arrays, a wave's buffers) that is about 30 us a call, against
 3 us through the entry point.  A wave costs a dozen such calls, so small
 or few-sample renders spent most of their time there (docs/benchmarks.md,
-"Calls per wave").  The entry point does not check types: an Entry must
+"Renderer").  The entry point does not check types: an Entry must
 only ever be given arguments of its first call's types (one render's
 thread's buffers; one prepared scene's rays of one dtype)."""
 

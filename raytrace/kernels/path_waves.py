@@ -7,7 +7,7 @@ nothing of it compiles for any other."""
 from raytrace.kernels import pathtrace
 from raytrace.kernels.cast import closest_rays, occluded_rays
 from raytrace.kernels.entry import Entry
-from raytrace.kernels.wavefront import CAMERA, SHADOW_BATCH, TILE, WAVE_RAYS, wave_buffers
+from raytrace.kernels.wavefront import CAMERA, SHADOW_BATCH, TILE, wave_buffers, wave_squares
 
 
 class PathStages:
@@ -16,7 +16,7 @@ class PathStages:
     def __init__(self, shading, textures, acc, band, paths):
         self.shading, self.textures, self.acc, self.band = shading, textures, acc, band
         self.paths = paths
-        self.squares = max(1, WAVE_RAYS // (TILE * TILE * shading.spp))
+        self.squares = wave_squares(shading.width, shading.spp)
         self.wave = wave_buffers(self.squares * TILE * TILE * shading.spp)
         size = len(self.wave.x)
         # Each path spawns at most one ray; a hit casts a shadow ray to each

@@ -81,6 +81,14 @@ WAVE_RAYS = 8192
 SHADOW_BATCH = 32768
 
 
+def wave_squares(width, spp):
+    """Squares a wave holds: WAVE_RAYS camera rays' worth, but no more than
+    a strip of an image ``width`` pixels wide has, since a wave never spans
+    two strips (a 64-pixel-wide render's buffers were 16 times what it used,
+    allocated and filled for each render)."""
+    return max(1, min(-(-width // TILE), WAVE_RAYS // (TILE * TILE * spp)))
+
+
 @njit(**JIT)
 def camera_wave(shading, wave, strip_top, y_end, cols, counters, row0, own_rows):
     """Camera rays of squares cols = (first, end) of the strip of TILE

@@ -22,11 +22,11 @@ from raytrace.kernels.wavefront import (
     SHADE,
     SHADOW_BATCH,
     TILE,
-    WAVE_RAYS,
     Shading,
     run_stage,
     shadow_buffers,
     wave_buffers,
+    wave_squares,
 )
 
 
@@ -36,7 +36,7 @@ class _Stages:
     def __init__(self, shading, textures, acc, band):
         self.shading, self.textures, self.acc, self.band = shading, textures, acc, band
         spp = shading.spp
-        self.squares = max(1, WAVE_RAYS // (TILE * TILE * spp))
+        self.squares = wave_squares(shading.width, spp)
         self.wave = wave_buffers(self.squares * TILE * TILE * spp)
         # Room for a whole wave's shadow rays and light entries, up to
         # SHADOW_BATCH (and at least one hit's): no bigger buffers than
