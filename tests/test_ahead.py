@@ -97,7 +97,7 @@ def test_a_path_traced_first_run_compiles_the_path_stage_ahead(monkeypatch, star
     ahead.start(None, "path")
     assert started == []
     monkeypatch.setattr("raytrace.kernels.cachedir.kernel_cached",
-                        lambda *globs: not any("run_path_stage" in g for g in globs))
+                        lambda *globs: not any("run_path_shade" in g for g in globs))
     ahead.start(None, "path")
     assert len(started) == 1 and started[0][-4:] == ["raytrace.renderer.precompile", "0", "0", "1"]
     core.stop("render")

@@ -1,8 +1,8 @@
 """The path tracer's Python side (``--integrator path``): a thread's
 buffers and the calls of a wave's stages, generation by generation, as
-waves._Generations runs mirrors and glass: the stages' compiled entry
-(pathtrace.run_path_stage) and the structure's two ray kernels (cast.py),
-in turn.  Imported only by a path-traced render (waves._stages), so
+waves._Generations runs mirrors and glass: the stages' compiled entries
+(pathtrace.run_path_stage and run_path_shade) and the structure's two ray
+kernels (cast.py), in turn.  Imported only by a path-traced render (waves._stages), so
 nothing of it compiles for any other."""
 from raytrace.kernels import pathtrace
 from raytrace.kernels.cast import closest_rays, occluded_rays
@@ -28,12 +28,18 @@ class PathStages:
         self.counters = self.wave.cnt if len(band.aovs.cost) else band.stats_rows
         self.entries = {}       # as waves._Stages'
         self.run_path_stage = Entry(pathtrace.run_path_stage)
+        self.run_path_shade = Entry(pathtrace.run_path_shade)
 
     def stage(self, step, args):
-        """pathtrace.run_path_stage with this thread's records."""
+        """pathtrace's entry for ``step`` (run_path_shade for SHADE, else
+        run_path_stage) with this thread's records."""
         gen, nxt = self.gens
+        bufs = (gen, nxt, self.shadow)
+        if step == pathtrace.SHADE:
+            return self.run_path_shade(self.shading, self.textures, self.paths, self.wave, bufs,
+                                       self.counters, args)
         return self.run_path_stage(step, self.shading, self.textures, self.paths, self.wave,
-                                   (gen, nxt, self.shadow), self.counters, self.band, args)
+                                   bufs, self.counters, self.band, args)
 
     def strip(self, top, y_end):
         """The strip of TILE rows from ``top``, a wave of squares at a time."""
@@ -63,9 +69,11 @@ class PathStages:
         self.stage(pathtrace.STORE, (n, 0, 0, 0, 0))
 
 
-def load(stages):
-    """Compile (or load) the path stages' entry, on empty buffers."""
+def load(stages, shade):
+    """Compile (or load) on empty buffers the shading entry (``shade``:
+    run_path_shade, which a first run compiles in the second process) or
+    the other (run_path_stage, which it compiles in this one meanwhile)."""
     empty = pathtrace.path_buffers(0)
     stages.wave, stages.gens = wave_buffers(0), [empty, empty]
     stages.shadow = pathtrace.light_ray_buffers(0)
-    stages.stage(CAMERA, (0, 0, 0, 0, 0))
+    stages.stage(pathtrace.SHADE if shade else CAMERA, (0, 0, 0, 0, 0))

@@ -95,7 +95,7 @@ PathRays = namedtuple("PathRays", ["origins", "dirs", "t_min", "t_max", "hit_t",
 LightRays = namedtuple("LightRays", ["origins", "dirs", "t_min", "t_max", "row", "blocked",
                                      "sample", "rgb"])
 
-# run_path_stage's steps, after wavefront.CAMERA.
+# The path stages' steps, after wavefront.CAMERA (SHADE: run_path_shade).
 SHADE, FINISH, STORE = 1, 2, 3
 
 
@@ -485,25 +485,34 @@ def first_paths(shading, paths, wave, n, gen):
 
 @njit(**BLOCK)
 def run_path_stage(step, shading, textures, paths, wave, bufs, counters, band, args):
-    """One stage of a wave of paths (the Python side: path_waves.py); bufs
-    = (this generation, the next, shadow rays), args five ints, the result
-    three.  CAMERA: camera_wave (args as wavefront.run_stage's) and
-    generation 0; returns (rays, 0, 0).  SHADE: shade_paths of rays args[0] .. args[1]
-    - 1, the next generation from row args[2]; returns its three numbers.
-    FINISH: finish_paths of args[0] shadow rays.  STORE: store_wave of the
-    wave's args[0] samples."""
-    gen, nxt, shadow = bufs
+    """One stage of a wave of paths but its shading (run_path_shade; the
+    Python side: path_waves.py); bufs = (this generation, the next, shadow
+    rays), args five ints, the result three.  CAMERA: camera_wave (args as
+    wavefront.run_stage's) and generation 0; returns (rays, 0, 0).  FINISH:
+    finish_paths of args[0] shadow rays.  STORE: store_wave of the wave's
+    args[0] samples."""
+    gen, _, shadow = bufs
     a, b, c, d, e = args
     if step == CAMERA:
         n = camera_wave(shading, wave, a, b, (c, d), counters, band.row0, e != 0)
         return first_paths(shading, paths, wave, n, gen), 0, 0
-    if step == SHADE:
-        return shade_paths(shading, textures, paths, wave, gen, (a, b), nxt, c, shadow, counters)
     if step == FINISH:
         finish_paths(wave, shadow, a, counters)
     else:
         store_wave(shading, wave, a, band)
     return 0, 0, 0
+
+
+@njit(**BLOCK)
+def run_path_shade(shading, textures, paths, wave, bufs, counters, args):
+    """SHADE: shade_paths of rays args[0] .. args[1] - 1, the next
+    generation from row args[2]; returns its three numbers.  An entry of
+    its own, most of the path tracer's compile: a first run compiles it in
+    the second process (renderer/ahead.py) while this one compiles the
+    structure's kernels and run_path_stage."""
+    gen, nxt, shadow = bufs
+    a, b, c, _, _ = args
+    return shade_paths(shading, textures, paths, wave, gen, (a, b), nxt, c, shadow, counters)
 
 
 def path_buffers(rays):

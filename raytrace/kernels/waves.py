@@ -172,6 +172,18 @@ def load_rays(render, band):
                   shadow.blocked, band.stats_rows, shadow.row, {})
 
 
+def load_own_stages(render, band):
+    """Compile (or load) what of a render's stages a first run compiles in
+    this process while the second one compiles the rest (load_shading):
+    the path tracer's entry for the camera, shadow rays' light and the
+    film (path_waves.load); none of Whitted's."""
+    if isinstance(render.bounces, Paths):
+        from raytrace.kernels import path_waves
+        stages = _stages(render, band)
+        stages.counters = band.stats_rows
+        path_waves.load(stages, shade=False)
+
+
 def load_shading(render, band):
     """Compile (or load) the shading stages' entry a render uses, on empty
     buffers; render.lighting.acc is not read (renderer/ahead.py compiles it
@@ -180,7 +192,7 @@ def load_shading(render, band):
     stages.counters = band.stats_rows
     if isinstance(render.bounces, Paths):
         from raytrace.kernels import path_waves
-        path_waves.load(stages)
+        path_waves.load(stages, shade=True)
         return
     stages.wave, stages.shadow = wave_buffers(0), shadow_buffers(0, 0)
     if isinstance(stages, _Generations):

@@ -21,7 +21,7 @@ def start(scene, integrator="whitted"):
         return
     from raytrace.kernels.cachedir import kernel_cached, render_kernel_cached
     path = integrator == "path"
-    if kernel_cached("pathtrace.run_path_stage-*.nbi") if path else render_kernel_cached():
+    if kernel_cached("pathtrace.run_path_shade-*.nbi") if path else render_kernel_cached():
         return
     from raytrace.scene.kinds import scene_kind
     textures, mirrors = scene_kind(scene)

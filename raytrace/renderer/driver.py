@@ -432,7 +432,7 @@ def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows
     first compile or load the kernel, timed apart (compile_s; 0 without)."""
     from raytrace.kernels.counters import N_COUNTERS
     from raytrace.kernels.render import Band, Lighting, Render
-    from raytrace.kernels.waves import load_rays, load_shading, render_rows
+    from raytrace.kernels.waves import load_own_stages, load_rays, load_shading, render_rows
     p = payload
     width = p.width
     if image is None:
@@ -455,6 +455,7 @@ def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows
         from raytrace.renderer import ahead
         t0 = time.perf_counter()
         load_rays(render, band)
+        load_own_stages(render, band)
         ahead.wait()        # the shading stages, if compiled in a second process
         load_shading(render, band)
         t_compile = time.perf_counter() - t0

@@ -149,8 +149,8 @@ def has_cache_entries(dispatcher):
 def render_estimate(accel, bounces, textures, integrator="whitted"):
     """Seconds a cold render compile takes, about."""
     if integrator == "path":      # one stage, mirrors and glass included
-        from raytrace.kernels.pathtrace import run_path_stage
-        if has_cache_entries(run_path_stage):
+        from raytrace.kernels.pathtrace import run_path_shade
+        if has_cache_entries(run_path_shade):
             return VARIANT_S
         return PATH_S + TEXTURES_S * bool(textures)
     from raytrace.kernels.wavefront import run_stage

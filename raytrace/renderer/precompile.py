@@ -49,8 +49,9 @@ def load_stages(scene, opts=None):
 def main(textures, mirrors, path=False):
     from raytrace.renderer.driver import RenderOptions
     from raytrace.scene.kinds import tiny_scene
-    # The path tracer's stage: the types `raytrace warmup --with path`
-    # compiles for (a tiny scene with mirrors, one sample).
+    # The path tracer's shading entry (the render compiles its other one
+    # meanwhile): the types `raytrace warmup --with path` compiles for (a
+    # tiny scene with mirrors, one sample).
     opts = RenderOptions(integrator="path", spp=1) if path else None
     load_stages(tiny_scene(textures, mirrors or path), opts)
 
