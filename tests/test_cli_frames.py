@@ -2,6 +2,7 @@
 --workers through the command line: what is written, and one line for
 each mistake."""
 import json
+import signal
 
 import numpy as np
 import pytest
@@ -112,6 +113,29 @@ def test_ctrl_c_during_a_gif_leaves_no_file(tmp_path, monkeypatch):
     monkeypatch.setattr(batch, "render_tile", interrupted_after_one)
     r = run("teapot", *SIZE, "--turntable", 3, "-o", tmp_path / "spin.gif")
     assert r.exit_code == 130 and "interrupted: no animation written" in r.output
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_signal_a_library_turned_into_its_own_error_still_ends_the_animation(
+        tmp_path, monkeypatch):
+    """A SIGTERM landing in a library's C code can come back as that
+    library's exception (interrupt.py); the animation says it wrote nothing,
+    as for a KeyboardInterrupt, not "no image written"."""
+    from raytrace.frames import batch
+    from raytrace.renderer import interrupt
+    real = batch.render_tile
+    calls = []
+
+    def terminated_after_one(*args):
+        calls.append(1)
+        if len(calls) == 2:
+            monkeypatch.setattr(interrupt, "_interrupted", True)
+            monkeypatch.setattr(interrupt, "_signum", signal.SIGTERM)
+            raise RuntimeError("encoder interrupted")
+        return real(*args)
+    monkeypatch.setattr(batch, "render_tile", terminated_after_one)
+    r = run("teapot", *SIZE, "--turntable", 3, "-o", tmp_path / "spin.gif")
+    assert r.exit_code == 143 and "terminated (SIGTERM): no animation written" in r.output
     assert list(tmp_path.iterdir()) == []
 
 

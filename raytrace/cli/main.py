@@ -376,7 +376,12 @@ def _render_animation(scene, kind, output, work, as_json, quiet, options, width,
             finally:
                 progress.close()
             stats["output"] = str(output)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, Exception) as exc:
+        # A signal that lands in a library's C code (the video encoder's)
+        # may come back as that library's error: still an interruption, of
+        # an animation (cli/command.py would say "no image written").
+        if not isinstance(exc, KeyboardInterrupt) and not interrupt.interrupted():
+            raise
         click.echo(f"{interrupt.label()}: no animation written" if not _is_numbered(output)
                    else f"{interrupt.label()}: the frames written are complete", err=True)
         sys.exit(interrupt.exit_code())
