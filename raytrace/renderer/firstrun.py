@@ -148,7 +148,7 @@ def has_cache_entries(dispatcher):
 
 def render_estimate(accel, bounces, textures, integrator="whitted"):
     """Seconds a cold render compile takes, about."""
-    if integrator == "path":      # one stage, mirrors and glass included
+    if integrator == "path":      # its two entries, mirrors and glass included
         from raytrace.kernels.pathtrace import run_path_shade
         if has_cache_entries(run_path_shade):
             return VARIANT_S
