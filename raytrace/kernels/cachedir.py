@@ -41,7 +41,7 @@ def cache_dir(numba_version):
 
 @functools.cache
 def _numba_version():
-    """Numba's version from its metadata, once a process (about 1.7 ms a
+    """Numba's version from its metadata, once a process (about 1.4 ms a
     read: three a render() call asked for it)."""
     from importlib.metadata import version
     return version("numba")

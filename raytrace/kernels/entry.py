@@ -4,11 +4,12 @@ types, through its compiled entry point, looked up once.
 Numba's dispatcher types every argument in Python on every call to find
 the compiled version: for a render's stage entries (a Shading record of
 some eighty arrays, a wave's buffers) that is about 30 us a call, against
-3 us through the entry point.  A wave costs a dozen such calls, so small
-or few-sample renders spent most of their time there (docs/benchmarks.md,
-"Renderer").  The entry point does not check types: an Entry must
-only ever be given arguments of its first call's types (one render's
-thread's buffers; one prepared scene's rays of one dtype)."""
+3 us through the entry point.  A wave costs a dozen such calls: a
+path-traced render of few samples spent much of its time there, a Whitted
+one a few percent at most (docs/benchmarks.md, "Renderer").  The entry
+point does not check types: an Entry must only ever be given arguments
+of its first call's types (one render's thread's buffers; one prepared
+scene's rays of one dtype)."""
 
 
 class Entry:
