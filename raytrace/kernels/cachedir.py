@@ -57,7 +57,17 @@ def kernel_cached(*index_globs):
         where = cache_dir(_numba_version())
     except (PackageNotFoundError, OSError):
         return True                  # unknown: leave it to Numba's compile event
-    return any(any(where.glob(f"*/{name}")) for name in index_globs)
+    key = (where, index_globs)
+    if key not in _FOUND:
+        if not any(any(where.glob(f"*/{name}")) for name in index_globs):
+            return False
+        # Found once, taken as there for the rest of the process: a glob
+        # costs about 0.5 ms, several a render() call.
+        _FOUND.add(key)
+    return True
+
+
+_FOUND = set()
 
 
 def render_kernel_cached():
