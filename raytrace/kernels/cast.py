@@ -161,9 +161,9 @@ def _run_blocks(block, args, cnt_rows, clock):
 _ONE_ROW = np.empty(0, np.int64)
 
 
-def _call_entry(block, args, entries, lookup=True):
+def _call_entry(block, args, entries):
     """block(*args) in the calling thread through its compiled entry point
-    (entry.py's Entry, ``lookup`` its), kept in ``entries``.  So
+    (entry.py's Entry), kept in ``entries``.  So
     ``entries`` must serve arguments of one set of types only: one
     prepared scene's, with the rays as closest_alone takes them, or one
     render thread's buffers (a wrong entry would read the arrays as
@@ -171,7 +171,7 @@ def _call_entry(block, args, entries, lookup=True):
     key = (block, args[2].dtype)
     entry = entries.get(key)
     if entry is None:
-        entry = entries[key] = Entry(block, lookup)
+        entry = entries[key] = Entry(block)
     entry(*args)
 
 
@@ -212,13 +212,13 @@ def closest_rays(geo, acc, rays, outs, cnt, rows, entries):
     """Closest hits of rays = (origins, dirs, t_min, t_max) into outs =
     (t, prim, u, v), in the calling thread."""
     _call_entry(_closest_single, (geo, acc, *rays, outs, cnt, rows, np.zeros(1, np.int64)),
-                entries, lookup=False)
+                entries)
 
 
 def occluded_rays(geo, acc, rays, out_hit, cnt, rows, entries):
     """cast_occluded of rays = (origins, dirs, t_min, t_max), as closest_rays."""
     _call_entry(_occluded_single, (geo, acc, *rays, out_hit, cnt, rows, np.zeros(1, np.int64)),
-                entries, lookup=False)
+                entries)
 
 
 # Shell sort's gaps (Ciura 2001, "Best Increments for the Average Case of

@@ -10,23 +10,31 @@ one a few percent at most (docs/benchmarks.md, "Renderer").  The entry
 point does not check types: an Entry must only ever be given arguments
 of its first call's types (one render's thread's buffers; one prepared
 scene's rays of one dtype)."""
+try:
+    from numba._dispatcher import compute_fingerprint
+except ImportError:          # a Numba without it: every call through the dispatcher
+    compute_fingerprint = None
+
+# Compiled versions found, by kernel and the arguments' fingerprints (the
+# key Numba's dispatcher maps to a type): typing the arguments in Python
+# to find one takes 0.7-2 ms, so it is done once a process per signature,
+# not once per render thread.
+_FOUND = {}
 
 
 class Entry:
-    """``kernel`` (a Numba dispatcher) called as ``entry(*args)``.  With
-    ``lookup`` the first call finds its compiled version by typing the
-    arguments in Python (a few hundred microseconds: for an Entry kept
-    across many calls, as a prepared scene's); without, it takes the
-    kernel's only compiled version, and the dispatcher serves every call
-    where there are several (a process that rendered scenes of other
-    kinds)."""
+    """``kernel`` (a Numba dispatcher) called as ``entry(*args)``.  The
+    first call goes through the dispatcher (compiling or loading the
+    kernel); later ones through the compiled version that call ran: the
+    kernel's only one, or, where a process holds several (a structure's
+    ray kernels after another's, `raytrace compare`), the one of these
+    arguments' types."""
 
-    __slots__ = ("kernel", "call", "lookup")
+    __slots__ = ("kernel", "call")
 
-    def __init__(self, kernel, lookup=False):
+    def __init__(self, kernel):
         self.kernel = kernel
         self.call = None
-        self.lookup = lookup
 
     def __call__(self, *args):
         if self.call is not None:
@@ -37,11 +45,17 @@ class Entry:
 
     def _compiled(self, args):
         overloads = self.kernel.overloads
-        if self.lookup:
-            found = overloads.get(tuple(self.kernel.typeof_pyval(a) for a in args))
-        else:
-            # The one compiled version is the one the call just ran.  Read
-            # through dict's view: an OrderedDict's own hashes each key as it
-            # goes, and a Shading record's type hashes in 0.3 ms.
-            found = next(iter(dict.values(overloads))) if len(overloads) == 1 else None
-        return found.entry_point if found is not None else self.kernel
+        if len(overloads) == 1:
+            # Read through dict's view: an OrderedDict's own hashes each key
+            # as it goes, and a Shading record's type hashes in 0.3 ms.
+            return next(iter(dict.values(overloads))).entry_point
+        try:
+            key = (self.kernel, tuple(compute_fingerprint(a) for a in args))
+        except (TypeError, ValueError, NotImplementedError):
+            return self.kernel         # an argument Numba fingerprints not
+        call = _FOUND.get(key)
+        if call is None:
+            types = tuple(self.kernel.typeof_pyval(a) for a in args)
+            found = [c for sig, c in dict.items(overloads) if sig == types]
+            call = _FOUND[key] = found[0].entry_point if found else self.kernel
+        return call
