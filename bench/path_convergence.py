@@ -11,7 +11,10 @@ Each cell is rendered with SEEDS seeds, interleaved, and
 One seed is not enough: nine tenths of the squared error sits in the
 few pixels the light's edge crosses (radiance 17 or about 0.5, as a
 camera sample falls), so one render's RMSE swings by 1.5x from seed to
-seed and a slope fitted to one seed's errors is off by 0.2 or more.
+seed and a slope fitted to one seed's errors is off by 0.2 or more.  The
+slope fitted to each seed's errors alone, their mean and its standard
+error, say how far the slope over all seeds can be trusted: with 4 seeds
+the standard error was about 0.035, hence 12 by default.
 
 The reference's own noise (RMSE between its two halves / 2) adds to every
 error in quadrature; "RMSE, net" subtracts it.  The slope is the
@@ -22,7 +25,7 @@ samplers' fitted lines at the independent sampler's 64-spp time (32
 with --quick).  Every
 structure gives the same image, so only their times differ.
 
-    python bench/path_convergence.py [--quick] [--plot FILE] [--json FILE]
+    python bench/path_convergence.py [--quick] [--seeds N] [--plot FILE] [--json FILE]
 """
 import json
 import math
@@ -41,7 +44,7 @@ SAMPLERS = ("independent", "sobol")
 SEED, REFERENCE_SEEDS = 0, (101, 102)     # seeds SEED, SEED + 1, ... for the cells
 FIT_FROM_SPP = 4
 FULL = dict(size=64, spp=(1, 2, 4, 8, 16, 32, 64, 128), reference_spp=4096,
-            accels=("bvh", "grid", "kdtree"), seeds=4)
+            accels=("bvh", "grid", "kdtree"), seeds=12)
 QUICK = dict(size=32, spp=(1, 2, 4, 8, 16, 32), reference_spp=1024, accels=("bvh",),
              seeds=2)
 
@@ -55,9 +58,10 @@ def fit(rows):
     return float(b), float(a)
 
 
-def run(quick, plot_path=None):
+def run(quick, plot_path=None, seeds=None):
     from raytrace import load_scene, render
-    cfg = QUICK if quick else FULL
+    cfg = dict(QUICK if quick else FULL)
+    cfg["seeds"] = seeds or cfg["seeds"]
     n = cfg["size"]
     scene = load_scene("cornell", width=n, height=n)
     log(f"path convergence: cornell {n}x{n}, references of {cfg['reference_spp']} spp (sobol)")
@@ -91,10 +95,15 @@ def run(quick, plot_path=None):
         for s in SAMPLERS:
             pr = [r for r in rows if r["accel"] == a and r["sampler"] == s]
             slope, icpt = fit(pr)
+            fitted = [r for r in pr if r["spp"] >= FIT_FROM_SPP]
+            each = [common.loglog_slope([r["spp"] for r in fitted],
+                                        [r["rmse_each"][j] for r in fitted]) for j in range(k)]
             fits[f"{a}/{s}"] = {"slope_time": slope, "intercept": icpt,
                                 "slope_spp": common.loglog_slope(
-                                    [r["spp"] for r in pr if r["spp"] >= FIT_FROM_SPP],
-                                    [r["rmse_net"] for r in pr if r["spp"] >= FIT_FROM_SPP])}
+                                    [r["spp"] for r in fitted], [r["rmse_net"] for r in fitted]),
+                                "slope_spp_each": each,
+                                "slope_spp_se": float(np.std(each, ddof=1) / math.sqrt(k))
+                                if k > 1 else None}
     equal = {}
     at_spp = min(64, max(cfg["spp"]))
     for a in cfg["accels"]:
@@ -154,9 +163,12 @@ def markdown(res):
              fmt_g(r["rmse"]), fmt_g(r["rmse_net"])] for r in res["rows"]]
     out.append(markdown_table(header, body, align="llrrrrr"))
     out += ["", markdown_table(
-        ["Structure/sampler", f"Slope vs seconds (spp >= {res['fit_from_spp']})", "Slope vs spp"],
-        [[k, f"{f['slope_time']:.3f}", f"{f['slope_spp']:.3f}"] for k, f in res["fits"].items()],
-        align="lrr")]
+        ["Structure/sampler", f"Slope vs seconds (spp >= {res['fit_from_spp']})", "Slope vs spp",
+         "Each seed's slope vs spp: mean +- standard error"],
+        [[k, f"{f['slope_time']:.3f}", f"{f['slope_spp']:.3f}",
+          f"{np.mean(f['slope_spp_each']):.3f} +- {f['slope_spp_se']:.3f}"
+          if f["slope_spp_se"] is not None else "-"] for k, f in res["fits"].items()],
+        align="lrrr")]
     out += ["", markdown_table(
         ["Structure", "At s", "Independent RMSE", "Sobol RMSE", "Ratio"],
         [[a, fmt_s(e["at_s"]), fmt_g(e["independent"]), fmt_g(e["sobol"]), f"{e['ratio']:.2f}"]
@@ -176,12 +188,14 @@ def markdown(res):
 
 @click.command()
 @click.option("--quick", is_flag=True, help="32x32, up to 32 spp, 2 seeds, the BVH only.")
+@click.option("--seeds", type=click.IntRange(2, 64), default=None,
+              help="Renders a cell, each of its own seed (default 12; --quick 2).")
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
               default="bench-out/path_convergence.png", show_default=True)
 @click.option("--json", "json_path", type=click.Path(dir_okay=False))
-def main(quick, plot_path, json_path):
+def main(quick, seeds, plot_path, json_path):
     """The path tracer's error against time for each sampler and structure."""
-    res = run(quick, plot_path)
+    res = run(quick, plot_path, seeds)
     print(markdown(res))
     if json_path:
         Path(json_path).write_text(json.dumps(res, indent=2) + "\n")
