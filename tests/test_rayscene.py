@@ -303,3 +303,26 @@ def test_bounds_given_as_numbers_are_filled_once_for_each_size_and_value():
         h = s.cast_rays(o, DOWN, t_min=0.5, t_max=2.0)
         assert (h.t == 1.0).all()
     assert (s.cast_rays(o, DOWN, t_min=1.0).t == np.inf).all()
+
+
+def test_a_trimesh_scene_is_its_meshes_where_its_nodes_place_them():
+    """trimesh.load's answer for a file of several objects: each mesh a
+    geometry, in the order of the graph's geometry nodes, moved as trimesh's
+    own to_geometry() moves it (the same bits); points and paths left out."""
+    import trimesh
+    from trimesh.transformations import rotation_matrix, translation_matrix
+    box, ball = trimesh.creation.box(), trimesh.creation.icosphere(2)
+    moved = translation_matrix([3, 0, 0]) @ rotation_matrix(0.3, [0, 1, 0])
+    placed = trimesh.Scene()
+    placed.add_geometry(box, node_name="box")
+    placed.add_geometry(trimesh.PointCloud(np.zeros((4, 3))), node_name="points")
+    placed.add_geometry(ball, node_name="ball", transform=moved)
+    o = np.array([[0.0, 0, 5], [3, 0.1, 5], [6, 0, 5]])
+    d = np.array([[0.0, 0, -1]] * 3)
+    h = RayScene(placed).cast_rays(o, d)
+    assert h.geometry_id.tolist() == [0, 1, -1]
+    assert np.array_equal(h.t, RayScene(placed.to_geometry()).cast_rays(o, d).t)
+    with pytest.raises(RaytraceError, match="places no mesh with faces"):
+        RayScene(trimesh.Scene([trimesh.PointCloud(np.zeros((4, 3)))]))
+    with pytest.raises(RaytraceError, match=r"trimesh.Scene or a raytrace Scene; got builtins.object"):
+        RayScene(object())

@@ -156,5 +156,28 @@ def _mesh_arrays(mesh, faces=None):
         return mesh.vertices, mesh.faces
     if isinstance(mesh, (tuple, list)) and len(mesh) == 2:
         return mesh
+    kind = type(mesh)
     raise RaytraceError("target must be a (vertices, faces) pair, a mesh with .vertices and "
-                        f".faces (such as a trimesh.Trimesh), or a Scene; got {type(mesh).__name__}")
+                        ".faces (such as a trimesh.Trimesh), a trimesh.Scene or a raytrace "
+                        f"Scene; got {kind.__module__}.{kind.__qualname__}")
+
+
+def _trimesh_scene_meshes(target):
+    """(vertices, faces, node name) of each mesh a trimesh.Scene places
+    (trimesh.load's answer for a GLB or an OBJ of several objects), in the
+    order of its graph's geometry nodes, moved by the node's transform as
+    trimesh's own dump() moves it; None if ``target`` is no trimesh.Scene.
+    Geometry without faces (points, paths) is left out: no ray hits it."""
+    if not type(target).__module__.startswith("trimesh.") or not hasattr(target, "graph"):
+        return None
+    from trimesh.transformations import transform_points
+    meshes = []
+    for node in target.graph.nodes_geometry:
+        matrix, name = target.graph[node]
+        mesh = target.geometry[name]
+        faces = getattr(mesh, "faces", None)
+        if faces is not None and len(faces):
+            meshes.append((transform_points(mesh.vertices, matrix), faces, str(node)))
+    if not meshes:
+        raise RaytraceError("target: the trimesh.Scene places no mesh with faces")
+    return meshes

@@ -10,7 +10,7 @@ the origin itself (t = 0) too, never behind it.
 """
 import numpy as np
 
-from raytrace.cast.prepared import _mesh_arrays, _Prepared
+from raytrace.cast.prepared import _mesh_arrays, _Prepared, _trimesh_scene_meshes
 from raytrace.cast.rays import (
     _any_hit,
     _blocks,
@@ -34,13 +34,15 @@ from raytrace.scene.model import Mesh, Scene
 class RayScene:
     """Meshes (or a whole Scene) built once, for any number of ray queries.
 
-        scene = RayScene((vertices, faces))        # or a trimesh.Trimesh, or a Scene
+        scene = RayScene((vertices, faces))        # or a trimesh.Trimesh or Scene, or a Scene
         hits = scene.cast_rays(origins, directions)
         blocked = scene.occluded(origins, directions, t_max=1.0)
 
     ``RayScene()`` starts empty; ``add_mesh`` adds a mesh and returns its
     geometry id (0, 1, ...).  A Scene's objects (meshes, spheres, planes)
-    are geometries numbered by their index in ``scene.objects``.  Inputs are
+    are geometries numbered by their index in ``scene.objects``; a
+    trimesh.Scene's meshes, each where its node places it, in the order of
+    ``scene.graph.nodes_geometry``.  Inputs are
     validated when added; the structure (``accel``: a name in
     raytrace.accel.registry.STRUCTURES, all giving the same answers) is
     built at the first query after a change.
@@ -57,8 +59,12 @@ class RayScene:
         # Whether a bad ray (NaN, zero direction, t_min >= t_max) raises;
         # the Open3D drop-in (open3d_scene.py) answers it as a miss instead.
         self._check = True
+        placed = _trimesh_scene_meshes(target)
         if isinstance(target, Scene):
             self._objects = list(target.objects)
+        elif placed is not None:
+            for vertices, faces, node in placed:
+                self._add(vertices, faces, name=f"target node {node!r}")
         elif target is not None:
             self._add(*_mesh_arrays(target), name="target")
 
@@ -413,5 +419,6 @@ def occluded(target, origins, directions, t_max, accel="bvh"):
 def _scene_for(target, accel):
     if target is None:
         raise RaytraceError("target must be a (vertices, faces) pair, a mesh with .vertices and "
-                            ".faces (such as a trimesh.Trimesh), or a Scene; got None")
+                            ".faces (such as a trimesh.Trimesh), a trimesh.Scene or a raytrace "
+                            "Scene; got None")
     return RayScene(target, accel)
