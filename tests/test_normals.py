@@ -147,3 +147,19 @@ def test_cross_rows_are_np_cross_bit_for_bit():
         want, got = np.cross(a, b), cross_rows(a, b)
     assert np.array_equal(got.view(np.int64), want.view(np.int64))
     assert np.array_equal(cross_rows(a[:1], b).view(np.int64), np.cross(a[:1], b).view(np.int64))
+
+
+def test_unit_rows_of_zero_tiny_and_huge_rows():
+    """unit_rows: a row whose squares stay in range is divided by
+    np.linalg.norm's sum, bit for bit, whatever rows surround it; a zero
+    row stays zero; tiny and huge rows are scaled first, then made unit."""
+    rng = np.random.default_rng(5)
+    v = rng.standard_normal((1000, 3))
+    odd = [3, 500, 999]
+    v[odd] = [[0.0, 0.0, 0.0], [1e-200, 0.0, 3e-201], [1e200, -1e200, 0.0]]
+    u = unit_rows(v)
+    plain = np.setdiff1d(np.arange(len(v)), odd)
+    assert np.array_equal(u[plain], v[plain] / np.linalg.norm(v[plain], axis=1)[:, None])
+    assert np.array_equal(u[3], np.zeros(3))
+    assert np.allclose(u[[500, 999]], [[1 / np.sqrt(1.09), 0, 0.3 / np.sqrt(1.09)],
+                                       [np.sqrt(0.5), -np.sqrt(0.5), 0]], rtol=0, atol=1e-15)
