@@ -3,7 +3,14 @@ import numpy as np
 import pytest
 import trimesh
 
-from raytrace.scene.normals import crease_normals, face_normals, file_normals, shading_normals
+from raytrace.scene.flatten import cross_rows, unit_rows
+from raytrace.scene.normals import (
+    crease_normals,
+    equal_rows,
+    face_normals,
+    file_normals,
+    shading_normals,
+)
 
 
 def same_triangles(v, f, v2, f2):
@@ -30,6 +37,23 @@ def test_triangle_soup_is_smoothed_like_a_welded_mesh():
     assert np.allclose(n[f], crease_normals(s.vertices, s.faces)[2][s.faces], rtol=0, atol=1e-15)
 
 
+def test_equal_rows_number_values_by_first_appearance():
+    """The hash table's welding (scene/weld.py) against NumPy's sort: rows
+    with many repeats, in a table crowded enough that probes pass other
+    values, and row counts either side of the rows it hashes ahead."""
+    rng = np.random.default_rng(7)
+    for n in (1, 5, 17, 40_000):
+        a = rng.integers(0, 12, (n, 3)).astype(np.float64)
+        ids, first, count = equal_rows(a)
+        _, where, inverse = np.unique(a, axis=0, return_index=True, return_inverse=True)
+        order = np.argsort(where)
+        rank = np.empty_like(order)
+        rank[order] = np.arange(len(order))
+        assert count == len(where)
+        assert np.array_equal(ids, rank[inverse.reshape(-1)])
+        assert np.array_equal(first, where[order])
+
+
 def test_sphere_is_smooth():
     s = trimesh.creation.icosphere(subdivisions=4, radius=2.0)
     v, f, n = crease_normals(s.vertices, s.faces)
@@ -38,6 +62,16 @@ def test_sphere_is_smooth():
     # Each face normal is within ~half an edge's angle (about 2 degrees here)
     # of the radial direction; their weighted mean at a vertex is far closer.
     assert np.degrees(np.arccos(np.clip((n * radial).sum(axis=1), -1, 1))).max() < 0.5
+    # Bit for bit the NumPy sum of each corner's angle times its face's unit
+    # normal, in corner order (the kernels make each face's once).
+    e1, e2, e3 = v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 1]]
+    cross = cross_rows(e1, e2)
+    area2 = np.sqrt(sum(cross[:, k] * cross[:, k] for k in range(3)))
+    dots = [sum(a[:, k] * b[:, k] for k in range(3)) for a, b in ((e1, e2), (e1, e3), (e2, e3))]
+    angles = np.arctan2(area2[:, None], np.stack([dots[0], -dots[1], dots[2]], axis=1))
+    summed = np.zeros_like(v)
+    np.add.at(summed, f.ravel(), (angles[:, :, None] * unit_rows(cross)[:, None, :]).reshape(-1, 3))
+    assert np.array_equal(n, unit_rows(summed))
 
 
 @pytest.mark.parametrize("angle, crease, split", [(20, 35, False), (40, 35, True), (40, 45, False),
@@ -113,3 +147,19 @@ def test_cross_rows_are_np_cross_bit_for_bit():
         want, got = np.cross(a, b), cross_rows(a, b)
     assert np.array_equal(got.view(np.int64), want.view(np.int64))
     assert np.array_equal(cross_rows(a[:1], b).view(np.int64), np.cross(a[:1], b).view(np.int64))
+
+
+def test_unit_rows_of_zero_tiny_and_huge_rows():
+    """unit_rows: a row whose squares stay in range is divided by
+    np.linalg.norm's sum, bit for bit, whatever rows surround it; a zero
+    row stays zero; tiny and huge rows are scaled first, then made unit."""
+    rng = np.random.default_rng(5)
+    v = rng.standard_normal((1000, 3))
+    odd = [3, 500, 999]
+    v[odd] = [[0.0, 0.0, 0.0], [1e-200, 0.0, 3e-201], [1e200, -1e200, 0.0]]
+    u = unit_rows(v)
+    plain = np.setdiff1d(np.arange(len(v)), odd)
+    assert np.array_equal(u[plain], v[plain] / np.linalg.norm(v[plain], axis=1)[:, None])
+    assert np.array_equal(u[3], np.zeros(3))
+    assert np.allclose(u[[500, 999]], [[1 / np.sqrt(1.09), 0, 0.3 / np.sqrt(1.09)],
+                                       [np.sqrt(0.5), -np.sqrt(0.5), 0]], rtol=0, atol=1e-15)

@@ -1,5 +1,5 @@
 """What the kernels need that Numba cannot say in Python: an array in the
-caller's stack frame, a population count and an atomic counter.  The
+caller's stack frame, a population count, an atomic counter and a prefetch.  The
 BVH's SIMD tests live beside it (raytrace/accel/bvh/simd.py).
 
 Each is a Numba intrinsic that emits LLVM IR directly.
@@ -50,6 +50,28 @@ def popcount(typingctx, x):
         return builder.call(ctpop, [value])
 
     return types.int64(x), codegen
+
+
+@intrinsic
+def prefetch(typingctx, arr, i):
+    """Ask for the cache line of element i of a 1-D array to be loaded
+    (llvm.prefetch, for reading, kept in every cache level): a loop whose
+    next reads are random (a hash table's slots) starts them early.  A hint
+    only: any i is safe, the line is never read here."""
+    if not (isinstance(arr, types.Array) and arr.ndim == 1 and isinstance(i, types.Integer)):
+        return None
+
+    def codegen(context, builder, sig, args):
+        data = context.make_array(sig.args[0])(context, builder, args[0]).data
+        index = context.cast(builder, args[1], sig.args[1], types.intp)
+        i8p, i32 = ir.IntType(8).as_pointer(), ir.IntType(32)
+        fn = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(ir.VoidType(), [i8p, i32, i32, i32]), "llvm.prefetch.p0")
+        builder.call(fn, [builder.bitcast(builder.gep(data, [index]), i8p), ir.Constant(i32, 0),
+                          ir.Constant(i32, 3), ir.Constant(i32, 1)])
+        return context.get_dummy_value()
+
+    return types.none(arr, i), codegen
 
 
 _CLOCK = types.Array(types.int64, 1, "C")

@@ -7,10 +7,11 @@ faces share, where the two faces' normals are within the crease angle;
 ``fan_groups`` finds the groups and numbers the output vertices of the
 position, ``fan_normals`` writes them.  A position's work reads only its
 own fan and writes only its own corners and output rows, so runs of
-positions go to threads with nothing shared.  Corner angles are
-recomputed where needed, not stored; face normals are stored for the
-grouping, made once a face (``face_normal_rows``), and dropped before the
-normals are summed.  Arithmetic is the NumPy path's
+positions go to threads with nothing shared.  Each face's unit normal
+and corner angles are made once, in a pass over the faces
+(``face_frames``), where a fan's corners made them again at each of a
+face's three corners from three random reads of its vertices; the
+grouping reads the normals, the sums both.  Arithmetic is the NumPy path's
 (flatten.cross_rows, flatten.unit_rows, the arctan2 of twice the area
 and a dot product), operation for operation.
 """
@@ -40,35 +41,22 @@ def corner_lists(corner_position, offsets, corners):
 
 
 @njit(**BUILD_STEP)
-def face_unit_normal(v, f, face):
-    """flatten.unit_rows(flatten.cross_rows(e1, e2)) of one face."""
+def face_frame(v, f, face, fn, angles):
+    """fn[face] = flatten.unit_rows(flatten.cross_rows(e1, e2)) of the face,
+    angles[face, k] = its angle at corner k: the arctan2 of twice its area
+    and the dot product of the corner's two edges."""
     a, b, d = f[face, 0], f[face, 1], f[face, 2]
     e1x, e1y, e1z = v[b, 0] - v[a, 0], v[b, 1] - v[a, 1], v[b, 2] - v[a, 2]
     e2x, e2y, e2z = v[d, 0] - v[a, 0], v[d, 1] - v[a, 1], v[d, 2] - v[a, 2]
-    return unit3(e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x)
-
-
-@njit(**BUILD_STEP)
-def corner_frame(v, f, c):
-    """(unit face normal x, y, z, angle at corner c) of corner c's face."""
-    face, k = c // 3, c % 3
-    a, b, d = f[face, 0], f[face, 1], f[face, 2]
-    e1x, e1y, e1z = v[b, 0] - v[a, 0], v[b, 1] - v[a, 1], v[b, 2] - v[a, 2]
-    e2x, e2y, e2z = v[d, 0] - v[a, 0], v[d, 1] - v[a, 1], v[d, 2] - v[a, 2]
+    e3x, e3y, e3z = v[d, 0] - v[b, 0], v[d, 1] - v[b, 1], v[d, 2] - v[b, 2]
     cx = e1y * e2z - e1z * e2y
     cy = e1z * e2x - e1x * e2z
     cz = e1x * e2y - e1y * e2x
     area2 = np.sqrt(cx * cx + cy * cy + cz * cz)
-    if k == 0:
-        dot = e1x * e2x + e1y * e2y + e1z * e2z
-    else:
-        e3x, e3y, e3z = v[d, 0] - v[b, 0], v[d, 1] - v[b, 1], v[d, 2] - v[b, 2]
-        if k == 1:
-            dot = -(e1x * e3x + e1y * e3y + e1z * e3z)
-        else:
-            dot = e2x * e3x + e2y * e3y + e2z * e3z
-    nx, ny, nz = unit3(cx, cy, cz)
-    return nx, ny, nz, np.arctan2(area2, dot)
+    angles[face, 0] = np.arctan2(area2, e1x * e2x + e1y * e2y + e1z * e2z)
+    angles[face, 1] = np.arctan2(area2, -(e1x * e3x + e1y * e3y + e1z * e3z))
+    angles[face, 2] = np.arctan2(area2, e2x * e3x + e2y * e3y + e2z * e3z)
+    fn[face, 0], fn[face, 1], fn[face, 2] = unit3(cx, cy, cz)
 
 
 @njit(**BUILD_STEP)
@@ -162,12 +150,11 @@ def group_fan(fan, far, nrm, cos_crease, parent):
 
 
 @njit(**ENTRY)
-def face_normal_rows(v, f, first, last, out):
-    """out[face] = face_unit_normal of faces [first, last): once a face,
-    where a fan's corners needed them three times (each face is in three
-    fans), each time with three random reads of the vertices."""
+def face_frames(v, f, first, last, fn, angles):
+    """face_frame of faces [first, last): each face's unit normal into
+    ``fn`` and its corner angles into ``angles`` (m, 3)."""
     for face in range(first, last):
-        out[face, 0], out[face, 1], out[face, 2] = face_unit_normal(v, f, face)
+        face_frame(v, f, face, fn, angles)
 
 
 @njit(**ENTRY)
@@ -178,7 +165,7 @@ def fan_groups(fn, f, pf, offsets, corners, cos_crease, keep, first, last, packe
     ``counts``.  A group is one output vertex, or with ``keep`` one per
     input vertex index in it (vertices at one position may carry different
     colours or texture coordinates).  fn: the faces' unit normals
-    (face_normal_rows)."""
+    (face_frames)."""
     widest = 1
     for p in range(first, last):
         widest = max(widest, offsets[p + 1] - offsets[p])
@@ -252,11 +239,13 @@ def vertex_labels(f, fan, gid, label):
 
 
 @njit(**ENTRY)
-def fan_normals(v, f, offsets, corners, out_offsets, first, last, packed, source, normals):
+def fan_normals(fn, angles, f, offsets, corners, out_offsets, first, last, packed, source,
+                normals):
     """For positions [first, last): each group's angle-weighted normal
     (Thürmer & Wüthrich 1998), its output vertices' rows of ``normals``
     and ``source`` (the input vertex each copies), and each corner's
-    output vertex, written over its ``packed`` entry."""
+    output vertex, written over its ``packed`` entry.  fn, angles: the
+    faces' unit normals and corner angles (face_frames)."""
     widest = 1
     for p in range(first, last):
         widest = max(widest, offsets[p + 1] - offsets[p])
@@ -274,7 +263,8 @@ def fan_normals(v, f, offsets, corners, out_offsets, first, last, packed, source
                 summed[g, 2] = 0.0
                 first_corner[g] = fan[i]
                 n_groups += 1
-            nx, ny, nz, angle = corner_frame(v, f, fan[i])
+            face = fan[i] // 3
+            nx, ny, nz, angle = fn[face, 0], fn[face, 1], fn[face, 2], angles[face, fan[i] % 3]
             summed[g, 0] += angle * nx
             summed[g, 1] += angle * ny
             summed[g, 2] += angle * nz
@@ -282,7 +272,8 @@ def fan_normals(v, f, offsets, corners, out_offsets, first, last, packed, source
             nx, ny, nz = unit3(summed[g, 0], summed[g, 1], summed[g, 2])
             if nx == 0.0 and ny == 0.0 and nz == 0.0:
                 # Cancelled, or every face degenerate: the group's first face's normal.
-                nx, ny, nz, _ = corner_frame(v, f, first_corner[g])
+                face = first_corner[g] // 3
+                nx, ny, nz = fn[face, 0], fn[face, 1], fn[face, 2]
             summed[g, 0], summed[g, 1], summed[g, 2] = nx, ny, nz
         base = out_offsets[p]
         for i in range(d):

@@ -48,12 +48,18 @@ def unit_rows(v):
     ok = (sq > 1e-290) & (sq < 1e290)
     if ok.all():                 # the usual case, without the masks' copies
         return v / np.sqrt(sq)[:, None]
-    out = np.zeros_like(v)
-    out[ok] = v[ok] / np.sqrt(sq[ok])[:, None]
-    odd = ~ok & (np.abs(v).max(axis=1, initial=0.0) > 0)
+    # Every row divided, then the few others redone: masks over a big
+    # array's rows (a mesh with a zero normal) cost several times the
+    # division.  The kept rows' quotients are the same either way.
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore", under="ignore"):
+        out = v / np.sqrt(sq)[:, None]
+    bad = np.flatnonzero(~ok)
+    rows = v[bad]
+    out[bad] = 0.0
+    odd = np.abs(rows).max(axis=1, initial=0.0) > 0
     if odd.any():
-        w = v[odd] / np.abs(v[odd]).max(axis=1, keepdims=True)
-        out[odd] = w / np.sqrt(np.add.reduce(w * w, axis=1))[:, None]
+        w = rows[odd] / np.abs(rows[odd]).max(axis=1, keepdims=True)
+        out[bad[odd]] = w / np.sqrt(np.add.reduce(w * w, axis=1))[:, None]
     return out
 
 

@@ -72,7 +72,7 @@ def crease_split(vertices, faces, crease=DEFAULT_CREASE, keep=False):
     order of their position's first vertex, so a mesh without creases or
     repeated positions keeps its numbering.
     """
-    from raytrace.scene.creases import corner_lists, face_normal_rows, fan_groups, fan_normals
+    from raytrace.scene.creases import corner_lists, face_frames, fan_groups, fan_normals
     v = np.ascontiguousarray(vertices, dtype=np.float64)
     f = np.ascontiguousarray(faces, dtype=np.int64)
     n, m = len(v), len(f)
@@ -90,19 +90,19 @@ def crease_split(vertices, faces, crease=DEFAULT_CREASE, keep=False):
     counts = np.zeros(n_positions, np.int64)
     cos_crease = math.cos(math.radians(crease))
     position_runs = _runs(offsets)
-    fn = np.empty((m, 3))
-    _on_threads(face_normal_rows, [(v, f, a, b, fn) for a, b in _face_runs(m)])
+    fn, angles = np.empty((m, 3)), np.empty((m, 3))
+    _on_threads(face_frames, [(v, f, a, b, fn, angles) for a, b in _face_runs(m)])
     _on_threads(fan_groups, [(fn, f, pf, offsets, corners, cos_crease, bool(keep), a, b, packed,
                               counts) for a, b in position_runs])
-    del pf, position, fn
+    del pf, position
     out_offsets = np.zeros(n_positions + 1, np.int64)
     np.cumsum(counts, out=out_offsets[1:])
     del counts
     n_out = int(out_offsets[-1])
     source = np.empty(n_out, np.int64)
     normals = np.empty((n_out, 3))
-    _on_threads(fan_normals, [(v, f, offsets, corners, out_offsets, a, b, packed, source, normals)
-                              for a, b in position_runs])
+    _on_threads(fan_normals, [(fn, angles, f, offsets, corners, out_offsets, a, b, packed, source,
+                               normals) for a, b in position_runs])
     return source, packed.reshape(m, 3), normals
 
 

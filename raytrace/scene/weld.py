@@ -6,6 +6,7 @@ import numpy as np
 from numba import njit
 
 from raytrace.kernels.jit import BUILD
+from raytrace.kernels.lowlevel import prefetch
 
 MIX = np.uint64(0x9E3779B97F4A7C15)
 
@@ -30,30 +31,52 @@ def _same_row(keys, i, j):
     return True
 
 
+# Rows hashed ahead of the one looked up, their slots prefetched: the
+# table and the rows are larger than the caches, so each lookup otherwise
+# waits on a load from memory before the next can start.
+AHEAD = 16
+
+
 @njit(**dict(BUILD, nogil=True))
 def first_rows(keys, ids, first):
     """ids[i]: the number of row i's value, numbered in order of first
     appearance; first[k]: the first row of value k.  Returns how many
-    values there are.  keys: (n, w) uint32, rows compared bit for bit."""
+    values there are.  keys: (n, w) uint32, rows compared bit for bit.
+
+    A slot holds a value's number and, above it, 31 high bits of its
+    hash: a row is compared with a slot's first row only where those bits
+    agree, so a probe past another value reads no row."""
     n = keys.shape[0]
     size = 16
     while size < n + n // 2:
         size *= 2
     mask = np.uint64(size - 1)
-    table = np.full(size, -1, np.int32)        # a row holding the value, or -1
+    table = np.full(size, -1, np.int64)    # tag << 32 | value number, or -1
+    ahead = np.empty(AHEAD, np.uint64)     # the hashes of rows i .. i + AHEAD - 1
+    for i in range(min(AHEAD, n)):
+        ahead[i] = _row_hash(keys, i)
+        prefetch(table, ahead[i] & mask)
     count = 0
     for i in range(n):
-        slot = _row_hash(keys, i) & mask
+        h = ahead[i % AHEAD]
+        if i + AHEAD < n:
+            later = _row_hash(keys, i + AHEAD)
+            ahead[i % AHEAD] = later
+            prefetch(table, later & mask)
+        tag = np.int64(h >> np.uint64(33))
+        slot = h & mask
         while True:
-            j = table[slot]
-            if j < 0:
-                table[slot] = i
+            entry = table[slot]
+            if entry < 0:
+                table[slot] = (tag << 32) | count
                 ids[i] = count
                 first[count] = i
                 count += 1
                 break
-            if _same_row(keys, i, j):
-                ids[i] = ids[j]
-                break
+            if entry >> 32 == tag:
+                k = entry & 0xFFFFFFFF
+                if _same_row(keys, i, first[k]):
+                    ids[i] = k
+                    break
             slot = (slot + np.uint64(1)) & mask
     return count
