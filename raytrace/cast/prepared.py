@@ -166,18 +166,21 @@ def _trimesh_scene_meshes(target):
     """(vertices, faces, node name) of each mesh a trimesh.Scene places
     (trimesh.load's answer for a GLB or an OBJ of several objects), in the
     order of its graph's geometry nodes, moved by the node's transform as
-    trimesh's own dump() moves it; None if ``target`` is no trimesh.Scene.
+    trimesh's own dump() moves it (formats/mesh.placed: mirrored faces
+    flipped); None if ``target`` is no trimesh.Scene.
     Geometry without faces (points, paths) is left out: no ray hits it."""
     if not type(target).__module__.startswith("trimesh.") or not hasattr(target, "graph"):
         return None
-    from trimesh.transformations import transform_points
+    import trimesh
+
+    from raytrace.scene.formats.mesh import placed
     meshes = []
     for node in target.graph.nodes_geometry:
         matrix, name = target.graph[node]
         mesh = target.geometry[name]
-        faces = getattr(mesh, "faces", None)
-        if faces is not None and len(faces):
-            meshes.append((transform_points(mesh.vertices, matrix), faces, str(node)))
+        if isinstance(mesh, trimesh.Trimesh) and len(mesh.faces):
+            moved = placed(trimesh, mesh, matrix)
+            meshes.append((moved.vertices, moved.faces, str(node)))
     if not meshes:
         raise RaytraceError("target: the trimesh.Scene places no mesh with faces")
     return meshes

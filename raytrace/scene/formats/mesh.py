@@ -392,18 +392,26 @@ def _part(trimesh, scene, node, library, source, warn, base):
         vertices, faces = np.asarray(mesh.vertices), np.asarray(mesh.faces)
         normals = np.asarray(mesh.vertex_normals) if had_normals else None
     else:
-        # A bare copy: copying the visual too turns face colours into vertex
-        # colours, which needs scipy (a face-coloured PLY failed to load).
-        placed = trimesh.Trimesh(np.array(mesh.vertices), np.array(mesh.faces), process=False)
-        if had_normals:
-            placed.vertex_normals = mesh.vertex_normals
-        placed.apply_transform(transform)   # turns the normals too, and flips mirrored faces
-        vertices, faces = np.asarray(placed.vertices), np.asarray(placed.faces)
-        normals = np.array(placed.vertex_normals) if had_normals else None
+        moved = placed(trimesh, mesh, transform, mesh.vertex_normals if had_normals else None)
+        vertices, faces = np.asarray(moved.vertices), np.asarray(moved.faces)
+        normals = np.array(moved.vertex_normals) if had_normals else None
     part = MeshPart(vertices, faces, normals,
                     _visual_material(mesh.visual, library, source, warn, base))
     _visual_colours(part, mesh.visual, source.lower().endswith((".glb", ".gltf")))
     return part
+
+
+def placed(trimesh, mesh, transform, normals=None):
+    """A bare copy of a trimesh mesh moved by a 4x4 ``transform`` as
+    trimesh's Scene.dump moves it: its vertex ``normals`` (if given) turned
+    too, and mirrored faces flipped.  Bare: copying the visual too turns
+    face colours into vertex colours, which needs scipy (a face-coloured
+    PLY failed to load)."""
+    moved = trimesh.Trimesh(np.array(mesh.vertices), np.array(mesh.faces), process=False)
+    if normals is not None:
+        moved.vertex_normals = normals
+    moved.apply_transform(transform)
+    return moved
 
 
 def _visual_colours(part, visual, linear):
