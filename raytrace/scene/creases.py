@@ -11,9 +11,10 @@ positions go to threads with nothing shared.  Each face's unit normal
 and corner angles are made once, in a pass over the faces
 (``face_frames``), where a fan's corners made them again at each of a
 face's three corners from three random reads of its vertices; the
-grouping reads the normals, the sums both.  Arithmetic is the NumPy path's
-(flatten.cross_rows, flatten.unit_rows, the arctan2 of twice the area
-and a dot product), operation for operation.
+grouping reads the normals, the sums both.  The normals' arithmetic is
+flatten.cross_rows's and flatten.unit_rows's, operation for operation; the
+angles (the arctan2 of twice the area and a dot product) are libm's, and
+every caller gets them here (normals.face_frames).
 """
 import numpy as np
 from numba import njit

@@ -27,21 +27,22 @@ DEFAULT_CREASE = CREASE.default   # degrees; why 35: docs/design.md, "The scene"
 
 def face_normals(vertices, faces):
     """Unit normal of each face by its winding; zero for a degenerate face."""
-    return unit_rows(_face_frame(vertices, faces)[0])
-
-
-def _face_frame(vertices, faces):
-    """(cross products (m, 3), corner angles (m, 3) in radians) of the
-    faces.  Twice the area is the same at every corner, so one cross
-    product gives every angle; a zero-length edge gives 0, never NaN
-    (atan2(0, 0) = 0)."""
     v0, v1, v2 = (vertices[faces[:, k]] for k in range(3))
-    e1, e2, e3 = v1 - v0, v2 - v0, v2 - v1
-    cross = cross_rows(e1, e2)
-    area2 = np.sqrt(np.einsum("ij,ij->i", cross, cross))
-    dots = (np.einsum("ij,ij->i", e1, e2), -np.einsum("ij,ij->i", e1, e3),
-            np.einsum("ij,ij->i", e2, e3))
-    return cross, np.stack([np.arctan2(area2, d) for d in dots], axis=1)
+    return unit_rows(cross_rows(v1 - v0, v2 - v0))
+
+
+def face_frames(vertices, faces):
+    """(unit normals (m, 3), corner angles (m, 3) in radians) of the faces,
+    from the kernel (creases.face_frame) on threads.  One way for every
+    caller: NumPy's arctan2 is not libm's on every machine (its AVX-512
+    code differs in the last bit), so angles made by both would not agree."""
+    from raytrace.scene.creases import face_frames as frames_kernel
+    v = np.ascontiguousarray(vertices, dtype=np.float64)
+    f = np.ascontiguousarray(faces, dtype=np.int64)
+    m = len(f)
+    fn, angles = np.empty((m, 3)), np.empty((m, 3))
+    _on_threads(frames_kernel, [(v, f, a, b, fn, angles) for a, b in _face_runs(m)])
+    return fn, angles
 
 
 def crease_normals(vertices, faces, crease=DEFAULT_CREASE):
@@ -72,7 +73,7 @@ def crease_split(vertices, faces, crease=DEFAULT_CREASE, keep=False):
     order of their position's first vertex, so a mesh without creases or
     repeated positions keeps its numbering.
     """
-    from raytrace.scene.creases import corner_lists, face_frames, fan_groups, fan_normals
+    from raytrace.scene.creases import corner_lists, fan_groups, fan_normals
     v = np.ascontiguousarray(vertices, dtype=np.float64)
     f = np.ascontiguousarray(faces, dtype=np.int64)
     n, m = len(v), len(f)
@@ -90,8 +91,7 @@ def crease_split(vertices, faces, crease=DEFAULT_CREASE, keep=False):
     counts = np.zeros(n_positions, np.int64)
     cos_crease = math.cos(math.radians(crease))
     position_runs = _runs(offsets)
-    fn, angles = np.empty((m, 3)), np.empty((m, 3))
-    _on_threads(face_frames, [(v, f, a, b, fn, angles) for a, b in _face_runs(m)])
+    fn, angles = face_frames(v, f)
     _on_threads(fan_groups, [(fn, f, pf, offsets, corners, cos_crease, bool(keep), a, b, packed,
                               counts) for a, b in position_runs])
     del pf, position
@@ -170,8 +170,8 @@ def file_normals(vertices, faces, normals):
     if bad.any():
         v = np.asarray(vertices, dtype=np.float64)
         f = np.asarray(faces, dtype=np.int64)
-        cross, angles = _face_frame(v, f)
-        w = angles[:, :, None] * unit_rows(cross)[:, None, :]
+        fn, angles = face_frames(v, f)
+        w = angles[:, :, None] * fn[:, None, :]
         summed = np.zeros_like(v)
         np.add.at(summed, f.ravel(), w.reshape(-1, 3))
         nrm[bad] = unit_rows(summed[bad])
