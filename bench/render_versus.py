@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parent.parent
 ONE = """
 import json, sys
 import raytrace
-from raytrace.renderer.driver import render
+from raytrace import render     # the public API: module paths differ between commits
 detail, shadows, renders = int(sys.argv[1]), sys.argv[2], int(sys.argv[3])
 scene = raytrace.load_scene("teapot", **({"detail": detail} if detail else {}))
 times = []
