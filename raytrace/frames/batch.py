@@ -64,9 +64,16 @@ def _worker_name():
 
 
 def bands(height, tiles):
-    """``tiles`` bands of rows, as even as whole rows allow: [(y0, y1), ...]."""
-    tiles = max(1, min(int(tiles), height))
-    edges = [height * k // tiles for k in range(tiles + 1)]
+    """``tiles`` bands of whole strips of TILE rows (the renderer's unit of
+    work, kernels/waves.py), as even as whole strips allow, the last cut at
+    ``height``: [(y0, y1), ...].  So each band's rays go in the waves and
+    packets the whole image's go in, and a tiled render counts what the
+    still one counts (a packet's closest-hit counters depend on which rays
+    travel together)."""
+    from raytrace.kernels.wavefront import TILE
+    strips = -(-height // TILE)
+    tiles = max(1, min(int(tiles), strips))
+    edges = [min(height, TILE * (strips * k // tiles)) for k in range(tiles + 1)]
     return list(zip(edges[:-1], edges[1:]))
 
 

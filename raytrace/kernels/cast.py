@@ -204,10 +204,26 @@ def cast_occluded(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows, cloc
                 (geo, acc, origins, dirs, t_min, t_max, out_hit), cnt_rows, clock)
 
 
-# The renderer's calls (kernels/waves.py): one thread's rays, ray i
-# counting into row rows[i] of cnt (its image row's, or its pixel's), one
-# ray at a time through the same compiled kernels as a small cast_closest
-# or cast_occluded call; ``entries``: the thread's, as _call_entry's.
+# The renderer's calls (kernels/waves.py, path_waves.py): one thread's
+# rays through the same compiled kernels as cast_closest and cast_occluded,
+# in the calling thread; ``entries``: the thread's, as _call_entry's.
+# Closest hits go one ray at a time, ray i counting into row rows[i] of cnt
+# (its image row's, or its pixel's: the cost AOV).  Shadow rays with a
+# ``tally`` (ray_tally's row, for a structure with packets) go through the
+# packet kernel, every ray counting into tally, whose counts then go to
+# row rows[0] of cnt: a call's rays lie in one strip of one band, so each
+# band's sums, the statistics, stay each ray's own counts (in the
+# packet's order of visits).  Packets for the shadow rays alone: they
+# bought 1.3-1.6x on soft shadows, the camera rays' a few percent for
+# another second of a first run's compile (docs/benchmarks.md, "Packets in
+# the renderer").
+def ray_tally(acc, per_ray):
+    """A thread's counter row for the renderer's packet calls (occluded_rays'
+    ``tally``), or None where rays go one at a time: per-ray counter rows
+    (``per_ray``: the cost AOV's) or a structure without packets."""
+    return None if per_ray or not has_packets(acc) else np.zeros((1, COLUMNS), np.int64)
+
+
 def closest_rays(geo, acc, rays, outs, cnt, rows, entries):
     """Closest hits of rays = (origins, dirs, t_min, t_max) into outs =
     (t, prim, u, v), in the calling thread."""
@@ -215,10 +231,23 @@ def closest_rays(geo, acc, rays, outs, cnt, rows, entries):
                 entries)
 
 
-def occluded_rays(geo, acc, rays, out_hit, cnt, rows, entries):
-    """cast_occluded of rays = (origins, dirs, t_min, t_max), as closest_rays."""
-    _call_entry(_occluded_single, (geo, acc, *rays, out_hit, cnt, rows, np.zeros(1, np.int64)),
-                entries)
+def occluded_rays(geo, acc, rays, out_hit, cnt, rows, entries, tally=None):
+    """cast_occluded of rays = (origins, dirs, t_min, t_max), as closest_rays,
+    or with ``tally`` through the packet kernel."""
+    if tally is None:
+        _call_entry(_occluded_single, (geo, acc, *rays, out_hit, cnt, rows,
+                                       np.zeros(1, np.int64)), entries)
+        return
+    _call_entry(_occluded_block, (geo, acc, *rays, out_hit, tally, _ONE_ROW,
+                                  np.zeros(1, np.int64)), entries)
+    _settle(tally, cnt, rows)
+
+
+def _settle(tally, cnt, rows):
+    """tally's counts into row rows[0] of cnt, and tally back to 0."""
+    if len(rows):
+        cnt[rows[0]] += tally[0, :cnt.shape[1]]
+    tally[0] = 0
 
 
 # Shell sort's gaps (Ciura 2001, "Best Increments for the Average Case of

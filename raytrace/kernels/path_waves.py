@@ -5,7 +5,7 @@ waves._Generations runs mirrors and glass: the stages' compiled entries
 kernels (cast.py), in turn.  Imported only by a path-traced render (waves._stages), so
 nothing of it compiles for any other."""
 from raytrace.kernels import pathtrace
-from raytrace.kernels.cast import closest_rays, occluded_rays
+from raytrace.kernels.cast import closest_rays, occluded_rays, ray_tally
 from raytrace.kernels.entry import Entry
 from raytrace.kernels.wavefront import CAMERA, SHADOW_BATCH, TILE, wave_buffers, wave_squares
 
@@ -26,6 +26,7 @@ class PathStages:
         self.shadow = pathtrace.light_ray_buffers(max(min(SHADOW_BATCH, size * per_hit),
                                                       per_hit))
         self.counters = self.wave.cnt if len(band.aovs.cost) else band.stats_rows
+        self.tally = ray_tally(acc, self.counters is self.wave.cnt)
         self.entries = {}       # as waves._Stages'
         self.run_path_stage = Entry(pathtrace.run_path_stage)
         self.run_path_shade = Entry(pathtrace.run_path_shade)
@@ -62,7 +63,8 @@ class PathStages:
                 i, m, q = self.stage(pathtrace.SHADE, (i, p, q, 0, 0))
                 if m:
                     occluded_rays(geo, acc, (s.origins[:m], s.dirs[:m], s.t_min[:m], s.t_max[:m]),
-                                  s.blocked[:m], self.counters, s.row[:m], self.entries)
+                                  s.blocked[:m], self.counters, s.row[:m], self.entries,
+                                  self.tally)
                     self.stage(pathtrace.FINISH, (m, 0, 0, 0, 0))
             self.gens.reverse()
             p = q

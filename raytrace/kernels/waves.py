@@ -10,7 +10,7 @@ import threading
 import numpy as np
 
 from raytrace.kernels import bounces
-from raytrace.kernels.cast import closest_rays, occluded_rays
+from raytrace.kernels.cast import closest_rays, occluded_rays, ray_tally
 from raytrace.kernels.entry import Entry
 from raytrace.kernels.render import NoBounces, Paths, SoftShadows
 from raytrace.kernels.threads import run_on_threads
@@ -49,6 +49,7 @@ class _Stages:
         # With AOVs each camera ray counts into a row of its own, summed
         # per pixel for the cost AOV; otherwise straight into its image row.
         self.counters = self.wave.cnt if len(band.aovs.cost) else band.stats_rows
+        self.tally = ray_tally(acc, self.counters is self.wave.cnt)
         self.views = {}
         # The thread's buffers keep their types: each kernel through its
         # compiled entry (entry.py), not the dispatcher, after the first call.
@@ -80,7 +81,7 @@ class _Stages:
         s = self.shadow
         occluded_rays(self.shading.geo, self.acc, (s.origins[:m], s.dirs[:m], s.t_min[:m],
                                                    s.t_max[:m]), s.blocked[:m], self.counters,
-                      s.row[:m], self.entries)
+                      s.row[:m], self.entries, self.tally)
 
     def trace(self, top, y_end, q0, q1):
         args = self.shading, self.textures, self.wave, self.shadow, self.counters, self.band
@@ -166,10 +167,11 @@ def load_rays(render, band):
     empty buffers."""
     wave, shadow = wave_buffers(0), shadow_buffers(0, 0)
     geo, acc = render.lighting.geo, render.lighting.acc
+    tally = ray_tally(acc, len(band.aovs.cost) > 0)      # as _Stages chooses
     closest_rays(geo, acc, (wave.origins, wave.dirs, wave.t_min, wave.t_max),
                  (wave.hit_t, wave.hit_prim, wave.hit_u, wave.hit_v), band.stats_rows, wave.row, {})
     occluded_rays(geo, acc, (shadow.origins, shadow.dirs, shadow.t_min, shadow.t_max),
-                  shadow.blocked, band.stats_rows, shadow.row, {})
+                  shadow.blocked, band.stats_rows, shadow.row, {}, tally)
 
 
 def load_own_stages(render, band):
