@@ -215,8 +215,8 @@ def cast_occluded(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows, cloc
 # band's sums, the statistics, stay each ray's own counts (in the
 # packet's order of visits).  Packets for the shadow rays alone: they
 # bought 1.3-1.6x on soft shadows, the camera rays' a few percent for
-# another second of a first run's compile (docs/benchmarks.md, "Packets in
-# the renderer").
+# another second of a first run's compile (docs/benchmarks.md, "A new
+# machine: AVX-512").
 def ray_tally(acc, per_ray):
     """A thread's counter row for the renderer's packet calls (occluded_rays'
     ``tally``), or None where rays go one at a time: per-ray counter rows
