@@ -46,7 +46,7 @@ def test_a_scene_of_shaded_meshes_is_built_without_what_only_shading_reads():
     h = s.cast_rays([[0.2, 0.2, 1.0]], DOWN)
     geo = s._built().geo
     assert geo.vtx_normal.shape[0] == 0 and geo.tri_normal.shape[0] == 0
-    assert geo.tri_color.shape[0] == 0
+    assert geo.vtx_color.shape[0] == 0 and geo.tri_vertex.shape[0] == 0
     assert h.normal.tolist() == [[0.0, 0.0, 1.0]]
 
 

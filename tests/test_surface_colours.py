@@ -69,12 +69,18 @@ def test_vertex_colours_interpolate_and_multiply_texture():
     colors = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.5, 0.5, 0.5]])
     img = np.full((1, 1, 3), 0.5, np.float32)
     geo, _, _ = flatten(quad_scene(img, colors=colors))
-    assert geo.tri_color.shape == (2, 3, 3) and geo.tri_uv.shape == (2, 3, 2)
+    assert geo.vtx_color.shape == (4, 3) and geo.vtx_uv.shape == (4, 2)
+    assert geo.tri_vertex.tolist() == QUAD_F.tolist()
     # Triangle 0 is vertices 0, 1, 2; u, v weigh the second and third.
     r, g, b = mesh_color(geo, Hit(1.0, 0, 0.2, 0.3), 0, True)
     assert np.allclose((r, g, b), 0.5 * np.array([0.5, 0.2, 0.3]), rtol=0, atol=1e-12)
+    # Triangle 1 is vertices 0 (red), 2 (blue), 3 (grey).
+    r, g, b = mesh_color(geo, Hit(1.0, 1, 0.2, 0.3), 0, True)
+    assert np.allclose((r, g, b), 0.5 * np.array([0.5 + 0.15, 0.15, 0.2 + 0.15]), rtol=0,
+                       atol=1e-12)
     plain, _, _ = flatten(quad_scene())
-    assert plain.tri_color.shape == (0, 3, 3) and plain.tri_uv.shape == (0, 3, 2)
+    assert plain.vtx_color.shape == (0, 3) and plain.vtx_uv.shape == (0, 2)
+    assert plain.tri_vertex.shape == (0, 3)
     assert mesh_color(plain, Hit(1.0, 1, 0.2, 0.3), 0, True) == (1.0, 1.0, 1.0)
 
 
@@ -209,3 +215,38 @@ def test_gltf_colour_0_beside_a_material_is_linear(tmp_path):
     (m,) = raytrace.load_scene(tmp_path / "c.glb").objects[:1]
     order = np.lexsort(m.vertices.T)
     assert np.allclose(m.colors[order], (rgba[:, :3] / 255.0)[np.lexsort(QUAD_V.T)])
+
+
+def _corner_colours(geo):
+    """Each triangle's three corners' colours, (n, 3, 3), as the kernel
+    reads them."""
+    return geo.vtx_color[geo.tri_vertex]
+
+
+@pytest.mark.parametrize("normals", [False, True])
+def test_corner_rows_follow_each_mesh_and_its_dropped_faces(normals):
+    """Colours are read per vertex through tri_vertex, which is tri_normal
+    itself where every mesh's normals are its vertices' (no second array)
+    and offset mesh by mesh otherwise: each kept triangle's corners get
+    their own vertices' colours, a mesh without colours white, past a
+    degenerate face dropped from the first mesh."""
+    rng = np.random.default_rng(3)
+    v = QUAD_V.copy()
+    faces = np.array([[0, 1, 1], [0, 1, 2], [0, 2, 3]])     # the first is degenerate
+    red = rng.random((4, 3))
+    last = np.vstack([red[::-1], [[0.1, 0.2, 0.3]]])
+
+    def up(n):
+        return np.tile([0.0, 0.0, 1.0], (n, 1)) if normals else None
+
+    meshes = [Mesh(v, faces, colors=red, normals=up(4)),
+              Mesh(v + [0, 0, -1], QUAD_F, normals=up(4)),
+              Mesh(np.vstack([v, v[:1]]) + [0, 0, -2], QUAD_F[:, ::-1] + 1, colors=last,
+                   normals=up(5))]
+    scene = Scene("three", Camera((0.0, 0.0, 2.0), (0.0, 0.0, 0.0)), objects=meshes, lights=[])
+    geo, _, info = flatten(scene)
+    assert info["degenerate_dropped"] == 1
+    want = np.concatenate([red[faces[1:]], np.ones((2, 3, 3)), last[QUAD_F[:, ::-1] + 1]])
+    assert np.array_equal(_corner_colours(geo), want)
+    assert geo.tri_vertex.dtype == np.int32
+    assert np.shares_memory(geo.tri_vertex, geo.tri_normal) == normals

@@ -24,12 +24,15 @@ Geometry = namedtuple(
         # triangle less than three (n, 3) arrays; read only when shading).
         "vtx_normal", "tri_normal",
         "tri_mat",                      # (n,) material index
-        # At each triangle's three corners: linear RGB multiplying the
-        # material's colour (n, 3, 3), and texture coordinates (n, 3, 2);
-        # empty (0, 3, 3) and (0, 3, 2) when no mesh has them
-        # (kernels/texture.py).  Few, larger arrays: every array in this
-        # record is an argument of every kernel function that takes it.
-        "tri_color", "tri_uv",
+        # Per vertex: linear RGB multiplying the material's colour (k, 3)
+        # and texture coordinates (k, 2), empty (0, 3) and (0, 2) when no
+        # mesh has them (kernels/texture.py); each triangle's corners' rows
+        # of them, tri_vertex (n, 3) int32, is tri_normal itself where the
+        # normals are the vertices' own (a file's PLY): 72 bytes a triangle
+        # of corner colours were a 4.2M-triangle file's 300 MB.  Few, larger
+        # arrays: every array in this record is an argument of every kernel
+        # function that takes it.
+        "tri_vertex", "vtx_color", "vtx_uv",
         "sph_center", "sph_radius", "sph_mat",
         "pl_point", "pl_normal", "pl_mat",
         "mat_color",                    # (q, 3) linear RGB albedo

@@ -5,7 +5,7 @@ interpolated by the hit's barycentrics, times its material's texture at the
 interpolated texture coordinates: the products glTF specifies for
 baseColorFactor, COLOR_0 and baseColorTexture, and MTL for Kd and map_Kd.
 Compiled only for scenes that have them (``MeshTextures`` in render.py);
-there ``Geometry.tri_color`` or ``tri_uv`` may still be empty, when no
+there ``Geometry.vtx_color`` or ``vtx_uv`` may still be empty, when no
 mesh has colours, or none has a texture.
 
 Texture coordinates follow OBJ: (0, 0) is the image's lower left corner,
@@ -62,15 +62,18 @@ def mesh_color(geo, hit, mat, bilinear):
     r, g, b = geo.mat_color[mat, 0], geo.mat_color[mat, 1], geo.mat_color[mat, 2]
     p, b1, b2 = hit.prim, hit.u, hit.v
     b0 = 1.0 - b1 - b2
-    if geo.tri_color.shape[0] != 0:
-        c = geo.tri_color
-        r *= b0 * c[p, 0, 0] + b1 * c[p, 1, 0] + b2 * c[p, 2, 0]
-        g *= b0 * c[p, 0, 1] + b1 * c[p, 1, 1] + b2 * c[p, 2, 1]
-        b *= b0 * c[p, 0, 2] + b1 * c[p, 1, 2] + b2 * c[p, 2, 2]
-    if geo.mat_tex[mat, 1] != 0 and geo.tri_uv.shape[0] != 0:
-        uv = geo.tri_uv
-        s = b0 * uv[p, 0, 0] + b1 * uv[p, 1, 0] + b2 * uv[p, 2, 0]
-        t = b0 * uv[p, 0, 1] + b1 * uv[p, 1, 1] + b2 * uv[p, 2, 1]
+    k0, k1, k2 = 0, 0, 0
+    if geo.tri_vertex.shape[0] != 0:
+        k0, k1, k2 = geo.tri_vertex[p, 0], geo.tri_vertex[p, 1], geo.tri_vertex[p, 2]
+    if geo.vtx_color.shape[0] != 0:
+        c = geo.vtx_color
+        r *= b0 * c[k0, 0] + b1 * c[k1, 0] + b2 * c[k2, 0]
+        g *= b0 * c[k0, 1] + b1 * c[k1, 1] + b2 * c[k2, 1]
+        b *= b0 * c[k0, 2] + b1 * c[k1, 2] + b2 * c[k2, 2]
+    if geo.mat_tex[mat, 1] != 0 and geo.vtx_uv.shape[0] != 0:
+        uv = geo.vtx_uv
+        s = b0 * uv[k0, 0] + b1 * uv[k1, 0] + b2 * uv[k2, 0]
+        t = b0 * uv[k0, 1] + b1 * uv[k1, 1] + b2 * uv[k2, 1]
         tr, tg, tb = texture_rgb(geo, mat, s, t, bilinear)
         r *= tr
         g *= tg

@@ -212,7 +212,7 @@ def texture_record(texture_filter, width, height, spp, geo):
     each direction), as pbrt scales its ray differentials."""
     from raytrace.kernels.render import MeshTextures, Textures
     share = 1.0 / math.sqrt(spp)
-    kind = MeshTextures if len(geo.tri_color) or len(geo.tri_uv) else Textures
+    kind = MeshTextures if len(geo.vtx_color) or len(geo.vtx_uv) else Textures
     return kind(filtered=texture_filter != "none", step_x=2.0 / width * share,
                 step_y=2.0 / height * share)
 

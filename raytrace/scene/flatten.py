@@ -263,7 +263,10 @@ def flatten(scene, with_sources=False, shading=True):
     normals, normal_at = [], []     # per mesh: unit normals, and each triangle's rows of them
     n_normals = 0
     tri_mat, obj_ranges = [], []
-    colors, uvs = [], []   # per mesh: (3 arrays or None, 3 arrays or None)
+    # Per mesh: per-vertex colours and texture coordinates (or None), and
+    # its vertices' count; tri_vertex (below) indexes them.
+    colors, uvs, n_vertices = [], [], []
+    corner_rows = _vertex_rows(scene, shading)
     spheres, planes = [], []
     tri_src, sph_src, pl_src = [], [], []   # (object index, face index) per primitive
     dropped = n_tris = 0
@@ -276,13 +279,16 @@ def flatten(scene, with_sources=False, shading=True):
                 for dst, src in zip(tris, (v0, v1, v2)):
                     dst.append(src)
                 tri_mat.append(np.full(k, mat_id(obj.material)))
-                colors.append(_corner_values(obj, "colors", 3, faces) if shading else None)
+                colors.append(_vertex_values(obj, "colors", 3) if shading else None)
                 # Texture coordinates only where a texture uses them.
                 textured = shading and getattr(obj.material, "texture", None) is not None
                 if textured and obj.uv is None:
                     raise RaytraceError(f"{obj.name}: its material has a texture but the mesh "
                                         "has no texture coordinates (uv)")
-                uvs.append(_corner_values(obj, "uv", 2, faces) if textured else None)
+                uvs.append(_vertex_values(obj, "uv", 2) if textured else None)
+                if corner_rows is not None:       # before ``at`` (maybe ``faces``) is offset
+                    corner_rows.append(np.asarray(faces, np.int32) + np.int32(sum(n_vertices)))
+                n_vertices.append(len(np.asarray(obj.vertices).reshape(-1, 3)))
                 if shading:
                     normals.append(nrm)
                     # int32 rows of this mesh's own (mesh_triangles; they may
@@ -326,15 +332,15 @@ def flatten(scene, with_sources=False, shading=True):
         raise RaytraceError(f"{n_normals:,} vertex normals: more than this renderer indexes")
     tri_normal = (normal_at[0] if len(normal_at) == 1 else np.ascontiguousarray(
         np.concatenate(normal_at) if normal_at else np.zeros((0, 3)), dtype=np.int32))
-    counts = [len(m) for m in tri_mat]
     mat_tex, tex_rgb = _textures(materials)
     geo = Geometry(
         tri_v0=cat(tris[0]), tri_v1=cat(tris[1]), tri_v2=cat(tris[2]),
         vtx_normal=cat(normals), tri_normal=tri_normal.reshape(-1, 3),
         tri_mat=i64(tri_mat[0] if len(tri_mat) == 1 else
                     np.concatenate(tri_mat) if tri_mat else []),
-        tri_color=_corner_buffer(colors, counts, 3, 1.0),
-        tri_uv=_corner_buffer(uvs, counts, 2, 0.0),
+        tri_vertex=_tri_vertex(corner_rows, tri_normal, colors, uvs),
+        vtx_color=_vertex_buffer(colors, n_vertices, 3, 1.0),
+        vtx_uv=_vertex_buffer(uvs, n_vertices, 2, 0.0),
         sph_center=f64([s.center for s in spheres], 3),
         sph_radius=f64([s.radius for s in spheres]).reshape(-1),
         sph_mat=i64([mat_id(s.material) for s in spheres]),
@@ -362,9 +368,9 @@ def _default_material():
     return Material()
 
 
-def _corner_values(mesh, attr, cols, faces):
-    """A mesh's per-vertex ``colors`` or ``uv`` at each kept triangle's three
-    corners, (k, 3, cols), or None if it has none."""
+def _vertex_values(mesh, attr, cols):
+    """A mesh's per-vertex ``colors`` or ``uv``, (n, cols) float64, or None
+    if it has none."""
     values = getattr(mesh, attr, None)
     if values is None:
         return None
@@ -377,17 +383,43 @@ def _corner_values(mesh, attr, cols, faces):
         raise RaytraceError(f"{mesh.name}: {attr} contain NaN or inf")
     if attr == "colors" and (a < 0).any():
         raise RaytraceError(f"{mesh.name}: colors must not be negative")
-    return a[faces]
+    return a
 
 
-def _corner_buffer(per_mesh, counts, cols, fill):
-    """The (n, 3, cols) corner buffer over all triangles, ``fill`` for meshes
-    without values; (0, 3, cols) if no mesh has any (kernels/texture.py then
+def _vertex_rows(scene, shading):
+    """A list to gather each mesh's kept faces into, offset to rows of
+    the vertex buffers, where they are needed and are not tri_normal: some
+    mesh has colours or a texture, and some mesh's normal rows are not its
+    vertices (none in the file: face normals).  Else None."""
+    meshes = [o for o in scene.objects if isinstance(o, Mesh)]
+    if not shading or not any(getattr(o, "colors", None) is not None
+                              or getattr(o.material, "texture", None) is not None
+                              for o in meshes):
+        return None
+    if all(o.normals is not None and len(np.asarray(o.normals).reshape(-1, 3))
+           == len(np.asarray(o.vertices).reshape(-1, 3)) for o in meshes):
+        return None
+    return []
+
+
+def _tri_vertex(corner_rows, tri_normal, colors, uvs):
+    """Each triangle's corners' rows of vtx_color and vtx_uv: tri_normal
+    itself where every mesh's normals are its vertices' (the same rows);
+    (0, 3) if no mesh has colours or texture coordinates."""
+    if all(v is None for v in colors) and all(v is None for v in uvs):
+        return np.zeros((0, 3), np.int32)
+    if corner_rows is None:
+        return tri_normal.reshape(-1, 3)
+    return np.ascontiguousarray(np.concatenate(corner_rows).reshape(-1, 3), np.int32)
+
+
+def _vertex_buffer(per_mesh, n_vertices, cols, fill):
+    """The (k, cols) per-vertex buffer over all meshes, ``fill`` for meshes
+    without values; (0, cols) if no mesh has any (kernels/texture.py then
     skips it)."""
     if all(v is None for v in per_mesh):
-        return np.zeros((0, 3, cols))
-    parts = [np.full((k, 3, cols), fill) if v is None else v for v, k in zip(per_mesh, counts)]
-    # One mesh: its buffer as it is (a copy was 72 bytes a triangle at the peak).
+        return np.zeros((0, cols))
+    parts = [np.full((n, cols), fill) if v is None else v for v, n in zip(per_mesh, n_vertices)]
     return np.ascontiguousarray(parts[0] if len(parts) == 1 else np.concatenate(parts),
                                 dtype=np.float64)
 
