@@ -80,6 +80,33 @@ def test_ascii_layouts_read_as_trimesh_reads_them(tmp_path, crlf):
     assert len(np.unique(fast[1])) == len(fast[0]) < 3 * len(corners)     # welded
 
 
+@pytest.mark.parametrize("chunk", [97, 1 << 12])
+def test_ascii_stl_welded_chunk_by_chunk_is_welded_as_a_whole(tmp_path, monkeypatch, chunk):
+    """An ASCII STL is welded a chunk at a time into one table, which
+    grows as it fills (from 16 slots here): in small chunks (a line cut at
+    every one, one line longer than a chunk) the vertices and faces are
+    the whole file's welding's, and a number off the exact path (20
+    digits) lands in its own chunk's row."""
+    from raytrace.scene import weld
+    from raytrace.scene.formats import obj
+    from raytrace.scene.normals import equal_rows
+    s = trimesh.creation.icosphere(subdivisions=3, radius=1.3)
+    corners = s.vertices[s.faces]
+    long_digits = b"0.12345678901234567891"
+    corners[7, 1, 0] = float(long_digits)
+    text = ascii_stl(corners).replace(b"outer loop", b"outer loop" + b" " * 150, 1)
+    assert repr(float(corners[7, 1, 0])).encode() in text
+    path = tmp_path / "a.stl"
+    path.write_bytes(text.replace(repr(float(corners[7, 1, 0])).encode(), long_digits, 1))
+    monkeypatch.setattr(obj, "CHUNK", chunk)
+    monkeypatch.setattr(weld, "FIRST_BITS", 4)
+    vertices, faces = read_ascii_stl(path)
+    ids, values, count = equal_rows(corners.reshape(-1, 3))
+    assert count == len(s.vertices) + 1
+    assert np.array_equal(vertices, values) and np.array_equal(faces, ids.reshape(-1, 3))
+    assert vertices[faces[7, 1], 0] == float(long_digits)
+
+
 def test_ascii_files_trimesh_reads_otherwise_are_left_to_it(tmp_path):
     """Several solids (trimesh makes each a mesh) and capitals: still read,
     by trimesh."""

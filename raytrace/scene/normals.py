@@ -143,17 +143,19 @@ def _positions(v):
 
 
 def equal_rows(a):
-    """(ids, first, count) of the rows of a 2-D float array, compared bit
-    for bit: ids[i] numbers row i's value in order of first appearance,
-    first[k] is the first row of value k (scene/weld.py)."""
-    from raytrace.scene.weld import first_rows
+    """(ids, values, count) of the rows of a 2-D array, compared bit for
+    bit: ids[i] numbers row i's value in order of first appearance, and
+    values[k] is value k (scene/weld.py)."""
+    from raytrace.scene.weld import first_rows, new_table
     if len(a) >= 1 << 31:
         raise ValueError("more than 2^31 vertices")
     keys = a.view(np.uint32).reshape(len(a), -1)
     ids = np.empty(len(a), np.int64)
-    first = np.empty(len(a), np.int64)
-    count = first_rows(keys, ids, first)
-    return ids, first[:count], count
+    # At its bound: only the values' rows are ever written (pages never
+    # written take no memory).
+    values = np.empty_like(keys)
+    _, count = first_rows(keys, ids, values, new_table(len(a)), 0)
+    return ids, values[:count].view(a.dtype).reshape(count, *a.shape[1:]), count
 
 
 def file_normals(vertices, faces, normals):

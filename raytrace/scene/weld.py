@@ -24,9 +24,9 @@ def _row_hash(keys, i):
 
 
 @njit(**BUILD)
-def _same_row(keys, i, j):
+def _same_row(keys, i, values, k):
     for c in range(keys.shape[1]):
-        if keys[i, c] != keys[j, c]:
+        if keys[i, c] != values[k, c]:
             return False
     return True
 
@@ -37,46 +37,84 @@ def _same_row(keys, i, j):
 AHEAD = 16
 
 
+# The table starts at this many slots and doubles when two thirds full: a
+# mesh file's corners hold about a sixth as many values as rows (an STL's
+# 12.6M corners, 2.1M vertices), and a table sized for the rows (2^25
+# slots, 268 MB) was written once in fresh memory, which costs this kind
+# of machine as much as the probes, and missed the cache where one sized
+# for the values (33 MB) does not (docs/benchmarks.md, "Mesh files").
+FIRST_BITS = 16
+TAG_BITS = 31           # a slot's hash bits; the home slot is their top ``bits``
+
+
 @njit(**dict(BUILD, nogil=True))
-def first_rows(keys, ids, first):
-    """ids[i]: the number of row i's value, numbered in order of first
-    appearance; first[k]: the first row of value k.  Returns how many
-    values there are.  keys: (n, w) uint32, rows compared bit for bit.
+def _moved(table, bits):
+    """The entries of ``table`` in one of 2^bits slots: each entry's home
+    slot is its tag's top bits, so no row is read again."""
+    size = 1 << bits
+    out = np.full(size, -1, np.int64)
+    for entry in table:
+        if entry >= 0:
+            slot = (entry >> 32) >> (TAG_BITS - bits)
+            while out[slot] >= 0:
+                slot = (slot + 1) & (size - 1)
+            out[slot] = entry
+    return out
+
+
+def new_table(n):
+    """An empty table for about ``n`` rows (it grows as it fills)."""
+    bits = 4
+    while bits < FIRST_BITS and (1 << bits) < n + n // 2:
+        bits += 1
+    return np.full(1 << bits, -1, np.int64)
+
+
+@njit(**dict(BUILD, nogil=True))
+def first_rows(keys, ids, values, table, count):
+    """Number the rows of ``keys`` by value, after the ``count`` values
+    ``table`` holds already: ids[i] is row i's value's number, in order of
+    first appearance, and a new value's row is copied to values[number].
+    Returns (table, count), the table grown if it filled.  keys and values:
+    (n, w) uint32, rows compared bit for bit; the rows of one mesh file
+    may come a chunk at a time (an ASCII STL's).
 
     A slot holds a value's number and, above it, 31 high bits of its
-    hash: a row is compared with a slot's first row only where those bits
-    agree, so a probe past another value reads no row."""
+    hash (its tag), whose top bits are its home slot: a row is compared
+    with a value only where the tags agree, so a probe past another value
+    reads no row, and a table grows without reading any."""
     n = keys.shape[0]
-    size = 16
-    while size < n + n // 2:
-        size *= 2
-    mask = np.uint64(size - 1)
-    table = np.full(size, -1, np.int64)    # tag << 32 | value number, or -1
-    ahead = np.empty(AHEAD, np.uint64)     # the hashes of rows i .. i + AHEAD - 1
+    bits = 0
+    while (1 << bits) < len(table):
+        bits += 1
+    ahead = np.empty(AHEAD, np.int64)           # the tags of rows i .. i + AHEAD - 1
     for i in range(min(AHEAD, n)):
-        ahead[i] = _row_hash(keys, i)
-        prefetch(table, ahead[i] & mask)
-    count = 0
+        ahead[i] = np.int64(_row_hash(keys, i) >> np.uint64(64 - TAG_BITS))
+        prefetch(table, ahead[i] >> (TAG_BITS - bits))
     for i in range(n):
-        h = ahead[i % AHEAD]
+        tag = ahead[i % AHEAD]
         if i + AHEAD < n:
-            later = _row_hash(keys, i + AHEAD)
+            later = np.int64(_row_hash(keys, i + AHEAD) >> np.uint64(64 - TAG_BITS))
             ahead[i % AHEAD] = later
-            prefetch(table, later & mask)
-        tag = np.int64(h >> np.uint64(33))
-        slot = h & mask
+            prefetch(table, later >> (TAG_BITS - bits))
+        mask = (1 << bits) - 1
+        slot = tag >> (TAG_BITS - bits)
         while True:
             entry = table[slot]
             if entry < 0:
                 table[slot] = (tag << 32) | count
                 ids[i] = count
-                first[count] = i
+                for c in range(keys.shape[1]):
+                    values[count, c] = keys[i, c]
                 count += 1
+                if 3 * count > 2 << bits:
+                    if bits == TAG_BITS:
+                        raise MemoryError("more distinct rows than a table of 2^31 slots holds")
+                    bits += 1
+                    table = _moved(table, bits)
                 break
-            if entry >> 32 == tag:
-                k = entry & 0xFFFFFFFF
-                if _same_row(keys, i, first[k]):
-                    ids[i] = k
-                    break
-            slot = (slot + np.uint64(1)) & mask
-    return count
+            if entry >> 32 == tag and _same_row(keys, i, values, entry & 0xFFFFFFFF):
+                ids[i] = entry & 0xFFFFFFFF
+                break
+            slot = (slot + 1) & mask
+    return table, count

@@ -51,23 +51,44 @@ def _arrays(size):
                    np.empty(index, np.int32), np.empty(rows, np.int32))
 
 
-def ascii_stl_corners(path):
-    """The (3m, 3) float64 corners of an ASCII STL's triangles, read as an
-    OBJ's "v" lines, or None for a file left to trimesh: not text starting
-    "solid", several solids (trimesh makes each a mesh), or no "vertex"
-    line in lower case."""
+def ascii_stl(path):
+    """(vertices (n, 3) float64, faces (m, 3) int64) of an ASCII STL's
+    triangles, their corners read as an OBJ's "v" lines and welded a chunk
+    at a time: equal corners, bit for bit, one vertex, numbered in order of
+    first appearance (scene/weld.py).  The corners are never held all at
+    once: a 4.2M-triangle file's would be 300 MB of fresh memory, whose
+    first writes cost this kind of machine about as much as reading them.
+    None for a file left to trimesh: not text starting "solid", several
+    solids (trimesh makes each a mesh), or no "vertex" line in lower case."""
+    from raytrace.scene.weld import first_rows, new_table
     with open(path, "rb") as fh:
         head = fh.read(CHUNK)
     if not head.lstrip().startswith(b"solid") or b"\0" in head:
         return None
-    state, out = _arrays(os.path.getsize(path))
+    size = os.path.getsize(path)
+    state, out = _arrays(size)
     state[T.STL] = 1
-    if _parse(path, state, out, "STL") is None or state[T.SOLIDS] > 1 or not state[T.NV]:
+    # At their bounds for the file: pages never written take no memory.
+    ids = np.empty(size // 8 + 1, np.int64)
+    values = np.empty((size // 8 + 1, 6), np.uint32)
+    weld = {"table": new_table(1 << 16), "count": 0, "corners": 0}
+
+    def each_chunk(state, v):
+        # This chunk's corners, then the next chunk's in the same rows.
+        k, at = int(state[T.NV]), weld["corners"]
+        keys = v[:k].view(np.uint32)
+        weld["table"], weld["count"] = first_rows(keys, ids[at:at + k], values, weld["table"],
+                                                  weld["count"])
+        weld["corners"] = at + k
+        state[T.NV] = 0
+
+    if _parse(path, state, out, "STL", each_chunk) is None or state[T.SOLIDS] > 1 \
+            or not weld["corners"]:
         return None
-    nv = int(state[T.NV])
-    if nv % 3:
-        raise RaytraceError(f"{path}: not a readable STL mesh ({nv} vertices, not 3 a facet)")
-    return out[0][:nv]
+    corners, count = weld["corners"], weld["count"]
+    if corners % 3:
+        raise RaytraceError(f"{path}: not a readable STL mesh ({corners} vertices, not 3 a facet)")
+    return values[:count].view(np.float64).reshape(count, 3), ids[:corners].reshape(-1, 3)
 
 
 def read_obj(path, warn=None):
@@ -105,9 +126,10 @@ def warm_kernel():
                   np.empty(1, np.int64), T.POW10)
 
 
-def _parse(path, state, out, fmt):
-    """Run the kernel over the file a chunk at a time; None if the file is
-    left to trimesh."""
+def _parse(path, state, out, fmt, each_chunk=None):
+    """Run the kernel over the file a chunk at a time, then
+    ``each_chunk(state, v)`` if given; None if the file is left to
+    trimesh."""
     v, vn, cv, cn, fc = out
     buf = bytearray(CHUNK)
     fb = np.empty(2 * CHUNK + 2, np.uint8)
@@ -138,6 +160,8 @@ def _parse(path, state, out, fmt):
             _exact_fallback(path, fmt, state, (fb, slots, v, vn), (data[:cut], first_line))
             if code:
                 raise RaytraceError(_problem(path, fmt, state, data))
+            if each_chunk is not None:
+                each_chunk(state, v)
             del data
             if at_end:
                 return state
@@ -225,10 +249,10 @@ def _indexed(v, vn, cv, cn, corners):
     if cn is not None and (len(vn) < len(v) or not np.array_equal(cv, cn)):
         from raytrace.scene.normals import equal_rows
         pairs = np.stack([cv, cn], axis=1)
-        ids, first, _ = equal_rows(pairs)
+        ids, used, _ = equal_rows(pairs)
         del pairs
         faces = ids.reshape(-1, 3) if corners is None else ids[corners]
-        return dict(vertices=v[cv[first]], faces=faces, normals=vn[cn[first]])
+        return dict(vertices=v[used[:, 0]], faces=faces, normals=vn[used[:, 1]])
     faces = cv.reshape(-1, 3).astype(np.int64) if corners is None else cv[corners].astype(np.int64)
     normals = vn[:len(v)] if cn is not None else None
     used = np.zeros(len(v), bool)

@@ -32,26 +32,22 @@ def read_binary_stl(path):
     corners = np.ascontiguousarray(np.fromfile(path, _RECORD, count, offset=84)["v"])
     corners = corners.reshape(-1, 3)
     # Welded as float32, before the float64 copy: a third of the rows.
-    ids, first, _ = equal_rows(corners)
-    return corners[first].astype(np.float64), ids.reshape(-1, 3)
+    ids, values, _ = equal_rows(corners)
+    return values.astype(np.float64), ids.reshape(-1, 3)
 
 
 def read_ascii_stl(path):
     """(vertices (n, 3) float64, faces (m, 3) int64) of an ASCII STL,
     welded, or None for a file left to trimesh (scene/formats/obj.py)."""
-    from raytrace.scene.formats.obj import ascii_stl_corners
-    corners = ascii_stl_corners(path)
-    if corners is None:
-        return None
-    ids, first, _ = equal_rows(corners)
-    return corners[first], ids.reshape(-1, 3)
+    from raytrace.scene.formats.obj import ascii_stl
+    return ascii_stl(path)
 
 
 def weld(vertices, faces):
     """(vertices, faces) with the vertices of equal coordinates made one
     (each the first of them), in order of first appearance; the faces'
     corners keep their positions bit for bit."""
-    ids, first, n = equal_rows(np.ascontiguousarray(vertices, dtype=np.float64))
+    ids, values, n = equal_rows(np.ascontiguousarray(vertices, dtype=np.float64))
     if n == len(vertices):
         return vertices, faces
-    return vertices[first], ids[faces]
+    return values, ids[faces]
