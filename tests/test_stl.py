@@ -80,13 +80,16 @@ def test_ascii_layouts_read_as_trimesh_reads_them(tmp_path, crlf):
     assert len(np.unique(fast[1])) == len(fast[0]) < 3 * len(corners)     # welded
 
 
-@pytest.mark.parametrize("chunk", [97, 1 << 12])
-def test_ascii_stl_welded_chunk_by_chunk_is_welded_as_a_whole(tmp_path, monkeypatch, chunk):
+@pytest.mark.parametrize("chunk, halves", [(97, False), (1 << 12, False), (1 << 12, True),
+                                          (1 << 16, True)])
+def test_ascii_stl_welded_chunk_by_chunk_is_welded_as_a_whole(tmp_path, monkeypatch, chunk,
+                                                              halves):
     """An ASCII STL is welded a chunk at a time into one table, which
-    grows as it fills (from 16 slots here): in small chunks (a line cut at
-    every one, one line longer than a chunk) the vertices and faces are
-    the whole file's welding's, and a number off the exact path (20
-    digits) lands in its own chunk's row."""
+    grows as it fills (from 16 slots here), each chunk read on one thread
+    or in two halves at once: in small chunks (a line cut at every one,
+    one line longer than a chunk) the vertices and faces are the whole
+    file's welding's, and a number off the exact path (20 digits) lands
+    in its own chunk's row."""
     from raytrace.scene import weld
     from raytrace.scene.formats import obj
     from raytrace.scene.normals import equal_rows
@@ -100,7 +103,14 @@ def test_ascii_stl_welded_chunk_by_chunk_is_welded_as_a_whole(tmp_path, monkeypa
     path.write_bytes(text.replace(repr(float(corners[7, 1, 0])).encode(), long_digits, 1))
     monkeypatch.setattr(obj, "CHUNK", chunk)
     monkeypatch.setattr(weld, "FIRST_BITS", 4)
+    halves_read = []
+    if halves:
+        monkeypatch.setattr(obj, "SPLIT_MIN", 0)
+        monkeypatch.setattr(obj, "_threads", lambda: 2)
+        real = obj._halves
+        monkeypatch.setattr(obj, "_halves", lambda *a: halves_read.append(1) or real(*a))
     vertices, faces = read_ascii_stl(path)
+    assert bool(halves_read) == halves
     ids, values, count = equal_rows(corners.reshape(-1, 3))
     assert count == len(s.vertices) + 1
     assert np.array_equal(vertices, values) and np.array_equal(faces, ids.reshape(-1, 3))
@@ -135,3 +145,46 @@ def test_damaged_ascii_stl_is_refused_in_one_line(tmp_path, text, words):
         read_mesh_parts(path)
     msg = str(info.value)
     assert msg.startswith(f"{path}: ") and words in msg and "\n" not in msg, msg
+
+
+@pytest.mark.parametrize("where", [0.1, 0.2, 0.3, 0.95])
+@pytest.mark.parametrize("bad", [b"1.0 2.0x 3.0", b"1.0 2.0"])
+def test_a_damaged_ascii_stl_read_in_halves_names_the_line_one_thread_names(tmp_path, monkeypatch,
+                                                                             where, bad):
+    """A bad number (NumPy's parser finds it) or a short vertex (the
+    kernel does) in either half of any chunk read on two threads is
+    refused with one thread's message: the same line."""
+    from raytrace.scene.formats import obj
+    s = trimesh.creation.icosphere(subdivisions=2)
+    lines = ascii_stl(s.vertices[s.faces]).split(b"\n")
+    k = next(i for i in range(int(len(lines) * where), len(lines)) if b"vertex" in lines[i])
+    lines[k] = b"      vertex " + bad
+    path = tmp_path / "bad.stl"
+    path.write_bytes(b"\n".join(lines))
+    monkeypatch.setattr(obj, "CHUNK", 1 << 14)       # 5 chunks
+    messages = []
+    for split in (1 << 30, 0):
+        monkeypatch.setattr(obj, "SPLIT_MIN", split)
+        monkeypatch.setattr(obj, "_threads", lambda: 2)
+        with pytest.raises(RaytraceError) as err:
+            read_ascii_stl(path)
+        messages.append(str(err.value))
+    assert messages[0] == messages[1] and f"line {k + 1}:" in messages[0], messages
+
+
+@pytest.mark.parametrize("kind", ["binary", "ascii"])
+def test_an_stl_is_split_at_creases_as_any_mesh_without_hashing_its_welded_vertices(tmp_path,
+                                                                                    kind):
+    """An STL's vertices come welded (no two at one position), so the
+    crease split does not hash them again: the same split as hashing."""
+    from raytrace.scene.normals import shading_split
+    c = trimesh.creation.cylinder(radius=1.0, height=2.0, sections=24)
+    path = tmp_path / "c.stl"
+    path.write_bytes(trimesh.exchange.stl.export_stl(c) if kind == "binary"
+                     else trimesh.exchange.stl.export_stl_ascii(c).encode())
+    (part,) = read_mesh_parts(path)
+    assert part.welded and len(np.unique(part.vertices, axis=0)) == len(part.vertices)
+    fast = shading_split(part.vertices, part.faces, welded=True)
+    slow = shading_split(part.vertices, part.faces)
+    assert len(fast[0]) > len(part.vertices)          # split at the rims
+    assert all(np.array_equal(a, b) for a, b in zip(fast, slow))

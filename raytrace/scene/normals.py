@@ -59,7 +59,7 @@ def crease_normals(vertices, faces, crease=DEFAULT_CREASE):
     return v[source], f, normals
 
 
-def crease_split(vertices, faces, crease=DEFAULT_CREASE, keep=False):
+def crease_split(vertices, faces, crease=DEFAULT_CREASE, keep=False, welded=False):
     """(source, faces, normals): crease_normals's mesh as a map from input
     vertices, so that every per-vertex array follows the split: output
     vertex i copies input vertex ``source[i]`` (its position, colour,
@@ -71,7 +71,9 @@ def crease_split(vertices, faces, crease=DEFAULT_CREASE, keep=False):
     ``keep``: then vertices of one position keep apart (a texture seam, a
     colour boundary), each with the group's normal.  Output vertices come in
     order of their position's first vertex, so a mesh without creases or
-    repeated positions keeps its numbering.
+    repeated positions keeps its numbering.  ``welded``: the caller knows
+    no two vertices share a position (an STL reader welded them), so they
+    are not hashed again.
     """
     from raytrace.scene.creases import corner_lists, fan_groups, fan_normals
     v = np.ascontiguousarray(vertices, dtype=np.float64)
@@ -79,7 +81,7 @@ def crease_split(vertices, faces, crease=DEFAULT_CREASE, keep=False):
     n, m = len(v), len(f)
     if m == 0:
         return np.arange(n), f.reshape(0, 3), np.zeros((n, 3))
-    position, n_positions = _positions(v)
+    position, n_positions = (None, n) if welded else _positions(v)
     pf = f if position is None else position[f]
     corner_position = pf.reshape(-1)
     offsets = np.zeros(n_positions + 1, np.int64)
@@ -188,14 +190,15 @@ def shading_normals(vertices, faces, normals=None, crease=DEFAULT_CREASE, flat=F
     return (vertices if source is None else np.asarray(vertices)[source]), f, n
 
 
-def shading_split(vertices, faces, normals=None, crease=DEFAULT_CREASE, flat=False, keep=False):
+def shading_split(vertices, faces, normals=None, crease=DEFAULT_CREASE, flat=False, keep=False,
+                  welded=False):
     """shading_normals as (source, faces, normals): output vertex i copies
     input vertex ``source[i]``, or source is None when the vertices stay as
     they are.  A caller applies ``source`` to every per-vertex array it
     holds (positions, colours, texture coordinates), so they all follow the
-    split; ``keep``: see crease_split."""
+    split; ``keep`` and ``welded``: see crease_split."""
     if flat:
         return None, faces, None
     if normals is not None:
         return None, faces, file_normals(vertices, faces, normals)
-    return crease_split(vertices, faces, crease, keep)
+    return crease_split(vertices, faces, crease, keep, welded)

@@ -223,6 +223,7 @@ class MeshPart:
     colors: np.ndarray = None        # (n, 3) linear RGB per vertex, or None
     face_colors: np.ndarray = None   # (m, 3) linear RGB per face, or None
     uv: np.ndarray = None            # (n, 2) texture coordinates, or None
+    welded: bool = False             # no two vertices at one position, bit for bit (an STL's)
 
     # Every array with a row per vertex: a split, weld or reorder of the
     # vertices applies to each of them (part_mesh).  A new one is added here.
@@ -278,7 +279,7 @@ def read_mesh_parts(path, warn=None, base=None):
                 if p is not None:
                     p.vertices, p.faces = weld(np.asarray(p.vertices, np.float64),
                                                np.asarray(p.faces, np.int64))
-                    p.normals = None
+                    p.normals, p.welded = None, True
     parts = [p for p in parts if p is not None and len(p.faces)]
     if not parts:
         raise RaytraceError(f"{path}: no non-degenerate triangles (no faces found: damaged, or "
@@ -300,7 +301,7 @@ def _stl(path):
     from raytrace.scene.formats.stl import read_ascii_stl, read_binary_stl
     read = read_binary_stl(path)
     read = read_ascii_stl(path) if read is None else read
-    return None if read is None else dict(vertices=read[0], faces=read[1])
+    return None if read is None else dict(vertices=read[0], faces=read[1], welded=True)
 
 
 def _read_with_trimesh(path, ext, library, warn, base, data=None):
@@ -358,7 +359,8 @@ def part_mesh(part, base, crease, flat, name):
     # Vertices that carry more than a position stay apart where they meet.
     keep = len(arrays) > 1
     source, faces, normals = shading_split(part.vertices, part.faces, part.normals,
-                                           crease=crease, flat=bool(flat), keep=keep)
+                                           crease=crease, flat=bool(flat), keep=keep,
+                                           welded=part.welded)
     if part.face_colors is not None:
         # A colour per face: each face gets vertices of its own, after the
         # shading normals were found from the shared ones.

@@ -25,6 +25,7 @@ from raytrace.errors import RaytraceError
 from raytrace.scene.formats import objtext as T
 
 CHUNK = 1 << 24     # bytes of file read at a time: lines are cut at the last newline
+SPLIT_MIN = 1 << 20  # an ASCII STL's chunk of at least this is read in two halves at once
 _BOM = b"\xef\xbb\xbf"
 
 _PROBLEMS = {
@@ -136,6 +137,7 @@ def _parse(path, state, out, fmt, each_chunk=None):
     slots = np.empty(CHUNK // 2 + 1, np.int64)
     kept = 0             # bytes of an unfinished line carried to the next chunk
     first = True
+    second = {}          # _halves' arrays, kept from chunk to chunk
     with open(path, "rb") as fh:
         while True:
             got = fh.readinto(memoryview(buf)[kept:])
@@ -151,22 +153,92 @@ def _parse(path, state, out, fmt, each_chunk=None):
                 slots = np.empty(len(buf) // 2 + 1, np.int64)
                 kept = n
                 continue
-            data = np.frombuffer(buf, np.uint8)
-            state[T.NFB] = state[T.FBLEN] = 0
-            first_line = int(state[T.LINE]) + 1
-            code = T.parse_lines(data, cut, state, v, vn, cv, cn, fc, fb, slots, T.POW10)
-            if code < 0:
-                return None
-            _exact_fallback(path, fmt, state, (fb, slots, v, vn), (data[:cut], first_line))
-            if code:
-                raise RaytraceError(_problem(path, fmt, state, data))
-            if each_chunk is not None:
-                each_chunk(state, v)
+            data = np.frombuffer(buf, np.uint8)[:cut]
+            if state[T.STL] and each_chunk is not None and cut >= SPLIT_MIN and _threads() > 1:
+                done = _halves(path, fmt, state, out, data, (fb, slots), each_chunk, second)
+            else:
+                done = _lines(path, fmt, state, out, data, (fb, slots), each_chunk)
             del data
+            if done is None:
+                return None
             if at_end:
                 return state
             kept = n - cut
             buf[:kept] = buf[cut:n]
+
+
+def _lines(path, fmt, state, out, data, scratch, each_chunk):
+    """The kernel over ``data``, whole lines, then the numbers it left,
+    then ``each_chunk``; None if the file is left to trimesh."""
+    v, vn, cv, cn, fc = out
+    fb, slots = scratch
+    state[T.NFB] = state[T.FBLEN] = 0
+    first_line = int(state[T.LINE]) + 1
+    code = T.parse_lines(data, len(data), state, v, vn, cv, cn, fc, fb, slots, T.POW10)
+    if code < 0:
+        return None
+    _exact_fallback(path, fmt, state, (fb, slots, v, vn), (data, first_line))
+    if code:
+        raise RaytraceError(_problem(path, fmt, state, data))
+    if each_chunk is not None:
+        each_chunk(state, v)
+    return state
+
+
+def _halves(path, fmt, state, out, data, scratch, each_chunk, kept):
+    """_lines of an ASCII STL's chunk in two halves read at once on two
+    threads: the first with the file's state into ``out``, the second from
+    a fresh state into rows of its own (``kept`` from chunk to chunk), each
+    then welded in order (``each_chunk``).  A second half with a problem
+    the kernel finds, or an OBJ line, is read again after the first, as
+    one thread reads it: the same vertices, counts and messages.  Only
+    since a chunk's corners are welded as read does this pay in a whole
+    command: the corners of the whole file were fresh memory, whose page
+    faults two threads take one at a time (docs/benchmarks.md)."""
+    from functools import partial
+
+    from raytrace.kernels.threads import run_on_threads
+    half = len(data) // 2
+    newlines = np.flatnonzero(data[max(0, half - (1 << 16)):half] == 10)
+    if not len(newlines):
+        return _lines(path, fmt, state, out, data, scratch, each_chunk)
+    mid = max(0, half - (1 << 16)) + int(newlines[-1]) + 1
+    first, rest = data[:mid], data[mid:]
+    if kept.get("size", -1) < len(rest):        # the arrays at their bound for this half
+        kept.update(size=len(rest), arrays=_arrays(len(rest))[1], scratch=(
+            np.empty(2 * len(rest) + 2, np.uint8), np.empty(len(rest) // 2 + 1, np.int64)))
+    own, own_scratch = kept["arrays"], kept["scratch"]
+    own_state = _arrays(0)[0]
+    own_state[T.STL] = 1
+    codes = [0, 0]
+
+    def parse(k, part, st, arrays, fb_slots):
+        codes[k] = T.parse_lines(part, len(part), st, *arrays, *fb_slots, T.POW10)
+
+    state[T.NFB] = state[T.FBLEN] = 0
+    first_line = int(state[T.LINE]) + 1
+    run_on_threads([partial(parse, 0, first, state, out, scratch),
+                    partial(parse, 1, rest, own_state, own, own_scratch)])
+    if codes[0] < 0:
+        return None
+    _exact_fallback(path, fmt, state, (*scratch, out[0], out[1]), (first, first_line))
+    if codes[0]:
+        raise RaytraceError(_problem(path, fmt, state, first))
+    each_chunk(state, out[0])
+    if codes[1] or own_state[T.NN] or own_state[T.NC] or own_state[T.NF]:
+        return _lines(path, fmt, state, out, rest, scratch, each_chunk)
+    _exact_fallback(path, fmt, own_state, (*own_scratch, own[0], own[1]),
+                    (rest, int(state[T.LINE]) + 1))
+    state[T.LINE] += own_state[T.LINE]
+    state[T.SOLIDS] += own_state[T.SOLIDS]
+    state[T.VMAX] = max(state[T.VMAX], own_state[T.VMAX])
+    each_chunk(own_state, own[0])
+    return state
+
+
+def _threads():
+    import numba
+    return numba.get_num_threads()
 
 
 def _exact_fallback(path, fmt, state, fallback, chunk):

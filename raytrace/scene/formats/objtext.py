@@ -32,8 +32,9 @@ BAD_INDEX, ZERO_INDEX, ZERO_NORMAL, BEFORE_FIRST, SHORT_VERTEX, SHORT_NORMAL, SH
 POW10 = np.array([float(10 ** k) for k in range(23)])    # exact doubles
 _EXACT = 1 << 53
 _INDEX_LIMIT = (1 << 31) - 1
-# No reference counting: the kernel allocates nothing.
-_KERNEL = dict(BUILD, _nrt=False)
+# No reference counting: the kernel allocates nothing.  Without the GIL:
+# an ASCII STL's chunk is read in two halves at once (obj._halves).
+_KERNEL = dict(BUILD, _nrt=False, nogil=True)
 
 
 @njit(**_KERNEL)
