@@ -180,6 +180,27 @@ def test_long_lines_and_small_chunks(tmp_path, monkeypatch):
     assert len(ours["faces"]) == k - 2
 
 
+@pytest.mark.parametrize("chunk", [None, 61])
+def test_lines_of_every_length_end_where_their_newline_is(tmp_path, monkeypatch, chunk):
+    """A line's end is found eight bytes at a time (objtext.py): lines of 0
+    to 40 bytes, at every offset from a word's start, and the file's last
+    line without a newline, each read to its end and no further."""
+    if chunk:
+        monkeypatch.setattr(objmod, "CHUNK", chunk)
+    lines, want = [], []
+    for k in range(41):
+        x = k * 0.5
+        lines += [f"v {x} {k} 1", "#" + "x" * k, "", " " * (k % 9) + f"v {k} {x} 2" + "\t" * (k % 3)]
+        want += [[x, k, 1.0], [k, x, 2.0]]
+    n = len(want)
+    lines += [f"f {i + 1} {i + 2} {i + 3}" for i in range(0, n - 2)]
+    path = tmp_path / "lines.obj"
+    path.write_bytes("\n".join(lines).encode())      # no newline after the last face
+    got = read_obj(path)
+    assert np.array_equal(got["vertices"], np.array(want))
+    assert len(got["faces"]) == n - 2 and got["faces"][-1].tolist() == [n - 3, n - 2, n - 1]
+
+
 @pytest.mark.parametrize("text, words", [
     (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n",
      "line 4: face index 9 is out of bounds: the file has 3 vertices"),

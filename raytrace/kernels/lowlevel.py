@@ -1,5 +1,6 @@
 """What the kernels need that Numba cannot say in Python: an array in the
-caller's stack frame, a population count, an atomic counter and a prefetch.  The
+caller's stack frame, a population count, a trailing-zero count, eight
+bytes loaded as one word, an atomic counter and a prefetch.  The
 BVH's SIMD tests live beside it (raytrace/accel/bvh/simd.py).
 
 Each is a Numba intrinsic that emits LLVM IR directly.
@@ -50,6 +51,41 @@ def popcount(typingctx, x):
         return builder.call(ctpop, [value])
 
     return types.int64(x), codegen
+
+
+@intrinsic
+def trailing_zeros(typingctx, x):
+    """The number of zero bits below the lowest set bit of a 64-bit integer
+    (llvm.cttz: one tzcnt); 64 for zero."""
+    if not isinstance(x, types.Integer):
+        return None
+
+    def codegen(context, builder, sig, args):
+        value = context.cast(builder, args[0], sig.args[0], types.uint64)
+        i64, i1 = ir.IntType(64), ir.IntType(1)
+        cttz = cgutils.get_or_insert_function(builder.module, ir.FunctionType(i64, [i64, i1]),
+                                              "llvm.cttz.i64")
+        return builder.call(cttz, [value, ir.Constant(i1, 0)])
+
+    return types.int64(x), codegen
+
+
+@intrinsic
+def load_word(typingctx, arr, i):
+    """Bytes i .. i + 7 of a 1-D uint8 array as one little-endian uint64
+    (one unaligned load): a loop looking for a byte tests eight at a time.
+    The caller keeps i + 8 within the array."""
+    if not (isinstance(arr, types.Array) and arr.ndim == 1 and arr.dtype == types.uint8
+            and isinstance(i, types.Integer)):
+        return None
+
+    def codegen(context, builder, sig, args):
+        data = context.make_array(sig.args[0])(context, builder, args[0]).data
+        index = context.cast(builder, args[1], sig.args[1], types.intp)
+        word = builder.bitcast(builder.gep(data, [index]), ir.IntType(64).as_pointer())
+        return builder.load(word, align=1)
+
+    return types.uint64(arr, i), codegen
 
 
 @intrinsic

@@ -17,6 +17,7 @@ import numpy as np
 from numba import njit
 
 from raytrace.kernels.jit import BUILD
+from raytrace.kernels.lowlevel import load_word, trailing_zeros
 
 # state[]: counts carried from chunk to chunk, and what the caller reads.
 NV, NN, NC, NF, LINE, MAXV, MAXV_LINE, MAXN, ALLN, VMAX, NFB, FBLEN = range(12)
@@ -31,6 +32,8 @@ BAD_INDEX, ZERO_INDEX, ZERO_NORMAL, BEFORE_FIRST, SHORT_VERTEX, SHORT_NORMAL, SH
 
 POW10 = np.array([float(10 ** k) for k in range(23)])    # exact doubles
 _EXACT = 1 << 53
+_NEWLINES, _ONES, _HIGHS = (np.uint64(0x0A0A0A0A0A0A0A0A), np.uint64(0x0101010101010101),
+                            np.uint64(0x8080808080808080))
 _INDEX_LIMIT = (1 << 31) - 1
 # No reference counting: the kernel allocates nothing.  Without the GIL:
 # an ASCII STL's chunk is read in two halves at once (obj._halves).
@@ -54,7 +57,17 @@ def parse_lines(buf, n, state, v, vn, cv, cn, fc, fb, slots, pow10):
     at = 0
     to = 0
     while i < n and err == 0:
+        # The line's end, eight bytes at a time: the lowest byte of x that
+        # is zero (a newline in buf) sets the lowest bit of t (Mycroft's
+        # test; higher bits of t may be false, and are not used).
         end = i
+        while end + 8 <= n:
+            x = load_word(buf, end) ^ _NEWLINES
+            t = (x - _ONES) & ~x & _HIGHS
+            if t != 0:
+                end += trailing_zeros(t) >> 3
+                break
+            end += 8
         while end < n and buf[end] != 10:
             end += 1
         line_ += 1
