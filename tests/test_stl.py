@@ -102,7 +102,7 @@ def test_ascii_stl_welded_chunk_by_chunk_is_welded_as_a_whole(tmp_path, monkeypa
     path = tmp_path / "a.stl"
     path.write_bytes(text.replace(repr(float(corners[7, 1, 0])).encode(), long_digits, 1))
     monkeypatch.setattr(obj, "CHUNK", chunk)
-    monkeypatch.setattr(weld, "FIRST_BITS", 4)
+    monkeypatch.setattr(weld, "FIRST_VALUES", 1)
     halves_read = []
     if halves:
         monkeypatch.setattr(obj, "SPLIT_MIN", 0)

@@ -144,10 +144,11 @@ def _positions(v):
     return (None, count) if count == len(v) else (ids, count)
 
 
-def equal_rows(a):
+def equal_rows(a, values=None):
     """(ids, values, count) of the rows of a 2-D array, compared bit for
     bit: ids[i] numbers row i's value in order of first appearance, and
-    values[k] is value k (scene/weld.py)."""
+    values[k] is value k (scene/weld.py).  ``values``: how many the caller
+    expects (the table's first size), all the rows if None."""
     from raytrace.scene.weld import first_rows, new_table
     if len(a) >= 1 << 31:
         raise ValueError("more than 2^31 vertices")
@@ -155,9 +156,9 @@ def equal_rows(a):
     ids = np.empty(len(a), np.int64)
     # At its bound: only the values' rows are ever written (pages never
     # written take no memory).
-    values = np.empty_like(keys)
-    _, count = first_rows(keys, ids, values, new_table(len(a)), 0)
-    return ids, values[:count].view(a.dtype).reshape(count, *a.shape[1:]), count
+    out = np.empty_like(keys)
+    _, count = first_rows(keys, ids, out, new_table(len(a) if values is None else values), 0)
+    return ids, out[:count].view(a.dtype).reshape(count, *a.shape[1:]), count
 
 
 def file_normals(vertices, faces, normals):

@@ -37,13 +37,17 @@ def _same_row(keys, i, values, k):
 AHEAD = 16
 
 
-# The table starts at this many slots and doubles when two thirds full: a
-# mesh file's corners hold about a sixth as many values as rows (an STL's
-# 12.6M corners, 2.1M vertices), and a table sized for the rows (2^25
-# slots, 268 MB) was written once in fresh memory, which costs this kind
-# of machine as much as the probes, and missed the cache where one sized
-# for the values (33 MB) does not (docs/benchmarks.md, "Mesh files").
-FIRST_BITS = 16
+# A table is sized for the values its caller expects and doubles when two
+# thirds full.  A mesh file's corners hold about a sixth as many values as
+# rows (each vertex of a closed mesh is a corner of about six triangles:
+# an STL's 12.6M corners, 2.1M vertices), and a table sized for the rows
+# (2^25 slots, 268 MB) was written once in fresh memory, which costs this
+# kind of machine as much as the probes, and missed the cache where one
+# sized for the values (33 MB) does not; a PLY's vertices are all distinct
+# values, where growing from small took twice as long (docs/benchmarks.md,
+# "Mesh files").  FIRST_VALUES: where nothing is known yet (an ASCII STL,
+# welded as it is read).
+FIRST_VALUES = 1 << 16
 TAG_BITS = 31           # a slot's hash bits; the home slot is their top ``bits``
 
 
@@ -63,9 +67,9 @@ def _moved(table, bits):
 
 
 def new_table(n):
-    """An empty table for about ``n`` rows (it grows as it fills)."""
+    """An empty table for about ``n`` values (it grows as it fills)."""
     bits = 4
-    while bits < FIRST_BITS and (1 << bits) < n + n // 2:
+    while bits < TAG_BITS and (1 << bits) < n + n // 2:
         bits += 1
     return np.full(1 << bits, -1, np.int64)
 

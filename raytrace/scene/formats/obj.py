@@ -61,7 +61,7 @@ def ascii_stl(path):
     first writes cost this kind of machine about as much as reading them.
     None for a file left to trimesh: not text starting "solid", several
     solids (trimesh makes each a mesh), or no "vertex" line in lower case."""
-    from raytrace.scene.weld import first_rows, new_table
+    from raytrace.scene import weld as welding
     with open(path, "rb") as fh:
         head = fh.read(CHUNK)
     if not head.lstrip().startswith(b"solid") or b"\0" in head:
@@ -72,14 +72,14 @@ def ascii_stl(path):
     # At their bounds for the file: pages never written take no memory.
     ids = np.empty(size // 8 + 1, np.int64)
     values = np.empty((size // 8 + 1, 6), np.uint32)
-    weld = {"table": new_table(1 << 16), "count": 0, "corners": 0}
+    weld = {"table": welding.new_table(welding.FIRST_VALUES), "count": 0, "corners": 0}
 
     def each_chunk(state, v):
         # This chunk's corners, then the next chunk's in the same rows.
         k, at = int(state[T.NV]), weld["corners"]
         keys = v[:k].view(np.uint32)
-        weld["table"], weld["count"] = first_rows(keys, ids[at:at + k], values, weld["table"],
-                                                  weld["count"])
+        weld["table"], weld["count"] = welding.first_rows(keys, ids[at:at + k], values,
+                                                          weld["table"], weld["count"])
         weld["corners"] = at + k
         state[T.NV] = 0
 
