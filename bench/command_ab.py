@@ -4,7 +4,9 @@ raytrace FILE --width 320 --height 240 --json`, a fresh process each, under
 
     python bench/command_ab.py ROUNDS TREE_A:CACHE_A TREE_B:CACHE_B FILE...
 
-TREE: a checkout's root (put first on PYTHONPATH); CACHE: its own Numba
+TREE: a checkout's root (put first on PYTHONPATH, and each command runs
+in a temporary folder: ``python -m`` imports first from the working
+directory, so run from a checkout both trees ran its code); CACHE: its own Numba
 cache (NUMBA_CACHE_DIR), warmed by a first run.  One JSON line a run: wall
 and CPU (user + system) seconds, peak resident KB, the `--json` phases and
 the first 10 hex digits of the PNG's SHA-1 (identical images, identical
@@ -25,7 +27,8 @@ def run(tree, cache, path, out):
     t = time.perf_counter()
     r = subprocess.run(["nice", "-n", "19", "/usr/bin/time", "-v", sys.executable, "-m", "raytrace",
                         path, "--width", "320", "--height", "240", "-o", out, "--json"],
-                       env=env, capture_output=True, text=True, check=True)
+                       env=env, capture_output=True, text=True, check=True,
+                       cwd=os.path.dirname(out))
     wall = time.perf_counter() - t
 
     def field(name):
