@@ -267,6 +267,7 @@ def flatten(scene, with_sources=False, shading=True):
     # its vertices' count; tri_vertex (below) indexes them.
     colors, uvs, n_vertices = [], [], []
     corner_rows = _vertex_rows(scene, shading)
+    vertex_rows = 0        # sum(n_vertices), kept as it grows
     spheres, planes = [], []
     tri_src, sph_src, pl_src = [], [], []   # (object index, face index) per primitive
     dropped = n_tris = 0
@@ -287,8 +288,11 @@ def flatten(scene, with_sources=False, shading=True):
                                         "has no texture coordinates (uv)")
                 uvs.append(_vertex_values(obj, "uv", 2) if textured else None)
                 if corner_rows is not None:       # before ``at`` (maybe ``faces``) is offset
-                    corner_rows.append(np.asarray(faces, np.int32) + np.int32(sum(n_vertices)))
+                    rows = faces.astype(np.int32)     # a copy: ``faces`` stays as it is
+                    rows += np.int32(vertex_rows)
+                    corner_rows.append(rows)
                 n_vertices.append(len(np.asarray(obj.vertices).reshape(-1, 3)))
+                vertex_rows += n_vertices[-1]
                 if shading:
                     normals.append(nrm)
                     # int32 rows of this mesh's own (mesh_triangles; they may

@@ -185,10 +185,10 @@ def _lines(path, fmt, state, out, data, scratch, each_chunk):
     return state
 
 
-def _halves(path, fmt, state, out, data, scratch, each_chunk, kept):
+def _halves(path, fmt, state, out, data, scratch, each_chunk, reused):
     """_lines of an ASCII STL's chunk in two halves read at once on two
     threads: the first with the file's state into ``out``, the second from
-    a fresh state into rows of its own (``kept`` from chunk to chunk), each
+    a fresh state into rows of its own (``reused`` from chunk to chunk), each
     then welded in order (``each_chunk``).  A second half with a problem
     the kernel finds, or an OBJ line, is read again after the first, as
     one thread reads it: the same vertices, counts and messages.  Only
@@ -204,10 +204,10 @@ def _halves(path, fmt, state, out, data, scratch, each_chunk, kept):
         return _lines(path, fmt, state, out, data, scratch, each_chunk)
     mid = max(0, half - (1 << 16)) + int(newlines[-1]) + 1
     first, rest = data[:mid], data[mid:]
-    if kept.get("size", -1) < len(rest):        # the arrays at their bound for this half
-        kept.update(size=len(rest), arrays=_arrays(len(rest))[1], scratch=(
+    if reused.get("size", -1) < len(rest):      # the arrays at their bound for this half
+        reused.update(size=len(rest), arrays=_arrays(len(rest))[1], scratch=(
             np.empty(2 * len(rest) + 2, np.uint8), np.empty(len(rest) // 2 + 1, np.int64)))
-    own, own_scratch = kept["arrays"], kept["scratch"]
+    own, own_scratch = reused["arrays"], reused["scratch"]
     own_state = _arrays(0)[0]
     own_state[T.STL] = 1
     codes = [0, 0]
