@@ -1,5 +1,6 @@
 """What the kernels need that Numba cannot say in Python: an array in the
-caller's stack frame, a population count, a trailing-zero count, eight
+caller's stack frame, a population count, trailing- and leading-zero
+counts, a 64 x 64 -> 128-bit product, a double from its bits, eight
 bytes loaded as one word, an atomic counter and a prefetch.  The
 BVH's SIMD tests live beside it (raytrace/accel/bvh/simd.py).
 
@@ -68,6 +69,52 @@ def trailing_zeros(typingctx, x):
         return builder.call(cttz, [value, ir.Constant(i1, 0)])
 
     return types.int64(x), codegen
+
+
+@intrinsic
+def leading_zeros(typingctx, x):
+    """The number of zero bits above the highest set bit of a 64-bit
+    integer (llvm.ctlz: one lzcnt); 64 for zero."""
+    if not isinstance(x, types.Integer):
+        return None
+
+    def codegen(context, builder, sig, args):
+        value = context.cast(builder, args[0], sig.args[0], types.uint64)
+        i64, i1 = ir.IntType(64), ir.IntType(1)
+        ctlz = cgutils.get_or_insert_function(builder.module, ir.FunctionType(i64, [i64, i1]),
+                                              "llvm.ctlz.i64")
+        return builder.call(ctlz, [value, ir.Constant(i1, 0)])
+
+    return types.int64(x), codegen
+
+
+@intrinsic
+def wide_product(typingctx, a, b):
+    """The 128-bit product of two uint64 as (high, low) uint64 halves (one
+    mul on x86-64): Python's integers would say a * b, Numba's wrap."""
+    if not (a == types.uint64 and b == types.uint64):
+        return None
+    pair = types.UniTuple(types.uint64, 2)
+
+    def codegen(context, builder, sig, args):
+        i64, i128 = ir.IntType(64), ir.IntType(128)
+        product = builder.mul(builder.zext(args[0], i128), builder.zext(args[1], i128))
+        high = builder.trunc(builder.lshr(product, ir.Constant(i128, 64)), i64)
+        return context.make_tuple(builder, pair, [high, builder.trunc(product, i64)])
+
+    return pair(a, b), codegen
+
+
+@intrinsic
+def double_from_bits(typingctx, bits):
+    """The float64 whose IEEE bits are the uint64 ``bits`` (a bitcast)."""
+    if bits != types.uint64:
+        return None
+
+    def codegen(context, builder, sig, args):
+        return builder.bitcast(args[0], ir.DoubleType())
+
+    return types.float64(bits), codegen
 
 
 @intrinsic

@@ -2,13 +2,15 @@
 over a chunk of whole lines, writing positions, normals and face corners
 into arrays the caller allocated at their bound.
 
-Numbers are read exactly or not at all: a coordinate of at most 18
-significant digits whose value is m * 10**e with m <= 2**53 and
-|e| <= 22 is one IEEE multiply or divide of two exact doubles, so
-correctly rounded (Clinger 1990, "How to read floating point numbers
-accurately", the fast path); any other token (more digits, a far
-exponent, nan, or not a number at all) is copied out for NumPy's own
-parser, which rounds correctly and refuses what is not a number.
+Numbers are read exactly or not at all.  A coordinate of at most 18
+significant digits, m * 10**e, is correctly rounded by one IEEE multiply
+or divide of two exact doubles where m <= 2**53 and |e| <= 22 (Clinger
+1990, "How to read floating point numbers accurately", the fast path),
+else by the Eisel-Lemire algorithm (kernels/parse_float.py: the 17
+digits Python's repr writes, as trimesh's ASCII STL has them).  Any
+other token (more digits, a subnormal, a product too near halfway, nan,
+or not a number at all) is copied out for NumPy's own parser, which
+rounds correctly and refuses what is not a number.
 
 One function, written out: each compiled function has a fixed cost, and
 split into nine the kernel compiled in five seconds cold (docs/benchmarks.md).
@@ -18,6 +20,7 @@ from numba import njit
 
 from raytrace.kernels.jit import BUILD
 from raytrace.kernels.lowlevel import load_word, trailing_zeros
+from raytrace.kernels.parse_float import POWERS_OF_FIVE, Q_MAX, Q_MIN, decimal_to_double
 
 # state[]: counts carried from chunk to chunk, and what the caller reads.
 NV, NN, NC, NF, LINE, MAXV, MAXV_LINE, MAXN, ALLN, VMAX, NFB, FBLEN = range(12)
@@ -41,7 +44,7 @@ _KERNEL = dict(BUILD, _nrt=False, nogil=True)
 
 
 @njit(**_KERNEL)
-def parse_lines(buf, n, state, v, vn, cv, cn, fc, fb, slots, pow10):
+def parse_lines(buf, n, state, v, vn, cv, cn, fc, fb, slots, pow10, powers):
     """Read the whole lines in buf[:n] (bytes up to 32 but a newline are
     blanks); the counts and the first problem go to ``state``.  Returns 0,
     an error code, or -1 for a file left to trimesh (materials, a line
@@ -147,10 +150,15 @@ def parse_lines(buf, n, state, v, vn, cv, cn, fc, fb, slots, pow10):
                         p += 1
                     e = -e if eneg else e
                 e -= frac
-                exact = exact and p == j and (m == 0 or (m <= _EXACT and -22 <= e <= 22))
-                value = 0.0           # pow10 is indexed only on the exact path
-                if exact and m != 0:
+                exact = exact and p == j
+                value = 0.0           # pow10 is indexed only on the fast path
+                if exact and m != 0 and m <= _EXACT and -22 <= e <= 22:
                     value = m * pow10[e] if e >= 0 else m / pow10[-e]
+                elif exact and m != 0:
+                    exact = Q_MIN <= e <= Q_MAX
+                    if exact:
+                        value = decimal_to_double(m, e, powers)
+                        exact = value >= 0.0
                 if neg:
                     value = -value
                 if kind == 1:
