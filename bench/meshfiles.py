@@ -6,10 +6,14 @@ in interleaved rounds, and each file rendered by a fresh `raytrace FILE
 
     python bench/bench.py --sections meshfiles [--quick]
 
-raytrace's time is load_scene's: reading, welding and the crease-angle
-smoothing (shading normals), all a render needs.  trimesh's is
-`trimesh.load(FILE, process=False)` and Open3D's `read_triangle_mesh`:
-their readers alone (neither computes normals).
+Two comparisons, like for like.  The readers alone, file to vertex and
+face arrays (and whatever normals, colours and texture coordinates the
+file holds): raytrace's `read_mesh_parts`, `trimesh.load(FILE,
+process=False)` and Open3D's `read_triangle_mesh`.  And all a render
+needs of a file without normals: raytrace's `load_scene` (reading,
+welding and the crease-angle smoothing) against Open3D's reading then
+`compute_vertex_normals` (smooth everywhere: no crease split, area
+weights; the file's own normals kept if it has them).
 """
 import os
 import sys
@@ -24,6 +28,7 @@ from make_layouts import NAMES as LAYOUTS
 FULL_DETAILS = (128, 256)         # 1.05M and 4.19M triangles
 QUICK_DETAILS = (32,)             # 65,536 triangles
 OUT = common.ROOT / "bench-out" / "meshes"
+OURS = "raytrace load_scene"
 
 
 def make_files(detail):
@@ -47,18 +52,29 @@ def loaders():
     import trimesh
 
     import raytrace
-    out = {"raytrace": lambda p: sum(len(getattr(o, "faces", ()))
-                                     for o in raytrace.load_scene(p).objects),
-           "trimesh": lambda p: len(trimesh.load(str(p), process=False).faces)}
+    from raytrace.scene.formats.mesh import read_mesh_parts
+    out = {"raytrace read": lambda p: sum(len(part.faces) for part in read_mesh_parts(p)),
+           "trimesh read": lambda p: len(trimesh.load(str(p), process=False).faces)}
+    open3d = None
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             import open3d
         open3d.utility.set_verbosity_level(open3d.utility.VerbosityLevel.Error)
-        out["open3d"] = lambda p: len(open3d.io.read_triangle_mesh(str(p)).triangles)
+        out["open3d read"] = lambda p: len(open3d.io.read_triangle_mesh(str(p)).triangles)
     except ImportError:
         pass
+    out[OURS] = lambda p: sum(len(getattr(o, "faces", ())) for o in raytrace.load_scene(p).objects)
+    if open3d is not None:
+        out["open3d read+normals"] = lambda p: len(_open3d_normals(open3d, p).triangles)
     return out
+
+
+def _open3d_normals(open3d, path):
+    mesh = open3d.io.read_triangle_mesh(str(path))
+    if not mesh.has_vertex_normals():
+        mesh.compute_vertex_normals()
+    return mesh
 
 
 def run(quick):
@@ -71,7 +87,7 @@ def run(quick):
                 t0 = time.perf_counter()
                 triangles = reads[reader](path)
                 return time.perf_counter() - t0, triangles
-            reads["raytrace"](path)             # compiles or loads the kernels, untimed
+            reads[OURS](path)             # compiles or loads the kernels, untimed
             times, got = interleaved(tuple(reads), once, 0.0, 3, min_runs=1 if detail > 128 else 3)
             # A reader that read no triangles failed (Open3D on mixed polygons).
             times = {r: (t if got[r] else []) for r, t in times.items()}
@@ -84,9 +100,9 @@ def run(quick):
                                                         Path(tmp) / "m.png"], env=dict(os.environ),
                                                        cwd=tmp)
             if stats:
-                rendered = (got["raytrace"], stats["triangles"])
-            elif got["raytrace"] != rendered[0]:     # not the mesh the first file held
-                raise RuntimeError(f"{path.name}: {got['raytrace']:,} triangles read, the "
+                rendered = (got[OURS], stats["triangles"])
+            elif got[OURS] != rendered[0]:     # not the mesh the first file held
+                raise RuntimeError(f"{path.name}: {got[OURS]:,} triangles read, the "
                                    f"first layout {rendered[0]:,}")
             row = {"layout": name, "detail": detail, "triangles": rendered[1],
                    "file_mb": path.stat().st_size / 1e6,
@@ -101,7 +117,7 @@ def run(quick):
 
 def markdown(res):
     readers = res["readers"]
-    header = (["File", "Triangles", "MB"] + [f"{r} load s" for r in readers]
+    header = (["File", "Triangles", "MB"] + [f"{r} s" for r in readers]
               + ["Whole command s", "Peak MB", "Peak B/triangle"])
     body = []
     for row in res["rows"]:
@@ -116,12 +132,15 @@ def markdown(res):
     out = ["### Mesh files: reading and the whole command, 320x240", "",
            markdown_table(header, body, align="lrr" + "r" * (len(readers) + 3)), "",
            "Load s: medians of interleaved rounds in this process (1 round at 4.2M triangles, "
-           "3 below). raytrace: `load_scene` (read, weld, crease-angle shading normals); "
-           "trimesh: `trimesh.load(process=False)`; open3d: `read_triangle_mesh` (readers "
-           "alone). Whole command: a fresh `raytrace FILE --width 320 --height 240`, its wall "
-           "time and peak resident memory" + (" (--quick: the first file only)" if res.get(
-               "whole") == "first" else "") + ". Layouts (bench/make_layouts.py): ply-plain float "
-           "x y z, triangles, no normals; ply-rich big-endian doubles, normals, colours, "
-           "texture coordinates, int counts, quads; obj v/vt/vn with "
-           "f a/b/c; obj-plain v with f a (no normals); stl binary; stl-ascii %e coordinates."]
+           "3 below). Readers alone, file to arrays: raytrace read (`read_mesh_parts`), "
+           "trimesh read (`trimesh.load(process=False)`), open3d read (`read_triangle_mesh`). "
+           "With shading normals where the file has none: raytrace load_scene (read, weld, "
+           "crease-angle normals), open3d read+normals (`compute_vertex_normals` after reading: "
+           "smooth everywhere, no crease split). Whole command: a fresh `raytrace FILE "
+           "--width 320 --height 240`, its wall time and peak resident memory"
+           + (" (--quick: the first file only)" if res.get("whole") == "first" else "")
+           + ". Layouts (bench/make_layouts.py): ply-plain float x y z, triangles, no normals; "
+           "ply-rich big-endian doubles, normals, colours, texture coordinates, int counts, "
+           "quads; obj v/vt/vn with f a/b/c; obj-plain v with f a (no normals); stl binary; "
+           "stl-ascii %e coordinates."]
     return "\n".join(out)
