@@ -157,6 +157,35 @@ def test_a_big_teapots_tessellation_kernels_count_as_compile_time(run, monkeypat
     assert stats["time"]["compile_s"] >= 0.5 > stats["time"]["load_s"]
 
 
+def test_kernels_compiled_while_a_mesh_file_loads_count_as_compile_time(run, monkeypatch, tmp_path):
+    """A mesh file's reader and normals compile on first use, inside
+    load_scene (here a stand-in compiling a fresh function as the file
+    loads): that time goes to compile_s, not load_s."""
+    import time
+
+    import trimesh
+    from numba import njit
+
+    import raytrace.scene.load as load
+    trimesh.creation.icosphere(1).export(tmp_path / "ball.ply")
+    real, spent = load.load_scene, []
+
+    def loading(*args, **kwargs):
+        @njit(cache=False)
+        def fresh(x):
+            return sum([x * k for k in range(x)])
+        t0 = time.perf_counter()
+        fresh(3)
+        spent.append(time.perf_counter() - t0)
+        return real(*args, **kwargs)
+    monkeypatch.setattr(load, "load_scene", loading)
+    r = run(str(tmp_path / "ball.ply"), "--json", *SMALL)
+    assert r.exit_code == 0, r.output
+    times = json.loads(r.output)["time"]
+    assert spent[0] > 0.05
+    assert times["compile_s"] >= 0.95 * spent[0] and times["load_s"] < 0.5 * spent[0]
+
+
 def test_rays_cut_by_max_depth_are_counted_and_named(run):
     """Glass rays the depth limit stops leave dark pixels: the table counts
     them and a line names the option to raise; a deep enough limit is quiet."""

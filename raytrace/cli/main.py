@@ -102,6 +102,13 @@ class _Progress:
             self.bar.__exit__(None, None, None)
 
 
+def _compile_seconds():
+    """Kernel compile seconds so far (kernels/compile_clock.py), 0 before
+    any kernel package is imported: reading it imports nothing."""
+    clock = sys.modules.get("raytrace.kernels.compile_clock")
+    return clock.seconds() if clock is not None else 0.0
+
+
 def _load_threads(options):
     """--threads bounds loading's threads too (a big teapot's tessellation
     runs on Numba's, scene/teapot.py), not only the render's."""
@@ -281,8 +288,11 @@ def render_cmd(scene, bvol, scene_args, output, aov, heatmap, show_depth, work, 
             with expecting(f"{scene}: {accel}, {shadows} shadows",
                            command_estimate(accel, options.get("integrator")), load=False):
                 t_kernels = load_kernels(scene, scene_args.detail)   # compile time, not loading's
+            compiled = _compile_seconds()
             with _warnings_once():
                 sc = load_scene(scene, width=width, height=height, **scene_kwargs(scene_args))
+            # A mesh file's kernels compile as they are first used: compile time too.
+            t_kernels += _compile_seconds() - compiled
             # The imports load_kernels needed (Numba's) are loading's.
             t_load = time.perf_counter() - t_load - t_kernels
             raise_if_interrupted()

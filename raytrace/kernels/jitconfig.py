@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numba
 
+from raytrace.kernels import compile_clock  # noqa: F401 -- counts from the first kernel on
 from raytrace.kernels.cachedir import cache_dir
 
 
