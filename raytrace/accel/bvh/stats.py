@@ -72,8 +72,11 @@ def statistics(bvh, n_prims):
             np.multiply(e[0, :b], e[1, :b], out=area[:b])
             area[:b] += e[1, :b] * e[2, :b]
             area[:b] += e[2, :b] * e[0, :b]
-            inner_area += np.dot(area[:b].ravel(), (count[rows] == 0).ravel())
-            leaf_tests += np.dot(area[:b].ravel(), count[rows].ravel())
+            # Sums of products, not np.dot: a threaded BLAS call leaves
+            # OpenBLAS's threads spinning, which took the next render's cores.
+            weights = area[:b].ravel()
+            inner_area += float(weights[(count[rows] == 0).ravel()].sum())
+            leaf_tests += float((weights * count[rows].ravel()).sum())
     used = child[0] >= 0
     lo = np.moveaxis(box[0, 0:3, :], 0, 1).astype(np.float64)   # the root's lanes, (4, 3)
     hi = np.moveaxis(box[0, 3:6, :], 0, 1).astype(np.float64)
