@@ -1,13 +1,12 @@
-"""A decimal m * 10**q (m below 2**64) to the nearest double, or a refusal,
+"""A decimal m * 10**q (0 < m < 2**63) to the nearest double, or a refusal,
 with the Eisel-Lemire algorithm: m, normalised, times a 128-bit
 approximation of 5**q gives the double's 53 bits and the rounding, except
 in the rare cases the approximation cannot decide (a near-halfway product,
 a subnormal or infinite result), which the caller reads another way.
 
 Lemire, "Number parsing at a gigabyte per second", Software: Practice and
-Experience 51(8), 2021; Mushtak and Lemire, "Fast number parsing without
-fallback", 2023.  The table follows the paper: 5**q truncated to 128 bits
-for q >= 0, and 2**b / 5**-q rounded up for q < 0.
+Experience 51(8), 2021.  The table follows the paper: 5**q truncated to
+128 bits for q >= 0, and 2**b / 5**-q plus one for q < 0.
 """
 import numpy as np
 from numba import njit
@@ -44,7 +43,7 @@ _ONE, _THREE = np.uint64(1), np.uint64(3)
 @njit(inline="always", error_model="numpy", _nrt=False, no_cpython_wrapper=True,
       no_cfunc_wrapper=True)
 def decimal_to_double(m, q, powers):
-    """The double nearest m * 10**q for 0 < m < 2**64 and Q_MIN <= q <=
+    """The double nearest m * 10**q for 0 < m < 2**63 and Q_MIN <= q <=
     Q_MAX, or -1.0 where the product cannot decide it (then the caller
     parses the text another way).  Inlined into its caller's typing: no
     compiled function of its own."""
@@ -69,7 +68,7 @@ def decimal_to_double(m, q, powers):
     mantissa = high >> (top + np.uint64(9))
     exponent -= 1 - int(top)
     if low == 0 and high & _LOW9 == 0 and mantissa & _THREE == _ONE:
-        return -1.0          # exactly halfway between two doubles: ties go to even elsewhere
+        return -1.0          # maybe a tie: left to a reader that rounds ties to even
     mantissa = (mantissa + (mantissa & _ONE)) >> _ONE
     if mantissa >> np.uint64(53):
         mantissa >>= _ONE
