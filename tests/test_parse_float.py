@@ -90,7 +90,7 @@ def test_the_kernel_reads_seventeen_digit_numbers_itself():
     v = np.empty((500, 3))
     index = np.empty(1, np.int32)
     code = T.parse_lines(data, len(data), state, v, v, index, index, index, np.empty(2 * len(text), np.uint8),
-                         np.empty(len(text), np.int64), T.POW10, T.POWERS_OF_FIVE)
+                         np.empty(len(text), np.int64), T.POW10, POWERS_OF_FIVE)
     assert code == 0 and state[T.NV] == 500
     assert state[T.NFB] == 0
     assert np.array_equal(v.view(np.uint64), rows.view(np.uint64))
@@ -105,7 +105,8 @@ def products(a, b, out, zeros):
 
 def test_wide_product_and_leading_zeros_are_python_integers():
     rng = np.random.default_rng(1)
-    a = rng.integers(0, 2 ** 64, 1000, np.uint64, endpoint=False) >> rng.integers(0, 64, 1000).astype(np.uint64)
+    shifts = rng.integers(0, 64, 1000).astype(np.uint64)
+    a = rng.integers(0, 2 ** 64, 1000, np.uint64, endpoint=False) >> shifts
     b = rng.integers(0, 2 ** 64, 1000, np.uint64, endpoint=False)
     a[:2], b[:2] = [0, 2 ** 64 - 1], [2 ** 64 - 1, 2 ** 64 - 1]
     out, zeros = np.empty((1000, 2), np.uint64), np.empty(1000, np.int64)

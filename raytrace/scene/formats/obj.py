@@ -22,6 +22,7 @@ import os
 import numpy as np
 
 from raytrace.errors import RaytraceError
+from raytrace.kernels.parse_float import POWERS_OF_FIVE
 from raytrace.scene.formats import objtext as T
 
 CHUNK = 1 << 24     # bytes of file read at a time: lines are cut at the last newline
@@ -124,7 +125,7 @@ def warm_kernel():
     state = np.zeros(T.STATE_SIZE, np.int64)
     rows, index = np.empty((1, 3)), np.empty(1, np.int32)
     T.parse_lines(data, len(data), state, rows, rows, index, index, index, np.empty(4, np.uint8),
-                  np.empty(1, np.int64), T.POW10, T.POWERS_OF_FIVE)
+                  np.empty(1, np.int64), T.POW10, POWERS_OF_FIVE)
 
 
 def _parse(path, state, out, fmt, each_chunk=None):
@@ -174,7 +175,7 @@ def _lines(path, fmt, state, out, data, scratch, each_chunk):
     fb, slots = scratch
     state[T.NFB] = state[T.FBLEN] = 0
     first_line = int(state[T.LINE]) + 1
-    code = T.parse_lines(data, len(data), state, v, vn, cv, cn, fc, fb, slots, T.POW10, T.POWERS_OF_FIVE)
+    code = T.parse_lines(data, len(data), state, v, vn, cv, cn, fc, fb, slots, T.POW10, POWERS_OF_FIVE)
     if code < 0:
         return None
     _exact_fallback(path, fmt, state, (fb, slots, v, vn), (data, first_line))
@@ -213,7 +214,7 @@ def _halves(path, fmt, state, out, data, scratch, each_chunk, reused):
     codes = [0, 0]
 
     def parse(k, part, st, arrays, fb_slots):
-        codes[k] = T.parse_lines(part, len(part), st, *arrays, *fb_slots, T.POW10, T.POWERS_OF_FIVE)
+        codes[k] = T.parse_lines(part, len(part), st, *arrays, *fb_slots, T.POW10, POWERS_OF_FIVE)
 
     state[T.NFB] = state[T.FBLEN] = 0
     first_line = int(state[T.LINE]) + 1

@@ -20,7 +20,7 @@ from numba import njit
 
 from raytrace.kernels.jit import BUILD
 from raytrace.kernels.lowlevel import load_word, trailing_zeros
-from raytrace.kernels.parse_float import POWERS_OF_FIVE, Q_MAX, Q_MIN, decimal_to_double
+from raytrace.kernels.parse_float import Q_MAX, Q_MIN, decimal_to_double
 
 # state[]: counts carried from chunk to chunk, and what the caller reads.
 NV, NN, NC, NF, LINE, MAXV, MAXV_LINE, MAXN, ALLN, VMAX, NFB, FBLEN = range(12)
