@@ -10,6 +10,8 @@ without the advice.  The BVH build, whose scattered reads do gain from
 fewer TLB misses, keeps it; and so does reading the mesh file, because
 the small pages it would free make the build's huge pages cost more than
 the read gains (docs/benchmarks.md, "Scene").
+
+Pages freed but kept: ``trim_heap``.
 """
 from contextlib import contextmanager
 
@@ -28,3 +30,17 @@ def small_pages():
         yield
     finally:
         _set_madvise_hugepage(before)
+
+
+def trim_heap():
+    """The C heap's free pages back to the system (glibc's malloc_trim; a
+    no-op elsewhere).  glibc gives back the heap's free top only past a
+    threshold it raises as big blocks are freed, and free pages below the
+    top not at all, so scratch a kernel allocated and freed (the BVH
+    builder's bins) stayed resident."""
+    import ctypes
+    try:
+        trim = ctypes.CDLL(None).malloc_trim
+    except (AttributeError, OSError, TypeError):
+        return
+    trim(0)
