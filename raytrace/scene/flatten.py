@@ -5,7 +5,7 @@ import numpy as np
 
 from raytrace.errors import RaytraceError
 from raytrace.kernels.buffers import N_MAT_PARAMS, Geometry, f64, i64
-from raytrace.kernels.pages import small_pages
+from raytrace.kernels.pages import lazy_zeros, small_pages
 from raytrace.scene.model import Camera, Mesh, Plane, Scene, Sphere
 
 # A triangle whose doubled area is below this fraction of its longest edge
@@ -262,7 +262,7 @@ def flatten(scene, with_sources=False, shading=True):
     tris = [[] for _ in range(3)]
     normals, normal_at = [], []     # per mesh: unit normals, and each triangle's rows of them
     n_normals = 0
-    tri_mat, obj_ranges = [], []
+    mesh_mat, obj_ranges = [], []    # per mesh: its material's id
     # Per mesh: per-vertex colours and texture coordinates (or None), and
     # its vertices' count; tri_vertex (below) indexes them.
     colors, uvs, n_vertices = [], [], []
@@ -279,7 +279,7 @@ def flatten(scene, with_sources=False, shading=True):
             if k:
                 for dst, src in zip(tris, (v0, v1, v2)):
                     dst.append(src)
-                tri_mat.append(np.full(k, mat_id(obj.material)))
+                mesh_mat.append(mat_id(obj.material))
                 colors.append(_vertex_values(obj, "colors", 3) if shading else None)
                 # Texture coordinates only where a texture uses them.
                 textured = shading and getattr(obj.material, "texture", None) is not None
@@ -337,11 +337,15 @@ def flatten(scene, with_sources=False, shading=True):
     tri_normal = (normal_at[0] if len(normal_at) == 1 else np.ascontiguousarray(
         np.concatenate(normal_at) if normal_at else np.zeros((0, 3)), dtype=np.int32))
     mat_tex, tex_rgb = _textures(materials)
+    # Zeros never written: material 0's triangles (a mesh file's all) cost no memory.
+    tri_mat = lazy_zeros(n_tris, np.int64)
+    for (first, k), m in zip(obj_ranges, mesh_mat):
+        if m:
+            tri_mat[first:first + k] = m
     geo = Geometry(
         tri_v0=cat(tris[0]), tri_v1=cat(tris[1]), tri_v2=cat(tris[2]),
         vtx_normal=cat(normals), tri_normal=tri_normal.reshape(-1, 3),
-        tri_mat=i64(tri_mat[0] if len(tri_mat) == 1 else
-                    np.concatenate(tri_mat) if tri_mat else []),
+        tri_mat=tri_mat,
         tri_vertex=_tri_vertex(corner_rows, tri_normal, colors, uvs),
         vtx_color=_vertex_buffer(colors, n_vertices, 3, 1.0),
         vtx_uv=_vertex_buffer(uvs, n_vertices, 2, 0.0),

@@ -23,6 +23,7 @@ from raytrace.accel.bvh.layout import (
 from raytrace.accel.bvh.sah import build_bvh, build_bvh_parallel
 from raytrace.accel.bvh.stats import outline, statistics  # noqa: F401  (the registry's)
 from raytrace.kernels.buffers import n_bounded, prim_bounds
+from raytrace.kernels.pages import trim_heap
 
 
 def _parallel_threads(n_prims, bvh_build):
@@ -68,6 +69,8 @@ def build(geo, obj_ranges, bvh_build="sah", leaf_size=MAX_LEAF, traversal_cost=T
         del lo, hi
     node_lo, node_hi, node_start, node_count, prim_ids = binary
     del binary
+    if len(prim_ids) >= PARALLEL_MIN:
+        trim_heap()     # the build's freed scratch leaves before the wide tree, the peak
     node_box, node_child, node_count4 = collapse_bvh4(node_lo, node_hi, node_start, node_count,
                                                       links)
     return BVH(node_box=node_box, node_child=node_child, node_count=node_count4, prim_ids=prim_ids,

@@ -28,9 +28,9 @@ def collapse_bvh4(node_lo, node_hi, node_start, node_count, links=None):
     A single-leaf tree becomes one wide node with one leaf lane.
 
     ``links``: for a tree not in one depth-first run of rows (build_bvh_parallel):
-    (root, top, top_first, n_inner): the root's row, the first row from
-    which a node's first child is top_first[row - top] instead of row + 1,
-    and the number of interior nodes.
+    (root, top, top_first, n_inner): the root's row, the rows before
+    ``top``, whose first child is top_first[row] instead of row + 1, and
+    the number of interior nodes.
     """
     m = len(node_start)
     # Every wide node is made of a binary interior node (a lone leaf: the
@@ -39,7 +39,7 @@ def collapse_bvh4(node_lo, node_hi, node_start, node_count, links=None):
     # the rest are never touched, so they cost no memory (np.full of this
     # bound and a trimmed copy took 1.8 s and 900 MB at 4.2M triangles).
     if links is None:
-        links = (0, m, np.empty(0, np.int64), int(np.count_nonzero(node_count == 0)))
+        links = (0, 0, np.empty(0, np.int64), int(np.count_nonzero(node_count == 0)))
     root, top, top_first, n_inner = links
     cap = max(n_inner, 1)
     node_box = np.empty((cap, 6, WIDTH), BOX)
@@ -72,7 +72,7 @@ def collapse_bvh4_kernel(node_lo, node_hi, node_start, node_count, root, top, to
             kids[0] = src
         else:
             n_kids = 2
-            kids[0] = src + 1 if src < top else top_first[src - top]
+            kids[0] = src + 1 if src >= top else top_first[src]
             kids[1] = node_start[src]
             while n_kids < WIDTH:
                 best = -1
@@ -88,7 +88,7 @@ def collapse_bvh4_kernel(node_lo, node_hi, node_start, node_count, root, top, to
                 if best < 0:
                     break
                 k = kids[best]
-                kids[best] = k + 1 if k < top else top_first[k - top]
+                kids[best] = k + 1 if k >= top else top_first[k]
                 kids[n_kids] = node_start[k]
                 n_kids += 1
         for j in range(n_kids, WIDTH):          # unused lanes: a box no ray enters

@@ -75,8 +75,7 @@ BOX_PAD = 1e-9
 PARALLEL_MIN = 100_000
 # Subtrees of at most n / SPLIT primitives are built in parallel; the top
 # levels above them are serial passes over every primitive, and smaller
-# subtrees balance the threads better; but each run of rows wastes up to a
-# huge page at its ends, so few runs peak lowest (docs/benchmarks.md, "BVH").
+# subtrees balance the threads better (docs/benchmarks.md, "BVH").
 SPLIT = 4
 # At most this many subtrees split again to even out the threads' shares.
 REFINE = 4

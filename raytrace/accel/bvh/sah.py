@@ -307,15 +307,19 @@ _NO_TASKS = np.empty((0, 4), np.int64)
 # The top of the tree is built first, by the serial loop, until nodes hold
 # at most n / SPLIT primitives; those are left as tasks.  A task's subtree
 # owns its range [s, e) of prim_ids, so the tasks are built at once on
-# Python threads (the builder releases the GIL), each by the same loop,
-# each into its own run of rows starting at row 2 s: a subtree over e - s
-# primitives has at most 2 (e - s) - 1 nodes, so the runs never meet.  The
-# top's nodes follow, from row 2 n.  Nothing is copied afterwards (a copy
-# into depth-first order touched fresh pages, which cost more here than a
-# second thread gained, docs/design.md): the collapse into the 4-wide tree
-# follows the top's first-child links explicitly (``links``), and every
-# subtree is depth-first within its run.  Rows between the runs are never
-# written, so they cost no memory.
+# Python threads (the builder releases the GIL), each by the same loop.
+# Nothing is copied afterwards (a copy into depth-first order touched fresh
+# pages, which cost more here than a second thread gained, docs/design.md):
+# the collapse into the 4-wide tree follows the top's first-child links
+# explicitly (``links``), and every subtree is depth-first within its rows.
+#
+# The rows: the top's from row 0, then a run for each thread, in which its
+# tasks' subtrees follow one another.  A subtree over e - s primitives has
+# at most 2 (e - s) - 1 nodes, so a run twice its thread's primitives long
+# never meets the next.  It fills about half of that; the rest is never
+# written and costs no memory, but for the 2 MB page (NumPy's huge pages)
+# at each end of the rows written, resident whole: a run per task, not
+# per thread, held several times as many of them.
 #
 # Tasks go to threads largest first, each to the least loaded (LPT
 # scheduling).  Where that leaves one thread much more work than the mean
@@ -334,18 +338,18 @@ def build_bvh_parallel(boxes, max_leaf, threads=None, split=SPLIT, refine=REFINE
     tasks may be split to even out the threads' shares."""
     threads = threads or numba.get_num_threads()
     n = len(boxes)
-    top = 2 * n
     # The top's rows hold its nodes and placeholders, at most the serial
-    # tree's 2 n - 1, and three a split task (its root, two placeholders).
-    rows = top + max(2 * n - 1, 1) + 3 * refine
+    # tree's 2 n - 1, and three a split task (its root, two placeholders);
+    # the threads' runs 2 n together.
+    rows = max(2 * n - 1, 1) + 3 * refine + 2 * n
     nodes = (np.empty((rows, 3), BOX), np.empty((rows, 3), BOX), np.empty(rows, LINK),
              np.empty(rows, LINK))
     node_count = nodes[3]
     prim_ids = np.arange(n)
     tasks = np.empty((n, 4), np.int64)
     cost = float(traversal_cost)
-    top_end, _, n_tasks = build_bvh_kernel(boxes, prim_ids, 0, n, 0, max_leaf, cost, nodes, top,
-                                           max(n // split, 1), tasks)
+    top, _, n_tasks = build_bvh_kernel(boxes, prim_ids, 0, n, 0, max_leaf, cost, nodes, 0,
+                                       max(n // split, 1), tasks)
     tasks = tasks[:n_tasks].copy()   # the (n, 4) bound goes
     split_to = {}   # a split task's placeholder row -> its root's row in the top
     queues = _plan(tasks, threads)
@@ -355,33 +359,37 @@ def build_bvh_parallel(boxes, max_leaf, threads=None, split=SPLIT, refine=REFINE
         if e - s < 2 * max_leaf:
             break
         more = np.empty((2, 4), np.int64)
-        split_to[row] = top_end
-        top_end, _, n_more = build_bvh_kernel(boxes, prim_ids, s, e, depth, max_leaf, cost, nodes,
-                                              top_end, e - s - 1, more)
+        split_to[row] = top
+        top, _, n_more = build_bvh_kernel(boxes, prim_ids, s, e, depth, max_leaf, cost, nodes,
+                                          top, e - s - 1, more)
         tasks = np.concatenate([np.delete(tasks, k, axis=0), more[:n_more]])
         queues = _plan(tasks, threads)
         refine -= 1
     n_tasks = len(tasks)
-    ends = np.empty(n_tasks, np.int64)
+    firsts = np.empty(n_tasks, np.int64)    # each task's root row
+    ends = np.empty(n_tasks, np.int64)      # and the row after its subtree
     no_tasks = tasks[:0]
 
-    def work(queue):
+    def work(queue, row):
         for k in queue:
             s, e, depth = (int(x) for x in tasks[k, 1:])
-            ends[k] = build_bvh_kernel(boxes, prim_ids, s, e, depth, max_leaf, cost, nodes, 2 * s,
-                                       0, no_tasks)[0]
-    run_on_threads([functools.partial(work, q) for q in queues])
+            firsts[k] = row
+            row = ends[k] = build_bvh_kernel(boxes, prim_ids, s, e, depth, max_leaf, cost, nodes,
+                                             row, 0, no_tasks)[0]
+    runs = [2 * int((tasks[q, 2] - tasks[q, 1]).sum()) for q in queues]
+    run_on_threads([functools.partial(work, q, first)
+                    for q, first in zip(queues, (top + np.cumsum([0] + runs[:-1])).tolist())])
     # A top node's children are rows of the top, or placeholders (count -1)
-    # whose subtrees' roots are at row 2 s: link past the placeholders.
-    root_of = dict(zip(tasks[:, 0].tolist(), (2 * tasks[:, 1]).tolist())) | split_to
-    top_first = np.arange(top + 1, top_end + 1)
-    inner = np.flatnonzero(node_count[top:top_end] == 0) + top
+    # whose subtrees' roots are in the runs: link past the placeholders.
+    root_of = dict(zip(tasks[:, 0].tolist(), firsts.tolist())) | split_to
+    top_first = np.arange(1, top + 1)
+    inner = np.flatnonzero(node_count[:top] == 0)
     for r in inner.tolist():
-        top_first[r - top] = root_of.get(r + 1, r + 1)
+        top_first[r] = root_of.get(r + 1, r + 1)
         nodes[2][r] = root_of.get(int(nodes[2][r]), int(nodes[2][r]))
-    n_inner = len(inner) + sum(int(np.count_nonzero(node_count[2 * s:end] == 0))
-                               for s, end in zip(tasks[:, 1].tolist(), ends.tolist()))
-    return (*nodes, prim_ids, (top, top, top_first, n_inner))
+    n_inner = len(inner) + sum(int(np.count_nonzero(node_count[first:end] == 0))
+                               for first, end in zip(firsts.tolist(), ends.tolist()))
+    return (*nodes, prim_ids, (0, top, top_first, n_inner))
 
 
 def _plan(tasks, threads):
