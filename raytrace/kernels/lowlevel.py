@@ -54,21 +54,25 @@ def popcount(typingctx, x):
     return types.int64(x), codegen
 
 
+def _zero_count(name):
+    """Codegen of a 64-bit zero count, LLVM's ``name`` (cttz, ctlz): its
+    count for zero defined (64), not poison."""
+    def codegen(context, builder, sig, args):
+        value = context.cast(builder, args[0], sig.args[0], types.uint64)
+        i64, i1 = ir.IntType(64), ir.IntType(1)
+        count = cgutils.get_or_insert_function(builder.module, ir.FunctionType(i64, [i64, i1]),
+                                               name)
+        return builder.call(count, [value, ir.Constant(i1, 0)])
+    return codegen
+
+
 @intrinsic
 def trailing_zeros(typingctx, x):
     """The number of zero bits below the lowest set bit of a 64-bit integer
     (llvm.cttz: one tzcnt); 64 for zero."""
     if not isinstance(x, types.Integer):
         return None
-
-    def codegen(context, builder, sig, args):
-        value = context.cast(builder, args[0], sig.args[0], types.uint64)
-        i64, i1 = ir.IntType(64), ir.IntType(1)
-        cttz = cgutils.get_or_insert_function(builder.module, ir.FunctionType(i64, [i64, i1]),
-                                              "llvm.cttz.i64")
-        return builder.call(cttz, [value, ir.Constant(i1, 0)])
-
-    return types.int64(x), codegen
+    return types.int64(x), _zero_count("llvm.cttz.i64")
 
 
 @intrinsic
@@ -77,15 +81,7 @@ def leading_zeros(typingctx, x):
     integer (llvm.ctlz: one lzcnt); 64 for zero."""
     if not isinstance(x, types.Integer):
         return None
-
-    def codegen(context, builder, sig, args):
-        value = context.cast(builder, args[0], sig.args[0], types.uint64)
-        i64, i1 = ir.IntType(64), ir.IntType(1)
-        ctlz = cgutils.get_or_insert_function(builder.module, ir.FunctionType(i64, [i64, i1]),
-                                              "llvm.ctlz.i64")
-        return builder.call(ctlz, [value, ir.Constant(i1, 0)])
-
-    return types.int64(x), codegen
+    return types.int64(x), _zero_count("llvm.ctlz.i64")
 
 
 @intrinsic
