@@ -52,7 +52,7 @@ def render(scene, client=None, tiles=None, **options):
     from raytrace.renderer.firstrun import RENDER_S, announce_if_cold
     accel = str(options.get("accel", "bvh"))
     announce_if_cold(f"{scene.name}: {accel}, {options.get('shadows', 'hard')} shadows",
-                     RENDER_S.get(accel, 12))
+                     RENDER_S.get(accel, 8))
     if client is None and tiles is None:
         from raytrace.renderer.driver import render as _render
         return _render(scene, **options)

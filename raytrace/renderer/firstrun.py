@@ -1,6 +1,6 @@
 """The one line a cold kernel cache earns on stderr:
 
-    compiling kernels for teapot: bvh, hard shadows (first run only, about 12 s)
+    compiling kernels for teapot: bvh, hard shadows (first run only, about 9 s)
 
 Numba fires its "numba:compile" event only when it really compiles: a
 kernel found in the on-disk cache is loaded without one.  So the line is
@@ -13,21 +13,21 @@ import os
 import sys
 import threading
 
-# Seconds a cold compile took on the project's 2-core machine (docs/benchmarks.md,
-# "Cold start"; `python bench/coldstart.py`): the builder and the render
+# Seconds a cold compile takes on the issues' 2-core machine (AMD EPYC with
+# AVX-512; docs/benchmarks.md, "Cold start" and its 2026-11-28 run of
+# `python bench/coldstart.py`), rounded up: the builder and the render
 # kernel for each structure, then what mirrors and glass or textures add.
-RENDER_S = {"none": 8, "bvol": 8, "bvh": 12, "grid": 13, "kdtree": 14}
-BOUNCES_S = 5
-TEXTURES_S = 5
+RENDER_S = {"none": 6, "bvol": 6, "bvh": 8, "grid": 6, "kdtree": 6}
+BOUNCES_S = 3
+TEXTURES_S = 2
 # A new variant of a kernel already in the cache (soft shadows after hard,
 # another structure's render kernel): the "then ..." rows of that table.
-VARIANT_S = 6
+VARIANT_S = 4
 # A cold path-traced render, whatever its structure: the path tracer's stage,
-# compiled in the second process, outlasts the structure's kernels
-# (docs/pathtracer.md, "Cold compile on a quiet machine").
-PATH_S = 23
+# compiled in the second process, outlasts the structure's kernels.
+PATH_S = 9
 # The first cast_rays (its structure's builder and the closest-hit kernel).
-QUERY_S = {"none": 4, "bvol": 4, "bvh": 6, "grid": 7, "kdtree": 8}
+QUERY_S = {"none": 3, "bvol": 3, "bvh": 3, "grid": 4, "kdtree": 4}
 
 _lock = threading.Lock()
 _state = {"shown": False, "quiet": False, "listening": False, "fallback": None}
@@ -156,13 +156,13 @@ def render_estimate(accel, bounces, textures, integrator="whitted"):
     from raytrace.kernels.wavefront import run_stage
     if has_cache_entries(run_stage):
         return VARIANT_S
-    base = RENDER_S.get(str(accel).split(":")[0], 12)
+    base = RENDER_S.get(str(accel).split(":")[0], 8)
     return base + BOUNCES_S * bool(bounces) + TEXTURES_S * bool(textures)
 
 
 def command_estimate(accel, integrator):
     """The command's first-run estimate, from its options alone."""
-    return PATH_S if integrator == "path" else RENDER_S.get(accel, 12) + 2
+    return PATH_S if integrator == "path" else RENDER_S.get(accel, 8) + 1
 
 
 def render_what(scene_name, accel, shadows, integrator):
