@@ -117,6 +117,33 @@ def test_ascii_stl_welded_chunk_by_chunk_is_welded_as_a_whole(tmp_path, monkeypa
     assert vertices[faces[7, 1], 0] == float(long_digits)
 
 
+@pytest.mark.parametrize("chunk", [2, 5])
+def test_an_error_in_the_welding_thread_is_the_readers(tmp_path, monkeypatch, chunk):
+    """The corners are welded on a thread of their own (obj._Welding): a
+    weld that fails (memory), at the first chunk or a later one, is raised
+    by the reader, which leaves no thread behind."""
+    import threading
+
+    from raytrace.scene import weld
+    from raytrace.scene.formats import obj
+    s = trimesh.creation.icosphere(subdivisions=2)
+    path = tmp_path / "a.stl"
+    path.write_bytes(ascii_stl(s.vertices[s.faces]))
+    monkeypatch.setattr(obj, "CHUNK", 4096)
+    real, calls = weld.first_rows, []
+
+    def failing(*args):
+        calls.append(1)
+        if len(calls) == chunk:
+            raise MemoryError("no room")
+        return real(*args)
+    monkeypatch.setattr(weld, "first_rows", failing)
+    before = threading.active_count()
+    with pytest.raises(RaytraceError, match="out of memory"):
+        read_mesh_parts(path)
+    assert len(calls) >= chunk and threading.active_count() == before
+
+
 def test_ascii_files_trimesh_reads_otherwise_are_left_to_it(tmp_path):
     """Several solids (trimesh makes each a mesh) and capitals: still read,
     by trimesh."""

@@ -62,7 +62,6 @@ def ascii_stl(path):
     first writes cost this kind of machine about as much as reading them.
     None for a file left to trimesh: not text starting "solid", several
     solids (trimesh makes each a mesh), or no "vertex" line in lower case."""
-    from raytrace.scene import weld as welding
     with open(path, "rb") as fh:
         head = fh.read(CHUNK)
     if not head.lstrip().startswith(b"solid") or b"\0" in head:
@@ -73,24 +72,66 @@ def ascii_stl(path):
     # At their bounds for the file: pages never written take no memory.
     ids = np.empty(size // 8 + 1, np.int64)
     values = np.empty((size // 8 + 1, 6), np.uint32)
-    weld = {"table": welding.new_table(welding.FIRST_VALUES), "count": 0, "corners": 0}
 
     def each_chunk(state, v):
         # This chunk's corners, then the next chunk's in the same rows.
-        k, at = int(state[T.NV]), weld["corners"]
-        keys = v[:k].view(np.uint32)
-        weld["table"], weld["count"] = welding.first_rows(keys, ids[at:at + k], values,
-                                                          weld["table"], weld["count"])
-        weld["corners"] = at + k
+        weld.add(v, int(state[T.NV]))
         state[T.NV] = 0
 
-    if _parse(path, state, out, "STL", each_chunk) is None or state[T.SOLIDS] > 1 \
-            or not weld["corners"]:
+    with _Welding(ids, values) as weld:
+        if _parse(path, state, out, "STL", each_chunk) is None:
+            return None
+    if state[T.SOLIDS] > 1 or not weld.corners:
         return None
-    corners, count = weld["corners"], weld["count"]
+    corners, count = weld.corners, weld.count
     if corners % 3:
         raise RaytraceError(f"{path}: not a readable STL mesh ({corners} vertices, not 3 a facet)")
     return values[:count].view(np.float64).reshape(count, 3), ids[:corners].reshape(-1, 3)
+
+
+class _Welding:
+    """An ASCII STL's corners welded a chunk at a time (scene/weld.py) on a
+    thread of their own while the next chunk is read: each chunk's rows
+    are copied into one of two buffers taken in turn (the reader writes
+    the next chunk's into its own rows) and welded in order by a pool of
+    one worker.  ``corners`` and ``count``: rows and values so far, read
+    once the block has ended (it waits for the last chunk)."""
+
+    def __init__(self, ids, values):
+        from concurrent.futures import ThreadPoolExecutor
+
+        from raytrace.scene import weld
+        self.ids, self.values, self.corners = ids, values, 0
+        self.table, self.count = weld.new_table(weld.FIRST_VALUES), 0
+        self.buffers, self.pending, self.turn = [None, None], [None, None], 0
+        self.pool = ThreadPoolExecutor(1, thread_name_prefix="raytrace-weld")
+
+    def add(self, v, k):
+        j, self.turn = self.turn, 1 - self.turn
+        if self.pending[j] is not None:
+            self.pending[j].result()          # its buffer is free (its error raised here)
+        if self.buffers[j] is None or len(self.buffers[j]) < k:
+            self.buffers[j] = np.empty((k, 3))
+        rows = self.buffers[j][:k]
+        rows[:] = v[:k]
+        self.pending[j] = self.pool.submit(self._weld, rows, self.corners)
+        self.corners += k
+
+    def _weld(self, rows, at):
+        from raytrace.scene.weld import first_rows
+        self.table, self.count = first_rows(rows.view(np.uint32), self.ids[at:at + len(rows)],
+                                            self.values, self.table, self.count)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, kind, exc, tb):
+        self.pool.shutdown(wait=True, cancel_futures=kind is not None)
+        if kind is None:
+            for job in self.pending:
+                if job is not None:
+                    job.result()
+        return False
 
 
 def read_obj(path, warn=None):
