@@ -318,6 +318,7 @@ def run_mesh(detail, runs, width, height):
             times = {k: [] for k in tasks}
             for _ in range(runs):        # interleaved: ours, peer, peer', ours, ...
                 for k, fn in tasks.items():
+                    fn()    # untimed, as bench/peer.py: the last contestant's threads settle
                     t0 = time.perf_counter()
                     fn()
                     times[k].append(time.perf_counter() - t0)
@@ -368,7 +369,9 @@ def markdown(res):
             f"peers ({versions or 'none imported'}): float32 copies, made before timing. Each "
             f"scene built before timing. {res['threads']} threads for all (embreex: two Python "
             f"threads, half the rays each). Per row one warm-up call each, then {res['runs']} "
-            f"interleaved rounds (ours, each peer, in turn); medians. Ours / peer: the peer's time "
+            f"interleaved rounds (ours, each peer, in turn), each timed call right after an "
+            f"untimed one of its own (the last contestant's threads settle meanwhile); medians. "
+            f"Ours / peer: the peer's time "
             f"over ours (> 1: we are faster). Same as: share of rays with the same answer (closest: "
             f"the same triangle or both miss; any: the same boolean; count: the same count); "
             f"float32 against float64 rounding moves a few grazing rays.")]
