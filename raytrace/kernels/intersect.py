@@ -117,10 +117,13 @@ def _triangle(ray, v0, v1, v2, i, t_max, crossing):
     e0 = bx * cy - by * cx
     e1 = cx * ay - cy * ax
     e2 = ax * by - ay * bx
-    if (e0 < 0.0 or e1 < 0.0 or e2 < 0.0) and (e0 > 0.0 or e1 > 0.0 or e2 > 0.0):
-        return np.inf, 0.0, 0.0
+    # Each test below is one branch on the comparisons combined without
+    # short-circuits: on incoherent rays the outcome of each comparison is
+    # a coin toss a branch of its own would mispredict.
     det = e0 + e1 + e2
-    if det == 0.0:
+    mixed = (((e0 < 0.0) | (e1 < 0.0) | (e2 < 0.0))
+             & ((e0 > 0.0) | (e1 > 0.0) | (e2 > 0.0)))
+    if mixed | (det == 0.0):
         return np.inf, 0.0, 0.0
     if crossing and (e0 == 0.0 or e1 == 0.0 or e2 == 0.0):
         s = 1.0 if det > 0.0 else -1.0
@@ -134,15 +137,14 @@ def _triangle(ray, v0, v1, v2, i, t_max, crossing):
     t_scaled = e0 * az + e1 * bz + e2 * cz
     # Behind the origin is out; t = 0 is left to the t_min test, so that a
     # t_min of FROM_ORIGIN counts a face the ray starts on.
+    bound = t_max * det
     if det < 0.0:
-        if t_scaled > 0.0 or t_scaled <= t_max * det:
-            return np.inf, 0.0, 0.0
+        out = (t_scaled > 0.0) | (t_scaled <= bound)
     else:
-        if t_scaled < 0.0 or t_scaled >= t_max * det:
-            return np.inf, 0.0, 0.0
+        out = (t_scaled < 0.0) | (t_scaled >= bound)
     inv_det = 1.0 / det
     t = t_scaled * inv_det
-    if not (t > ray.t_min and t < t_max):
+    if out | (not ((t > ray.t_min) & (t < t_max))):
         return np.inf, 0.0, 0.0
     return t, e1 * inv_det, e2 * inv_det
 
