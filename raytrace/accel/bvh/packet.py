@@ -261,11 +261,17 @@ def _packet(origins, dirs, t_min, t_max, i0, m):
     Checked before _load: rays in every direction cost this, not a load."""
     if m < PACKET:
         return False
-    ok = True
+    # The signs first, stopping at the first ray whose signs differ: rays
+    # in random directions leave at the second or third ray, not after
+    # checking all of them (5 ns a ray of a box ray's 200, one thread).
     sx, sy, sz = _negative(dirs[i0, 0]), _negative(dirs[i0, 1]), _negative(dirs[i0, 2])
+    for i in range(i0 + 1, i0 + m):
+        if (_negative(dirs[i, 0]) != sx) | (_negative(dirs[i, 1]) != sy) \
+                | (_negative(dirs[i, 2]) != sz):
+            return False
+    ok = True
     for i in range(i0, i0 + m):
-        ok &= (ray_ok(origins, dirs, t_min, t_max, i) & (_negative(dirs[i, 0]) == sx)
-               & (_negative(dirs[i, 1]) == sy) & (_negative(dirs[i, 2]) == sz))
+        ok &= ray_ok(origins, dirs, t_min, t_max, i)
     return ok
 
 
