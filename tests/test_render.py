@@ -159,3 +159,28 @@ def test_progress_bands_give_the_same_image_and_counts(spheres_scene):
     assert np.array_equal(banded.linear, whole.linear)
     assert banded.stats["counters"] == whole.stats["counters"]
     assert len(calls) > 1 and calls[-1] == (300, 300)
+
+
+@pytest.mark.parametrize("specular, shininess", [(0.5, 20.0), (0.0, 1.0), (0.0, 48.0)])
+def test_blinn_phong_at_a_known_point(specular, shininess):
+    """The centre pixel of a 3x3 render looks straight down -z at the top
+    of a unit sphere, (0, 0, 1), normal +z: its colour is the ambient term
+    plus the light's diffuse and specular terms, as written out here.  The
+    specular-free materials check the shortcut that leaves out the half
+    vector and pow where the specular share is 0."""
+    import math
+
+    from raytrace.scene.model import Camera, Light, Material, Scene, Sphere
+    c, ka, kd = (0.7, 0.5, 0.3), 0.1, 0.8
+    mat = Material(color=c, ambient=ka, diffuse=kd, specular=specular, shininess=shininess)
+    scene = Scene("ball", Camera(eye=(0, 0, 5), look_at=(0, 0, 0), fov=40.0),
+                  objects=[Sphere((0, 0, 0), 1.0, mat)], lights=[Light(position=(2, 3, 4))],
+                  background=(0.0, 0.0, 0.0))
+    got = render(scene, accel="bvol", shadows="none", width=3, height=3).linear[1, 1]
+    lx, ly, lz = 2.0, 3.0, 3.0
+    dist = math.sqrt(lx * lx + ly * ly + lz * lz)
+    lx, ly, lz = lx / dist, ly / dist, lz / dist
+    hx, hy, hz = lx, ly, lz + 1.0
+    spec = specular * max(0.0, hz / math.sqrt(hx * hx + hy * hy + hz * hz)) ** shininess
+    want = [ka * ci + kd * ci * lz + spec for ci in c]
+    assert np.allclose(got, want, rtol=2.0 ** -23, atol=0.0)    # .linear is float32

@@ -241,11 +241,15 @@ def light_entries(shading, hit, f, rgb, ray, key, rays, em, counters, row):
         ndl = nx * lx + ny * ly + nz * lz
         if ndl <= 0.0 or (gx * lx + gy * ly + gz * lz <= 0.0 and not lifted):
             continue
-        hx, hy, hz = lx - ray.dx, ly - ray.dy, lz - ray.dz
-        hl = np.sqrt(hx * hx + hy * hy + hz * hz)
         spec = 0.0
-        if hl > 0.0:
-            spec = ks * max(0.0, (nx * hx + ny * hy + nz * hz) / hl) ** shin
+        # Without a specular share (the ground's material) the term is 0
+        # times a finite power (shininess >= 0), +0: its half vector and
+        # libm's pow, a tenth of a render's time, are left out.
+        if ks != 0.0:
+            hx, hy, hz = lx - ray.dx, ly - ray.dy, lz - ray.dz
+            hl = np.sqrt(hx * hx + hy * hy + hz * hz)
+            if hl > 0.0:
+                spec = ks * max(0.0, (nx * hx + ny * hy + nz * hz) / hl) ** shin
         rays.light[e] = li
         rays.term[e, 0] = kd * ar * ndl + spec
         rays.term[e, 1] = kd * ag * ndl + spec
