@@ -187,7 +187,7 @@ def planes_occluded(geo, ray, t_max, cnt):
     point, normal = geo.pl_point, geo.pl_normal
     n = point.shape[0]
     hit = False
-    k = 0
+    k = np.int64(0)    # not a literal 0: ray_plane was compiled again for it
     while k < n and not hit:
         cnt[PRIM_TESTS] += 1
         if ray_plane(ray, point, normal, k, t_max) < np.inf:

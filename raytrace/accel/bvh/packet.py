@@ -146,9 +146,11 @@ def _packet_traversal(mode):
         n_leaves = 0
         n_tests = 0
         n_hits = 0
-        entry = 0
+        # int64s, not literal 0s: a call given a literal is compiled again
+        # for it (as in traverse.py).
+        entry = np.int64(0)
         rays = alive
-        sp = 0
+        sp = np.int64(0)
         while entry != _DONE:
             if entry >= 0:
                 n_inner += popcount(rays)
@@ -294,7 +296,7 @@ def _packet_query(mode):
         if nx < 0:
             return False
         if mode == CLOSEST:
-            traverse(geo, acc, pk, nx, ny, nz, (1 << PACKET) - 1, cnt)
+            traverse(geo, acc, pk, nx, ny, nz, np.int64((1 << PACKET) - 1), cnt)
             for r in range(PACKET):
                 hit = planes_closest(geo, _ray(pk, r), pk.far[r],
                                      Hit(pk.best_t[r], pk.best_prim[r], pk.best_u[r],
@@ -306,7 +308,7 @@ def _packet_query(mode):
         else:
             # Planes first, as the single-ray path: a blocked ray leaves
             # the packet.
-            alive = 0
+            alive = np.int64(0)    # not a literal 0: traverse was compiled twice
             for r in range(PACKET):
                 alive |= (not planes_occluded(geo, _ray(pk, r), pk.far[r], cnt)) << r
             if alive:

@@ -104,7 +104,7 @@ def _box_d2(node_box, node, lane, qx, qy, qz):
 def closest_point(geo, bvh, qx, qy, qz):
     """(d2, prim, x, y, z, u, v) of the surfaces' point closest to q;
     prim -1 if there is nothing."""
-    best = (np.inf, -1, 0.0, 0.0, 0.0, 0.0, 0.0)
+    best = (np.inf, np.int64(-1), 0.0, 0.0, 0.0, 0.0, 0.0)   # not a literal -1 (_keep once)
     base = geo.tri_v0.shape[0] + geo.sph_center.shape[0]
     for k in range(geo.pl_point.shape[0]):     # planes: no box, tested first
         nx, ny, nz = geo.pl_normal[k, 0], geo.pl_normal[k, 1], geo.pl_normal[k, 2]

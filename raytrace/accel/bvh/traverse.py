@@ -273,7 +273,8 @@ def _count_queue(geo, ray, leaf_tris, prim_ids, queue, qn, t_max):
     a loop over the queue of its own."""
     n_hits = 0
     n_tests = 0
-    i, k, end, k1, n1 = _next_chunk(queue, qn, 0, 0, 0)
+    zero = np.int64(0)     # not literal 0s: _next_chunk would be compiled twice
+    i, k, end, k1, n1 = _next_chunk(queue, qn, zero, zero, zero)
     while n1 > 0:
         i, k, end, k2, n2 = _next_chunk(queue, qn, i, k, end)
         n_hits += _count_chunks(geo, ray, leaf_tris, prim_ids, k1, n1, k2, n2, t_max)
@@ -371,7 +372,7 @@ def _count_traverse(geo, acc, ray, t_max, cnt):
     stack = frame_array(COUNT_STACK_SIZE, np.int64)
     queue = frame_array(QUEUE_SIZE, np.int64)
     br = box_ray(acc, ray)
-    s = _count_start(acc, True)
+    s = _count_start(acc, np.bool_(True))    # not a literal: compiled once
     t = Tallies(0, 0, 0, 0)
     while s.node >= 0:
         s, t = _count_round(geo, acc, ray, br, t_max, stack, queue, s, t)
@@ -461,7 +462,8 @@ def count_stream(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
     stack_b = frame_array(COUNT_STACK_SIZE, np.int64)
     queue_b = frame_array(QUEUE_SIZE, np.int64)
     unbounded = geo.pl_point.shape[0] + geo.sph_center.shape[0] > 0
-    ia, end = _next_good_ray(origins, dirs, t_min, t_max, out, 0, 0, clock, chunk, cnt)
+    zero = np.int64(0)     # not literal 0s: _next_good_ray and ray_ok would compile twice
+    ia, end = _next_good_ray(origins, dirs, t_min, t_max, out, zero, zero, clock, chunk, cnt)
     ib, end = _next_good_ray(origins, dirs, t_min, t_max, out, ia + 1, end, clock, chunk, cnt)
     after = ib + 1
     ray_a, tm_a = _crossing_ray(origins, dirs, t_min, t_max, ia)
