@@ -54,9 +54,10 @@ BUILD_STEP = dict(BUILD, no_cpython_wrapper=True)
 
 
 def python_callable(kernel):
-    """``kernel`` (an ``@njit(**JIT)`` function) compiled again with its
+    """``kernel`` (an ``@njit(**JIT)`` function, or a Python function an
+    @overload compiles as its implementation) compiled again with its
     Python wrapper, for a test or bench that calls it directly.  Not cached:
     the cache keys an entry by signature, not by these options, so the
     wrapped and unwrapped compiles would overwrite each other's entries."""
     options = dict(JIT, cache=False, no_cpython_wrapper=False, no_cfunc_wrapper=False)
-    return njit(**options)(kernel.py_func)
+    return njit(**options)(getattr(kernel, "py_func", kernel))

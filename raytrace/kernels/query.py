@@ -8,11 +8,12 @@ traversal for that class, and a kernel calling ``closest_hit(geo, acc,
 chosen at compile time (Numba's ``@overload``): a BVH render never
 compiles, or branches over, the grid's code.
 """
+from numba import njit
 from numba.core.errors import TypingError
 from numba.extending import overload
 
 from raytrace.kernels.counters import BAD_RAYS, PRIM_HITS
-from raytrace.kernels.jit import OVERLOAD
+from raytrace.kernels.jit import OVERLOAD, STAGE
 from raytrace.kernels.lowlevel import take_ticket
 from raytrace.kernels.prims import (
     count_unbounded_hits,
@@ -42,9 +43,10 @@ def register(layout, closest, any_hit, all_hits):
     _TRAVERSALS[layout] = (closest, any_hit, all_hits)
 
 
-# layout class -> (closest, occluded): compiled functions tracing a packet
+# layout class -> (closest, occluded): Python functions tracing a packet
 # of neighbouring rays together (accel/bvh/packet.py), for the
-# structures that have them.
+# structures that have them; closest_packet and occluded_packet compile
+# them as their implementations.
 _PACKETS = {}
 
 
@@ -77,26 +79,48 @@ def _traversal(acc, mode):
     return traversal
 
 
+def structure_closest(geo, acc, ray, t_max, cnt):
+    """The structure's own closest hit with 0 < t < t_max (planes, which
+    no structure holds, left out): a Hit.  Compiled code only."""
+    raise NotImplementedError("compiled code only")
+
+
+def structure_any(geo, acc, ray, t_max, cnt):
+    """A hit of the structure's with 0 < t < t_max, the first found
+    (planes left out): a Hit.  Compiled code only."""
+    raise NotImplementedError("compiled code only")
+
+
+# The overloads compile the structure's traversal itself as their
+# implementation, not a wrapper calling it: every level of calls compiles
+# (optimises and emits) all the code below it again, and a wrapper level
+# cost a first render a few tenths of a second a query (docs/benchmarks.md,
+# "Camera rays through packets").  closest_hit and occluded add the planes,
+# inlined by Numba into their callers, so they are no level either.
+@overload(structure_closest, jit_options=OVERLOAD)
+def _structure_closest(geo, acc, ray, t_max, cnt):
+    return _traversal(acc, CLOSEST).py_func
+
+
+@overload(structure_any, jit_options=OVERLOAD)
+def _structure_any(geo, acc, ray, t_max, cnt):
+    return _traversal(acc, ANY_HIT).py_func
+
+
+@njit(**STAGE)
 def closest_hit(geo, acc, ray, t_max, cnt):
     """Closest hit with 0 < t < t_max, planes included: a Hit (prim -1 on a
-    miss).  cnt: the caller's counter row, never shared between threads.
-    Compiled code only."""
-    raise NotImplementedError("closest_hit is called from compiled kernels only")
+    miss).  cnt: the caller's counter row, never shared between threads."""
+    return planes_closest(geo, ray, t_max, structure_closest(geo, acc, ray, t_max, cnt), cnt)
 
 
+@njit(**STAGE)
 def occluded(geo, acc, ray, t_max, cnt):
     """Whether anything is hit with 0 < t < t_max; stops at the first.
-    Compiled code only."""
-    raise NotImplementedError("occluded is called from compiled kernels only")
-
-
-@overload(closest_hit, jit_options=OVERLOAD)
-def _closest_hit(geo, acc, ray, t_max, cnt):
-    closest = _traversal(acc, CLOSEST)
-
-    def impl(geo, acc, ray, t_max, cnt):
-        return planes_closest(geo, ray, t_max, closest(geo, acc, ray, t_max, cnt), cnt)
-    return impl
+    Planes first: one test each, and the ground blocks many shadow rays."""
+    if planes_occluded(geo, ray, t_max, cnt):
+        return True
+    return structure_any(geo, acc, ray, t_max, cnt).prim >= 0
 
 
 def count_hits(geo, acc, ray, t_max, cnt):
@@ -181,18 +205,6 @@ def _list_hits(geo, acc, ray, t_max, cnt):
     return impl
 
 
-@overload(occluded, jit_options=OVERLOAD)
-def _occluded(geo, acc, ray, t_max, cnt):
-    any_hit = _traversal(acc, ANY_HIT)
-
-    def impl(geo, acc, ray, t_max, cnt):
-        # Planes first: one test each, and the ground blocks many shadow rays.
-        if planes_occluded(geo, ray, t_max, cnt):
-            return True
-        return any_hit(geo, acc, ray, t_max, cnt).prim >= 0
-    return impl
-
-
 def closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
     """Closest hits of rays i0 .. i0 + m - 1 (into outs: the t, prim, u and
     v arrays) as one packet, if the
@@ -201,9 +213,9 @@ def closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
     raise NotImplementedError("compiled code only")
 
 
-def occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit, cnt):
-    """occluded() for rays i0 .. i0 + m - 1 as one packet, as
-    closest_packet.  Compiled code only."""
+def occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
+    """occluded() for rays i0 .. i0 + m - 1 (into outs: the blocked flags'
+    array) as one packet, as closest_packet.  Compiled code only."""
     raise NotImplementedError("compiled code only")
 
 
@@ -218,32 +230,27 @@ def _packets(acc, origins, dirs):
     return _PACKETS.get(acc.instance_class)
 
 
-# The packet overloads, and accel/bvh/packet.py's two entries, are inlined
-# by Numba: a level compiled on its own optimises and emits again all the
-# packet code it links in (about a second of a cold packet kernel each).
-@overload(closest_packet, jit_options=OVERLOAD, inline="always")
+# The packet overloads compile the structure's packet query itself as
+# their implementation (accel/bvh/packet.py), as count_rays compiles a
+# count stream: Numba compiles an @overload's implementation in full even
+# where it is inlined, and a level of its own optimises and emits again
+# all the packet code it links in (about a second of a cold packet kernel
+# each).
+@overload(closest_packet, jit_options=OVERLOAD)
 def _closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
     packets = _packets(acc, origins, dirs)
     if packets is None:
         def impl(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
             return False
         return impl
-    closest = packets[0]
-
-    def impl(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
-        return closest(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt)
-    return impl
+    return packets[0]
 
 
-@overload(occluded_packet, jit_options=OVERLOAD, inline="always")
-def _occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit, cnt):
+@overload(occluded_packet, jit_options=OVERLOAD)
+def _occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
     packets = _packets(acc, origins, dirs)
     if packets is None:
-        def impl(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit, cnt):
+        def impl(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
             return False
         return impl
-    occluded = packets[1]
-
-    def impl(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit, cnt):
-        return occluded(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit, cnt)
-    return impl
+    return packets[1]

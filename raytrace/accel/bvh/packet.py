@@ -46,7 +46,7 @@ from raytrace.accel.bvh.traverse import (
     STACK_SIZE,
     tally,
 )
-from raytrace.kernels.jit import JIT, STAGE
+from raytrace.kernels.jit import JIT
 from raytrace.kernels.lowlevel import PACKET, frame_array, popcount
 from raytrace.kernels.prims import planes_closest, planes_occluded, test_prim
 from raytrace.kernels.query import ANY_HIT, CLOSEST, register_packets
@@ -280,11 +280,11 @@ def _packet(origins, dirs, t_min, t_max, i0, m):
 def _packet_query(mode):
     traverse = _packet_traversal(mode)
 
-    @njit(**JIT)
     def query(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
         """Rays i0 .. i0 + m - 1 as a packet, if they can go as one, their
-        answers written into ``outs`` (closest: t, prim, u, v; any hit:
-        the blocked flags); returns whether they went."""
+        answers written into ``outs`` (closest: the t, prim, u and v
+        arrays; any hit: the blocked flags' array); returns whether they
+        went."""
         if not _packet(origins, dirs, t_min, t_max, i0, m):
             return False
         pk = Packet(frame_array(_FIELD_ROWS, np.float64), frame_array(_AXIS_ROWS, np.int64),
@@ -314,29 +314,24 @@ def _packet_query(mode):
             if alive:
                 alive = traverse(geo, acc, pk, nx, ny, nz, alive, cnt)
             for r in range(PACKET):
-                outs[0][i0 + r] = not ((alive >> r) & 1)
+                outs[i0 + r] = not ((alive >> r) & 1)
         return True
     return query
 
 
-_closest_query = _packet_query(CLOSEST)
-_occluded_query = _packet_query(ANY_HIT)
-
-
-# Inlined by Numba into the kernels (kernels/query.py says why).
-@njit(**STAGE)
-def closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
-    """Closest hits of rays i0 .. i0 + m - 1 as cast_closest writes them
-    (outs: its t, prim, u and v arrays), if they go as a packet; returns
-    whether they did."""
-    return _closest_query(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt)
-
-
-@njit(**STAGE)
-def occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit, cnt):
-    """Whether rays i0 .. i0 + m - 1 are blocked, as cast_occluded writes
-    it, if they go as a packet; returns whether they did."""
-    return _occluded_query(geo, acc, origins, dirs, t_min, t_max, i0, m, (out_hit,), cnt)
-
+# Not decorated: kernels/query.py's closest_packet and occluded_packet
+# compile them as their own implementations for the BVH's layout, so no
+# wrapper adds a level of calls.  Numba compiles an @overload's
+# implementation in full even where it is inlined, and each level
+# optimises and emits again all the packet code below it: a wrapper here
+# cost a first render's compile 1.6 s (docs/benchmarks.md, "Camera rays
+# through packets").
+closest_packet = _packet_query(CLOSEST)
+closest_packet.__doc__ = """Closest hits of rays i0 .. i0 + m - 1 as cast_closest writes them
+(outs: its t, prim, u and v arrays), if they go as a packet; returns
+whether they did."""
+occluded_packet = _packet_query(ANY_HIT)
+occluded_packet.__doc__ = """Whether rays i0 .. i0 + m - 1 are blocked, as cast_occluded writes
+it (outs: its flags' array), if they go as a packet; returns whether they did."""
 
 register_packets(BVH, closest_packet, occluded_packet)
