@@ -54,6 +54,9 @@ class _Finished:
     def poll(self):
         return 0
 
+    def wait(self):
+        return 1          # failed: nothing to adopt
+
 
 @pytest.fixture
 def started(monkeypatch):
@@ -78,13 +81,48 @@ def test_no_second_process_when_switched_off_or_the_stages_are_cached(monkeypatc
     monkeypatch.setattr(core.os, "cpu_count", lambda: 1)
     ahead.start(None)
     assert started == []
-    # The control: a first run with two cores starts one, for the scene's kind.
+    # The control: a first run with two cores starts one, for the scene's
+    # kind: the stages where the structure's ray kernels are cached.
     monkeypatch.setattr(core.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr("raytrace.kernels.cachedir.kernel_cached", lambda *globs: True)
     ahead.start(None)
-    assert len(started) == 1 and started[0][-4:] == ["raytrace.renderer.precompile", "0", "0", "0"]
+    assert len(started) == 1 and started[0][-6:] == ["raytrace.renderer.precompile", "0", "0", "0",
+                                                     "-", "hard"]
+    assert not ahead.compiles_rays()
     ahead.start(None)                   # once a process
     assert len(started) == 1
     core.stop("render")
+
+
+def test_a_first_run_with_no_ray_kernel_compiles_them_in_the_second_process(monkeypatch,
+                                                                            started):
+    """Nothing cached: the second process compiles the structure's ray
+    kernels (this one the stages), until it is waited for."""
+    monkeypatch.setattr(core.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr("raytrace.kernels.cachedir.render_kernel_cached", lambda: False)
+    monkeypatch.setattr("raytrace.kernels.cachedir.kernel_cached", lambda *globs: False)
+    ahead.start(None, "whitted", "grid", "soft")
+    assert started[0][-6:] == ["raytrace.renderer.precompile", "0", "0", "0", "grid", "soft"]
+    assert ahead.compiles_rays()
+    ahead.wait()
+    assert not ahead.compiles_rays()
+
+
+def test_the_second_process_compiles_the_ray_kernels_the_render_runs():
+    """Run in this process, the renderer's precompile.main adds the ray
+    kernels' specialisations a first render (of another scene of the kind,
+    with and without AOVs) would, and the render then adds none."""
+    from raytrace.kernels import cast
+    from raytrace.renderer import precompile
+    from raytrace.renderer.driver import render
+    from raytrace.scene.builtin import spheres
+    precompile.main(False, False, False, "bvh", "hard")
+    kernels = (cast._closest_block, cast._occluded_block)
+    before = [list(k.signatures) for k in kernels]
+    assert all(before)
+    for aov in (False, True):
+        render(spheres(), accel="bvh", shadows="hard", width=16, height=12, aov=aov)
+    assert [list(k.signatures) for k in kernels] == before
 
 
 def test_a_path_traced_first_run_compiles_the_path_stage_ahead(monkeypatch, started):
@@ -99,7 +137,8 @@ def test_a_path_traced_first_run_compiles_the_path_stage_ahead(monkeypatch, star
     monkeypatch.setattr("raytrace.kernels.cachedir.kernel_cached",
                         lambda *globs: not any("run_path_shade" in g for g in globs))
     ahead.start(None, "path")
-    assert len(started) == 1 and started[0][-4:] == ["raytrace.renderer.precompile", "0", "0", "1"]
+    assert len(started) == 1 and started[0][-6:] == ["raytrace.renderer.precompile", "0", "0", "1",
+                                                     "-", "hard"]
     core.stop("render")
 
 

@@ -66,11 +66,12 @@ def test_one_signature_per_structure_and_mode():
     assert len(sigs["run_stage"]) == 1, sigs["run_stage"]
     for name in ("closest", "occluded", "build_bvh_kernel", "collapse_bvh4_kernel"):
         assert len(sigs[name]) == 1, (name, sigs[name])
-    # The renders without AOVs trace their shadow rays through the packet
-    # kernel (as a RayScene call of many rays does), one version of it;
-    # camera rays, renders with AOVs and calls of a few rays (kernels/cast.py's
-    # PACKET_MIN) go one ray at a time: no closest-hit packet code.
-    assert sigs["packets"] == [] and len(sigs["occluded_packets"]) == 1, sigs["occluded_packets"]
+    # Renders, with AOVs or without, trace through the packet kernels (as a
+    # RayScene call of many rays does), one version of each; the calls of a
+    # few rays (kernels/cast.py's PACKET_MIN) go through the one-ray
+    # kernels (the one signature each checked above).
+    assert len(sigs["packets"]) == 1, sigs["packets"]
+    assert len(sigs["occluded_packets"]) == 1, sigs["occluded_packets"]
     # No helper compiled again for a literal integer argument: the packet
     # traversal was compiled twice in every first render (0.5 s).
     assert sigs["literal"] == [], sigs["literal"]

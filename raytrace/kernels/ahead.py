@@ -67,6 +67,12 @@ def child_setting(cache):
     return {"env": env, "cwd": cache}
 
 
+def pending(key):
+    """Whether ``key``'s second process was started and not yet waited for."""
+    run = _runs.get(key)
+    return bool(run and run["process"])
+
+
 def wait(key):
     """Wait for ``key``'s second process, if one was started (once), and
     adopt what it compiled."""

@@ -206,41 +206,47 @@ def cast_occluded(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows, cloc
 
 # The renderer's calls (kernels/waves.py, path_waves.py): one thread's
 # rays through the same compiled kernels as cast_closest and cast_occluded,
-# in the calling thread; ``entries``: the thread's, as _call_entry's.
-# Closest hits go one ray at a time, ray i counting into row rows[i] of cnt
-# (its image row's, or its pixel's: the cost AOV).  Shadow rays with a
-# ``tally`` (ray_tally's row, for a structure with packets) go through the
-# packet kernel, every ray counting into tally, whose counts then go to
+# in the calling thread; ``entries``: the thread's, as _call_entry's.  On
+# a structure with packets, the packet kernels: with a ``tally``
+# (ray_tally's row) every ray counts into it, and its counts then go to
 # row rows[0] of cnt: a call's rays lie in one strip of one band, so each
 # band's sums, the statistics, stay each ray's own counts (in the
-# packet's order of visits).  Packets for the shadow rays alone: they
-# bought 1.3-1.6x on soft shadows, the camera rays' a few percent for
-# another second of a first run's compile (docs/benchmarks.md, "A new
-# machine: AVX-512").
+# packet's order of visits).  Without one (the cost AOV's per-ray rows)
+# ray i counts into row rows[i] of cnt, and the same kernel takes every
+# ray alone.  So a render compiles one closest-hit and one any-hit kernel
+# whatever its options.  Packets bought 1.3-1.6x on soft shadows, and
+# 1.2x on a whole render for camera rays (docs/benchmarks.md, "A new
+# machine: AVX-512", "Camera rays through packets").
 def ray_tally(acc, per_ray):
-    """A thread's counter row for the renderer's packet calls (occluded_rays'
+    """A thread's counter row for the renderer's packet calls (the rays'
     ``tally``), or None where rays go one at a time: per-ray counter rows
     (``per_ray``: the cost AOV's) or a structure without packets."""
     return None if per_ray or not has_packets(acc) else np.zeros((1, COLUMNS), np.int64)
 
 
-def closest_rays(geo, acc, rays, outs, cnt, rows, entries):
+def _render_call(packet_block, single_block, acc, args, cnt, rows, entries, tally):
+    """A renderer's call of args' rays through the packet kernel (a
+    structure with packets) or the one-ray kernel, counting as
+    ray_tally's comment says."""
+    block = packet_block if has_packets(acc) else single_block
+    if tally is None:
+        _call_entry(block, (*args, cnt, rows, np.zeros(1, np.int64)), entries)
+        return
+    _call_entry(block, (*args, tally, _ONE_ROW, np.zeros(1, np.int64)), entries)
+    _settle(tally, cnt, rows)
+
+
+def closest_rays(geo, acc, rays, outs, cnt, rows, entries, tally=None):
     """Closest hits of rays = (origins, dirs, t_min, t_max) into outs =
     (t, prim, u, v), in the calling thread."""
-    _call_entry(_closest_single, (geo, acc, *rays, outs, cnt, rows, np.zeros(1, np.int64)),
-                entries)
+    _render_call(_closest_block, _closest_single, acc, (geo, acc, *rays, outs), cnt, rows,
+                 entries, tally)
 
 
 def occluded_rays(geo, acc, rays, out_hit, cnt, rows, entries, tally=None):
-    """cast_occluded of rays = (origins, dirs, t_min, t_max), as closest_rays,
-    or with ``tally`` through the packet kernel."""
-    if tally is None:
-        _call_entry(_occluded_single, (geo, acc, *rays, out_hit, cnt, rows,
-                                       np.zeros(1, np.int64)), entries)
-        return
-    _call_entry(_occluded_block, (geo, acc, *rays, out_hit, tally, _ONE_ROW,
-                                  np.zeros(1, np.int64)), entries)
-    _settle(tally, cnt, rows)
+    """cast_occluded of rays = (origins, dirs, t_min, t_max), as closest_rays."""
+    _render_call(_occluded_block, _occluded_single, acc, (geo, acc, *rays, out_hit), cnt, rows,
+                 entries, tally)
 
 
 def _settle(tally, cnt, rows):

@@ -57,7 +57,7 @@ class PathStages:
             gen = self.gens[0]
             closest_rays(geo, acc, (gen.origins[:p], gen.dirs[:p], gen.t_min[:p], gen.t_max[:p]),
                          (gen.hit_t[:p], gen.hit_prim[:p], gen.hit_u[:p], gen.hit_v[:p]),
-                         self.counters, gen.row[:p], self.entries)
+                         self.counters, gen.row[:p], self.entries, self.tally)
             i = q = 0
             while i < p:
                 i, m, q = self.stage(pathtrace.SHADE, (i, p, q, 0, 0))

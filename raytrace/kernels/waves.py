@@ -73,7 +73,8 @@ class _Stages:
                              (wave.hit_t[:n], wave.hit_prim[:n], wave.hit_u[:n], wave.hit_v[:n]),
                              wave.row[:n])
         rays, hits, rows = self.views[n]
-        closest_rays(self.shading.geo, self.acc, rays, hits, self.counters, rows, self.entries)
+        closest_rays(self.shading.geo, self.acc, rays, hits, self.counters, rows, self.entries,
+                     self.tally)
         return n
 
     def occlude(self, m):
@@ -127,7 +128,7 @@ class _Generations(_Stages):
             closest_rays(self.shading.geo, self.acc,
                          (gen.origins[:p], gen.dirs[:p], gen.t_min[:p], gen.t_max[:p]),
                          (gen.hit_t[:p], gen.hit_prim[:p], gen.hit_u[:p], gen.hit_v[:p]),
-                         self.counters, gen.row[:p], self.entries)
+                         self.counters, gen.row[:p], self.entries, self.tally)
             bufs = (gen, nxt, self.shadow, self.light)
             i = q = 0
             while i < p:
@@ -163,15 +164,26 @@ def _strips(stages, y0, y_end, clock, lock):
 
 
 def load_rays(render, band):
-    """Compile (or load) the structure's two ray kernels a render uses, on
-    empty buffers."""
+    """Compile (or load) the structure's ray kernels a render uses, on
+    empty buffers: the closest-hit one and, if the render traces shadow
+    rays, the any-hit one."""
     wave, shadow = wave_buffers(0), shadow_buffers(0, 0)
     geo, acc = render.lighting.geo, render.lighting.acc
     tally = ray_tally(acc, len(band.aovs.cost) > 0)      # as _Stages chooses
     closest_rays(geo, acc, (wave.origins, wave.dirs, wave.t_min, wave.t_max),
-                 (wave.hit_t, wave.hit_prim, wave.hit_u, wave.hit_v), band.stats_rows, wave.row, {})
-    occluded_rays(geo, acc, (shadow.origins, shadow.dirs, shadow.t_min, shadow.t_max),
-                  shadow.blocked, band.stats_rows, shadow.row, {}, tally)
+                 (wave.hit_t, wave.hit_prim, wave.hit_u, wave.hit_v), band.stats_rows, wave.row,
+                 {}, tally)
+    if casts_shadow_rays(render):
+        occluded_rays(geo, acc, (shadow.origins, shadow.dirs, shadow.t_min, shadow.t_max),
+                      shadow.blocked, band.stats_rows, shadow.row, {}, tally)
+
+
+def casts_shadow_rays(render):
+    """Whether a render traces shadow rays: the path tracer's rays to the
+    lights always, Whitted's unless shadows are off."""
+    shadows = render.lighting.shadows
+    return (isinstance(render.bounces, Paths) or isinstance(shadows, SoftShadows)
+            or shadows.cast)
 
 
 def load_own_stages(render, band):

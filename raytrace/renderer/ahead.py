@@ -1,22 +1,34 @@
-"""A first render's shading stages compiled in a second process
+"""A first render's kernels compiled in part in a second process
 (kernels/ahead.py), while this one loads the scene, compiles the
-structure's builder and ray kernels and builds.
+structure's builder and builds.
 
 Only on a first run: nothing of the shading stages in the kernel cache
-(kernels/cachedir.render_kernel_cached, a glob).  The second process
-compiles the stages for a tiny scene of the same kind (scene/kinds.py: the
-same types, so the same kernels); the render waits for it (``wait``) before
-its first wave.
+(kernels/cachedir.render_kernel_cached, a glob).  With no ray kernel in the
+cache either, the second process compiles the structure's ray kernels
+(for its empty layout: the types of every layout it builds) and this one
+the shading stages after its build; otherwise the second process compiles
+the stages (for a tiny scene of the same kind, scene/kinds.py: the same
+types, so the same kernels).  Split so, the two compiles take about as
+long: a first teapot's builder and build took 2 s here, its stages 4.5 s
+and its ray kernels 6 s (docs/benchmarks.md, "Camera rays through
+packets").  The render waits for the second process (``wait``) before its
+first wave.
 """
 from raytrace.kernels import ahead
 
 _KEY = "render"
+# The ray kernels' cache index (kernels/cast.py's closest-hit block
+# factory; Numba drops a qualified name's "<" and ">").
+_RAYS_INDEX = "cast._closest_kernel.locals.block-*.nbi"
+_part = {"rays": False}
 
 
-def start(scene, integrator="whitted"):
-    """Start compiling the stages ``scene``'s render will use (the path
-    tracer's for ``integrator`` "path"), if this is a first run on a
-    machine with cores to spare."""
+def start(scene, integrator="whitted", accel="bvh", shadows="hard"):
+    """Start compiling part of what ``scene``'s render will use (the path
+    tracer's shading entry for ``integrator`` "path"; structure
+    ``accel``'s ray kernels or the shading stages otherwise, the any-hit
+    one if ``shadows`` are cast), if this is a first run on a machine with
+    cores to spare."""
     if not ahead.worthwhile(_KEY):
         return
     from raytrace.kernels.cachedir import kernel_cached, render_kernel_cached
@@ -25,7 +37,16 @@ def start(scene, integrator="whitted"):
         return
     from raytrace.scene.kinds import scene_kind
     textures, mirrors = scene_kind(scene)
-    ahead.launch(_KEY, "raytrace.renderer.precompile", [int(textures), int(mirrors), int(path)])
+    rays = not path and not kernel_cached(_RAYS_INDEX)
+    ahead.launch(_KEY, "raytrace.renderer.precompile",
+                 [int(textures), int(mirrors), int(path), accel if rays else "-", shadows])
+    _part["rays"] = rays
+
+
+def compiles_rays():
+    """Whether a second process started by ``start`` is compiling the ray
+    kernels (so this process compiles the stages), not yet waited for."""
+    return _part["rays"] and ahead.pending(_KEY)
 
 
 def wait():

@@ -454,10 +454,19 @@ def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows
     if load:
         from raytrace.renderer import ahead
         t0 = time.perf_counter()
-        load_rays(render, band)
+        # A first run's second process compiles the ray kernels or the
+        # shading stages (renderer/ahead.py); this one the other part.
+        rays_ahead = ahead.compiles_rays()
+        if not rays_ahead:
+            load_rays(render, band)
         load_own_stages(render, band)
-        ahead.wait()        # the shading stages, if compiled in a second process
-        load_shading(render, band)
+        if rays_ahead:
+            load_shading(render, band)
+        ahead.wait()
+        if rays_ahead:
+            load_rays(render, band)
+        else:
+            load_shading(render, band)
         t_compile = time.perf_counter() - t0
     t0 = time.perf_counter()
     clock[0] = 0
@@ -484,7 +493,7 @@ def _render(scene, opts, drop_meshes):
     from raytrace.renderer.stats import counters_from_rows, derive
     validate(opts, scene)
     # A first run: the shading (or the path tracer's stage) compiles beside prepare.
-    ahead.start(scene, integrator_of(opts, scene))
+    ahead.start(scene, integrator_of(opts, scene), opts.accel, opts.shadows)
     setup = prepare(scene, opts, drop_meshes)
     cam = camera_buffer(scene.camera, setup.width, setup.height)
     width, height = setup.width, setup.height

@@ -1,22 +1,26 @@
 """The second process of renderer/ahead.py: compile a render's shading
-stages for a tiny scene of a kind, and nothing else (no structure is
-built).  Its own module, run with ``python -m``, so that nothing imports
-it and the driver and ahead.py import each other nowhere.
+stages for a tiny scene of a kind, or (given a structure) the structure's
+ray kernels for its empty layout and that scene's geometry, and nothing
+else (no structure is built).  Its own module, run with ``python -m``, so
+that nothing imports it and the driver and ahead.py import each other
+nowhere.
 
-    python -m raytrace.renderer.precompile TEXTURES MIRRORS PATH     (0 or 1 each)
+    python -m raytrace.renderer.precompile TEXTURES MIRRORS PATH ACCEL SHADOWS
+    (the first three 0 or 1; ACCEL a structure's name, or - for the stages)
 """
 import sys
 
 import numpy as np
 
 
-def load_stages(scene, opts=None):
-    """Compile (or load) the shading stages a render of ``scene`` uses, and
-    nothing else: no structure is built (renderer/ahead.py)."""
+def load_stages(scene, opts=None, accel=None):
+    """Compile (or load) the shading stages a render of ``scene`` uses or,
+    given structure ``accel``, its ray kernels, and nothing else: no
+    structure is built (renderer/ahead.py)."""
     from raytrace.kernels.buffers import f64
     from raytrace.kernels.counters import N_COUNTERS
     from raytrace.kernels.render import Band, Lighting, Render
-    from raytrace.kernels.waves import load_shading
+    from raytrace.kernels.waves import load_rays, load_shading
     from raytrace.renderer.driver import (
         RenderOptions,
         aov_buffers,
@@ -29,11 +33,13 @@ def load_stages(scene, opts=None):
         texture_record,
         validate,
     )
+    from raytrace.accel.registry import get
     from raytrace.scene.flatten import flatten
     opts = opts or RenderOptions()
     width, height = (int(n) for n in validate(opts, scene))
     geo, _, _ = flatten(scene)
-    lighting = Lighting(geo, None, light_buffers(scene, opts.shadows, opts.light_samples),
+    acc = None if accel is None else get(accel).empty_layout()
+    lighting = Lighting(geo, acc, light_buffers(scene, opts.shadows, opts.light_samples),
                         shadow_record(opts.shadows, opts.pattern), int(opts.seed))
     render = Render(lighting=lighting, cam=camera_buffer(scene.camera, width, height),
                     textures=texture_record(opts.texture_filter, width, height, int(opts.spp), geo),
@@ -43,18 +49,23 @@ def load_stages(scene, opts=None):
                     width=width, height=height, spp=int(opts.spp))
     band = Band(image=np.empty((0, width, 3), np.float32), aovs=aov_buffers(width, height, False),
                 stats_rows=np.zeros((0, N_COUNTERS), np.int64), row0=0)
-    load_shading(render, band)
+    if acc is None:
+        load_shading(render, band)
+    else:
+        load_rays(render, band)
 
 
-def main(textures, mirrors, path=False):
+def main(textures, mirrors, path=False, accel=None, shadows="hard"):
     from raytrace.renderer.driver import RenderOptions
     from raytrace.scene.kinds import tiny_scene
     # The path tracer's shading entry (the render compiles its other one
     # meanwhile): the types `raytrace warmup --with path` compiles for (a
     # tiny scene with mirrors, one sample).
-    opts = RenderOptions(integrator="path", spp=1) if path else None
-    load_stages(tiny_scene(textures, mirrors or path), opts)
+    opts = (RenderOptions(integrator="path", spp=1, shadows=shadows) if path
+            else RenderOptions(shadows=shadows))
+    load_stages(tiny_scene(textures, mirrors or path), opts, accel)
 
 
 if __name__ == "__main__":
-    main(*(bool(int(a)) for a in sys.argv[1:4]))
+    main(*(bool(int(a)) for a in sys.argv[1:4]), None if sys.argv[4] == "-" else sys.argv[4],
+         sys.argv[5])
