@@ -96,16 +96,29 @@ def test_no_second_process_when_switched_off_or_the_stages_are_cached(monkeypatc
 
 def test_a_first_run_with_no_ray_kernel_compiles_them_in_the_second_process(monkeypatch,
                                                                             started):
-    """Nothing cached: the second process compiles the structure's ray
-    kernels (this one the stages), until it is waited for."""
+    """Nothing cached, a structure with packets: the second process
+    compiles the structure's ray kernels (this one the stages), until it
+    is waited for."""
     monkeypatch.setattr(core.os, "cpu_count", lambda: 2)
     monkeypatch.setattr("raytrace.kernels.cachedir.render_kernel_cached", lambda: False)
     monkeypatch.setattr("raytrace.kernels.cachedir.kernel_cached", lambda *globs: False)
-    ahead.start(None, "whitted", "grid", "soft")
-    assert started[0][-6:] == ["raytrace.renderer.precompile", "0", "0", "0", "grid", "soft"]
+    ahead.start(None, "whitted", "bvh", "soft")
+    assert started[0][-6:] == ["raytrace.renderer.precompile", "0", "0", "0", "bvh", "soft"]
     assert ahead.compiles_rays()
     ahead.wait()
     assert not ahead.compiles_rays()
+
+
+def test_a_structure_without_packets_has_its_stages_compiled_ahead(monkeypatch, started):
+    """The grid's one-ray kernels are the smaller half of its first run:
+    the second process compiles the stages, this one the ray kernels."""
+    monkeypatch.setattr(core.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr("raytrace.kernels.cachedir.render_kernel_cached", lambda: False)
+    monkeypatch.setattr("raytrace.kernels.cachedir.kernel_cached", lambda *globs: False)
+    ahead.start(None, "whitted", "grid", "hard")
+    assert started[0][-6:] == ["raytrace.renderer.precompile", "0", "0", "0", "-", "hard"]
+    assert not ahead.compiles_rays()
+    core.stop("render")
 
 
 def test_the_second_process_compiles_the_ray_kernels_the_render_runs():

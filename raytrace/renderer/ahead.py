@@ -3,14 +3,16 @@
 structure's builder and builds.
 
 Only on a first run: nothing of the shading stages in the kernel cache
-(kernels/cachedir.render_kernel_cached, a glob).  With no ray kernel in the
-cache either, the second process compiles the structure's ray kernels
-(for its empty layout: the types of every layout it builds) and this one
-the shading stages after its build; otherwise the second process compiles
-the stages (for a tiny scene of the same kind, scene/kinds.py: the same
-types, so the same kernels).  Split so, the two compiles take about as
-long: a first teapot's builder and build took 2 s here, its stages 4.5 s
-and its ray kernels 6 s (docs/benchmarks.md, "Camera rays through
+(kernels/cachedir.render_kernel_cached, a glob).  For a structure with
+packet kernels, and no ray kernel in the cache, the second process
+compiles the structure's ray kernels (for its empty layout: the types of
+every layout it builds) and this one the shading stages after its build;
+otherwise the second process compiles the stages (for a tiny scene of the
+same kind, scene/kinds.py: the same types, so the same kernels).  Split
+so, the two compiles take about as long: a first BVH teapot's builder and
+build took 2 s here, its stages 4.5 s and its packet ray kernels 6 s; the
+other structures' one-ray kernels take half as long, and the grid's and
+the kd-tree's builders longer (docs/benchmarks.md, "Camera rays through
 packets").  The render waits for the second process (``wait``) before its
 first wave.
 """
@@ -37,10 +39,17 @@ def start(scene, integrator="whitted", accel="bvh", shadows="hard"):
         return
     from raytrace.scene.kinds import scene_kind
     textures, mirrors = scene_kind(scene)
-    rays = not path and not kernel_cached(_RAYS_INDEX)
+    rays = not path and not kernel_cached(_RAYS_INDEX) and _has_packets(accel)
     ahead.launch(_KEY, "raytrace.renderer.precompile",
                  [int(textures), int(mirrors), int(path), accel if rays else "-", shadows])
     _part["rays"] = rays
+
+
+def _has_packets(accel):
+    """Whether structure ``accel`` traces packets (importing it)."""
+    from raytrace.accel.registry import get
+    from raytrace.kernels.query import has_packets
+    return has_packets(get(accel).empty_layout())
 
 
 def compiles_rays():
