@@ -17,6 +17,7 @@ def load_stages(scene, opts=None, accel=None):
     """Compile (or load) the shading stages a render of ``scene`` uses or,
     given structure ``accel``, its ray kernels, and nothing else: no
     structure is built (renderer/ahead.py)."""
+    from raytrace.accel.registry import get
     from raytrace.kernels.buffers import f64
     from raytrace.kernels.counters import N_COUNTERS
     from raytrace.kernels.render import Band, Lighting, Render
@@ -33,7 +34,6 @@ def load_stages(scene, opts=None, accel=None):
         texture_record,
         validate,
     )
-    from raytrace.accel.registry import get
     from raytrace.scene.flatten import flatten
     opts = opts or RenderOptions()
     width, height = (int(n) for n in validate(opts, scene))
