@@ -184,3 +184,28 @@ def test_blinn_phong_at_a_known_point(specular, shininess):
     spec = specular * max(0.0, hz / math.sqrt(hx * hx + hy * hy + hz * hz)) ** shininess
     want = [ka * ci + kd * ci * lz + spec for ci in c]
     assert np.allclose(got, want, rtol=2.0 ** -23, atol=0.0)    # .linear is float32
+
+
+@pytest.mark.parametrize("n, side", [(9, 3), (16, 4)])
+def test_a_grid_lights_shadow_rays_go_to_its_cell_centres_in_order(n, side):
+    """Soft shadows with the grid pattern: sample s of a side-by-side grid
+    aims at the centre of cell (s % side, s // side) of the light (the
+    emitting loop counts the cell along rather than dividing)."""
+    from collections import namedtuple
+
+    from raytrace.kernels.jit import python_callable
+    from raytrace.kernels.sampling import PATTERN_GRID
+    from raytrace.kernels.wavefront import _emit_shadow_rays, shadow_buffers
+    from raytrace.renderer.driver import light_buffers
+    from raytrace.scene.model import Camera, Light, Scene
+    scene = Scene("light", Camera(eye=(0, 0, 5), look_at=(0, 0, 0)),
+                  lights=[Light(position=(1.0, 4.0, -2.0), size=2.0, samples=n)])
+    lights = light_buffers(scene, "soft", n)
+    shading = namedtuple("Shading", ["shadow_mode", "lights", "seed"])(PATTERN_GRID, lights, 0)
+    rays = shadow_buffers(n + 2, 1)
+    emit = python_callable(_emit_shadow_rays)
+    assert emit(shading, 0, (0.0, 0.0, 0.0), 7, 0, rays, 1) == n
+    for s in range(n):
+        su, sv = (s % side + 0.5) / side, (s // side + 0.5) / side
+        aim = lights.pos[0] + (su - 0.5) * lights.u[0] + (sv - 0.5) * lights.v[0]
+        assert np.array_equal(rays.dirs[1 + s], aim), s      # from the origin (0, 0, 0)

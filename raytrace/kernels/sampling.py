@@ -58,14 +58,17 @@ def radical_inverse(base, i):
 
 
 @njit(**JIT)
-def square_sample(pattern, s, n, side, key):
-    """Sample s of n on the unit square; side = sqrt(n) for square patterns."""
+def square_sample(pattern, s, cell, side, key):
+    """Sample s on the unit square; side = sqrt(n) for square patterns (of
+    n samples), whose cell (s % side, s // side) is ``cell``: the caller
+    counts it along, since an integer division a sample was a fifth of a
+    soft-shadow render's shading."""
     if pattern == PATTERN_GRID:
-        return ((s % side) + 0.5) / side, ((s // side) + 0.5) / side
+        return (cell[0] + 0.5) / side, (cell[1] + 0.5) / side
     if pattern == PATTERN_RANDOM:
         return rand01(key, s, 0), rand01(key, s, 1)
     if pattern == PATTERN_STRATIFIED:
-        return ((s % side) + rand01(key, s, 0)) / side, ((s // side) + rand01(key, s, 1)) / side
+        return (cell[0] + rand01(key, s, 0)) / side, (cell[1] + rand01(key, s, 1)) / side
     # Halton with a per-pixel toroidal shift, so pixels do not share one
     # point set (which would show as structured artefacts instead of noise).
     u = radical_inverse(2, s + 1) + rand01(key, 0, 2)

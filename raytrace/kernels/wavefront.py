@@ -144,14 +144,19 @@ def _emit_shadow_rays(shading, li, origin, pixel, sample, rays, m):
     if mode == HARD_SHADOWS:
         _shadow_ray(lights, li, 0.5, 0.5, origin, rays, m)
         return 1
-    n = lights.samples[li]
+    n, side = lights.samples[li], lights.side[li]
     key = hash_key(shading.seed, pixel, sample, li)
+    col = row = np.int64(0)         # sample s's cell: (s % side, s // side)
     for s in range(n):
         if n == 1:
             su, sv = 0.5, 0.5
         else:
-            su, sv = square_sample(mode, s, n, lights.side[li], key)
+            su, sv = square_sample(mode, s, (col, row), side, key)
         _shadow_ray(lights, li, su, sv, origin, rays, m + s)
+        col += 1
+        if col == side:
+            col = np.int64(0)
+            row += 1
     return n
 
 
