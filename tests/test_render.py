@@ -209,3 +209,19 @@ def test_a_grid_lights_shadow_rays_go_to_its_cell_centres_in_order(n, side):
         su, sv = (s % side + 0.5) / side, (s // side + 0.5) / side
         aim = lights.pos[0] + (su - 0.5) * lights.u[0] + (sv - 0.5) * lights.v[0]
         assert np.array_equal(rays.dirs[1 + s], aim), s      # from the origin (0, 0, 0)
+
+
+def test_a_lights_sample_hashes_are_rand01s_own():
+    """Soft shadows look up rand01's hash of (sample, dimension) in the
+    Lights record (sampling.sample_hashes, made in NumPy) instead of making
+    it per pixel: the same numbers, bit for bit, as rand01 makes."""
+    from raytrace.kernels.jit import python_callable
+    from raytrace.kernels.sampling import rand01, rand01_hashed, sample_hashes
+    whole, looked_up = python_callable(rand01), python_callable(rand01_hashed)
+    hashes = sample_hashes(300)
+    assert hashes.dtype == np.uint64 and hashes.shape == (600,)
+    rng = np.random.default_rng(5)
+    for key in rng.integers(0, 2**63, 8, dtype=np.uint64):
+        for s in (0, 1, 17, 80, 299):
+            for dim in (0, 1):
+                assert looked_up(key, hashes[2 * s + dim]) == whole(key, s, dim)

@@ -98,5 +98,6 @@ Lights = namedtuple(
         "u", "v",   # (L, 3) edge vectors of the square area light (zero: point)
         "samples",  # (L,) shadow rays per shading point
         "side",     # (L,) sqrt(samples) for the square patterns
+        "hashes",   # (2 max(samples),) uint64: sampling.sample_hashes
     ],
 )

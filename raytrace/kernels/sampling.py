@@ -41,8 +41,30 @@ def hash_key(seed, a, b, c):
 @njit(**JIT)
 def rand01(key, i, dim):
     """Uniform in [0, 1) from a key, a sample index and a dimension."""
-    z = mix64(key ^ mix64(np.uint64(i) * np.uint64(2) + np.uint64(dim) + _GOLDEN))
+    return rand01_hashed(key, mix64(np.uint64(i) * np.uint64(2) + np.uint64(dim) + _GOLDEN))
+
+
+@njit(**JIT)
+def rand01_hashed(key, h):
+    """rand01 given its second hash h, of the sample index and dimension
+    alone (sample_hashes)."""
+    z = mix64(key ^ h)
     return np.float64(z >> np.uint64(11)) * (1.0 / 9007199254740992.0)
+
+
+def mix64_array(z):
+    """mix64 of a uint64 array, in NumPy (its products wrap as mix64's do)."""
+    z = (z ^ (z >> np.uint64(30))) * _M1
+    z = (z ^ (z >> np.uint64(27))) * _M2
+    return z ^ (z >> np.uint64(31))
+
+
+def sample_hashes(n):
+    """rand01's hash of samples 0 .. n-1, dimensions 0 and 1 (entry 2 s +
+    dim): the same for every pixel, so a render makes them once (its
+    Lights record) and a soft shadow's sample hashes one number, not two
+    (a sixth of the soft-shadow shading stage)."""
+    return mix64_array(np.arange(2 * n, dtype=np.uint64) + _GOLDEN)
 
 
 @njit(**JIT)
@@ -58,17 +80,18 @@ def radical_inverse(base, i):
 
 
 @njit(**JIT)
-def square_sample(pattern, s, cell, side, key):
+def square_sample(pattern, s, cell, side, key, hashes):
     """Sample s on the unit square; side = sqrt(n) for square patterns (of
     n samples), whose cell (s % side, s // side) is ``cell``: the caller
     counts it along, since an integer division a sample was a fifth of a
-    soft-shadow render's shading."""
+    soft-shadow render's shading.  hashes: sample_hashes of n or more."""
     if pattern == PATTERN_GRID:
         return (cell[0] + 0.5) / side, (cell[1] + 0.5) / side
     if pattern == PATTERN_RANDOM:
-        return rand01(key, s, 0), rand01(key, s, 1)
+        return rand01_hashed(key, hashes[2 * s]), rand01_hashed(key, hashes[2 * s + 1])
     if pattern == PATTERN_STRATIFIED:
-        return (cell[0] + rand01(key, s, 0)) / side, (cell[1] + rand01(key, s, 1)) / side
+        return ((cell[0] + rand01_hashed(key, hashes[2 * s])) / side,
+                (cell[1] + rand01_hashed(key, hashes[2 * s + 1])) / side)
     # Halton with a per-pixel toroidal shift, so pixels do not share one
     # point set (which would show as structured artefacts instead of noise).
     u = radical_inverse(2, s + 1) + rand01(key, 0, 2)

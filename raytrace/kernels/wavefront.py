@@ -151,7 +151,7 @@ def _emit_shadow_rays(shading, li, origin, pixel, sample, rays, m):
         if n == 1:
             su, sv = 0.5, 0.5
         else:
-            su, sv = square_sample(mode, s, (col, row), side, key)
+            su, sv = square_sample(mode, s, (col, row), side, key, lights.hashes)
         _shadow_ray(lights, li, su, sv, origin, rays, m + s)
         col += 1
         if col == side:

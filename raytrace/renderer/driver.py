@@ -189,9 +189,11 @@ def light_buffers(scene, shadows, light_samples):
             us.append(np.zeros(3))
             vs.append(np.zeros(3))
             ns.append(1)
+    from raytrace.kernels.sampling import sample_hashes
     samples = i64(ns)
     return Lights(pos=f64(pos, 3), color=f64(col, 3), u=f64(us, 3), v=f64(vs, 3),
-                  samples=samples, side=i64([math.isqrt(int(n)) for n in samples]))
+                  samples=samples, side=i64([math.isqrt(int(n)) for n in samples]),
+                  hashes=sample_hashes(int(samples.max(initial=1))))
 
 
 def shadow_record(shadows, pattern):
