@@ -234,8 +234,7 @@ def _packets(acc, origins, dirs):
 # their implementation (accel/bvh/packet.py), as count_rays compiles a
 # count stream: Numba compiles an @overload's implementation in full even
 # where it is inlined, and a level of its own optimises and emits again
-# all the packet code it links in (about a second of a cold packet kernel
-# each).
+# all the packet code it links in (a quarter second a query).
 @overload(closest_packet, jit_options=OVERLOAD)
 def _closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
     packets = _packets(acc, origins, dirs)

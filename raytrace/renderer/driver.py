@@ -494,7 +494,7 @@ def _render(scene, opts, drop_meshes):
     from raytrace.renderer import ahead
     from raytrace.renderer.stats import counters_from_rows, derive
     validate(opts, scene)
-    # A first run: the shading (or the path tracer's stage) compiles beside prepare.
+    # A first run: part of the kernels compiles beside prepare (renderer/ahead.py).
     ahead.start(scene, integrator_of(opts, scene), opts.accel, opts.shadows)
     setup = prepare(scene, opts, drop_meshes)
     cam = camera_buffer(scene.camera, setup.width, setup.height)

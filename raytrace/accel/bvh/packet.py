@@ -323,9 +323,9 @@ def _packet_query(mode):
 # compile them as their own implementations for the BVH's layout, so no
 # wrapper adds a level of calls.  Numba compiles an @overload's
 # implementation in full even where it is inlined, and each level
-# optimises and emits again all the packet code below it: a wrapper here
-# cost a first render's compile 1.6 s (docs/benchmarks.md, "Camera rays
-# through packets").
+# optimises and emits again all the packet code below it: a wrapper level
+# cost a quarter second a query (docs/benchmarks.md, "Camera rays through
+# packets").
 closest_packet = _packet_query(CLOSEST)
 closest_packet.__doc__ = """Closest hits of rays i0 .. i0 + m - 1 as cast_closest writes them
 (outs: its t, prim, u and v arrays), if they go as a packet; returns
