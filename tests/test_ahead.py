@@ -121,6 +121,19 @@ def test_a_structure_without_packets_has_its_stages_compiled_ahead(monkeypatch, 
     core.stop("render")
 
 
+def test_a_mirror_scenes_first_run_has_its_stages_compiled_ahead(monkeypatch, started):
+    """Mirrors' and glass's stages are the larger half of a first BVH run:
+    the second process compiles them, this one the ray kernels."""
+    from raytrace.scene.kinds import tiny_scene
+    monkeypatch.setattr(core.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr("raytrace.kernels.cachedir.render_kernel_cached", lambda: False)
+    monkeypatch.setattr("raytrace.kernels.cachedir.kernel_cached", lambda *globs: False)
+    ahead.start(tiny_scene(False, True), "whitted", "bvh", "hard")
+    assert started[0][-6:] == ["raytrace.renderer.precompile", "0", "1", "0", "-", "hard"]
+    assert not ahead.compiles_rays()
+    core.stop("render")
+
+
 def test_the_second_process_compiles_the_ray_kernels_the_render_runs():
     """Run in this process, the renderer's precompile.main adds the ray
     kernels' specialisations a first render (of another scene of the kind,

@@ -4,17 +4,18 @@ structure's builder and builds.
 
 Only on a first run: nothing of the shading stages in the kernel cache
 (kernels/cachedir.render_kernel_cached, a glob).  For a structure with
-packet kernels, and no ray kernel in the cache, the second process
-compiles the structure's ray kernels (for its empty layout: the types of
-every layout it builds) and this one the shading stages after its build;
-otherwise the second process compiles the stages (for a tiny scene of the
-same kind, scene/kinds.py: the same types, so the same kernels).  Split
-so, the two compiles take about as long: a first BVH teapot's builder and
-build took 2 s here, its stages 4.5 s and its packet ray kernels 6 s; the
-other structures' one-ray kernels take half as long, and the grid's and
-the kd-tree's builders longer (docs/benchmarks.md, "Camera rays through
-packets").  The render waits for the second process (``wait``) before its
-first wave.
+packet kernels, a scene without mirrors or glass, and no ray kernel in
+the cache, the second process compiles the structure's ray kernels (for
+its empty layout: the types of every layout it builds) and this one the
+shading stages after its build; otherwise the second process compiles the
+stages (for a tiny scene of the same kind, scene/kinds.py: the same types,
+so the same kernels).  Split so, the two compiles take about as long: a
+first BVH teapot's builder and build took 2 s here, its stages 4.5 s and
+its packet ray kernels 6 s; mirrors' and glass's stages take 6 s, the
+other structures' one-ray kernels half as long as the BVH's, and the
+grid's and the kd-tree's builders longer (docs/benchmarks.md, "Camera rays
+through packets").  The render waits for the second process (``wait``)
+before its first wave.
 """
 from raytrace.kernels import ahead
 
@@ -39,7 +40,7 @@ def start(scene, integrator="whitted", accel="bvh", shadows="hard"):
         return
     from raytrace.scene.kinds import scene_kind
     textures, mirrors = scene_kind(scene)
-    rays = not path and not kernel_cached(_RAYS_INDEX) and _has_packets(accel)
+    rays = not (path or mirrors) and not kernel_cached(_RAYS_INDEX) and _has_packets(accel)
     ahead.launch(_KEY, "raytrace.renderer.precompile",
                  [int(textures), int(mirrors), int(path), accel if rays else "-", shadows])
     _part["rays"] = rays
