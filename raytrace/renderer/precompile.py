@@ -13,7 +13,7 @@ import sys
 import numpy as np
 
 
-def load_stages(scene, opts=None, accel=None):
+def load_kernels(scene, opts=None, accel=None):
     """Compile (or load) the shading stages a render of ``scene`` uses or,
     given structure ``accel``, its ray kernels, and nothing else: no
     structure is built (renderer/ahead.py)."""
@@ -63,7 +63,7 @@ def main(textures, mirrors, path=False, accel=None, shadows="hard"):
     # tiny scene with mirrors, one sample).
     opts = (RenderOptions(integrator="path", spp=1, shadows=shadows) if path
             else RenderOptions(shadows=shadows))
-    load_stages(tiny_scene(textures, mirrors or path), opts, accel)
+    load_kernels(tiny_scene(textures, mirrors or path), opts, accel)
 
 
 if __name__ == "__main__":
