@@ -255,3 +255,35 @@ def test_secondary_rays_hit_alike_in_every_structure(name):
         assert np.array_equal(h.v, base.v, equal_nan=True), accel
         assert np.array_equal(rs.occluded(o, to_light, t_max=1.0), base_shadow), accel
         assert np.array_equal(rs.occluded(o, d), base.hit), accel
+
+
+
+def _root(a):
+    """The array that owns a's memory."""
+    while isinstance(a.base, np.ndarray):
+        a = a.base
+    return a
+
+
+def test_fresh_columns_are_separate_arrays_of_one_block():
+    from raytrace.cast.rays import fresh_columns
+    point, prim, d2 = fresh_columns(5, ((np.float64, 3), (np.int64, 1), (np.float64, 1)))
+    assert (point.shape, prim.shape, d2.shape) == ((5, 3), (5,), (5,))
+    assert (point.dtype, prim.dtype, d2.dtype) == (np.float64, np.int64, np.float64)
+    assert all(a.flags.c_contiguous and a.flags.writeable for a in (point, prim, d2))
+    assert _root(point) is _root(prim) is _root(d2)
+    point[:] = 1.5
+    prim[:] = -7
+    d2[:] = 2.5
+    # No column overlaps another.
+    assert (point == 1.5).all() and (prim == -7).all() and (d2 == 2.5).all()
+
+
+def test_a_calls_answers_share_one_allocation():
+    """t, the primitive ids and the barycentrics (and the face ids made
+    from them) come from one block each, which malloc keeps for the next
+    call (rays.fresh_columns)."""
+    h = cast_rays((V, F), [[0.2, 0.3, -1.0]] * 3, [[0, 0, 1.0]] * 3, accel="bvh")
+    assert _root(h.t) is _root(h._prim) is _root(h._raw_uv[0]) is _root(h._raw_uv[1])
+    assert _root(h.prim_id) is _root(h.geometry_id)
+    assert h.prim_id.tolist() == [1, 1, 1] and h.geometry_id.tolist() == [0, 0, 0]

@@ -3,6 +3,7 @@ structure, the counting layout and the BVH the point queries walk, built
 on first use, and the surface (ids, normals, points) at hits."""
 import numpy as np
 
+from raytrace.cast.rays import fresh_columns
 from raytrace.errors import RaytraceError
 from raytrace.scene.model import Scene
 
@@ -73,8 +74,9 @@ class _Prepared:
         """(geometry id, face) of each unified primitive id, -1 for a miss."""
         if not len(self.prim_object):
             return np.full(len(prim), -1), np.full(len(prim), -1)
-        gid = np.full(len(prim), -1, self.prim_object.dtype)
-        face = np.full(len(prim), -1, self.prim_face.dtype)
+        gid, face = fresh_columns(len(prim), ((np.int64, 1), (np.int64, 1)))  # flatten's dtypes
+        gid[:] = -1
+        face[:] = -1
         for s in _blocks(len(prim)):
             hit = np.flatnonzero(prim[s] >= 0)
             gid[s][hit] = self.prim_object[prim[s][hit]]

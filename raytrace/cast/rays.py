@@ -295,6 +295,25 @@ def _clock():
     return np.zeros(1, np.int64)
 
 
+def fresh_columns(n, columns):
+    """New arrays of n rows, one per (dtype, width) of ``columns`` (8-byte
+    dtypes; width 1 makes an (n,) array, else (n, width)), C-contiguous
+    views of one allocation.  A query's answers are several arrays of a
+    few MB each; glibc's malloc hands each back to the system when it is
+    freed (its trim and mmap thresholds follow the largest block freed so
+    far), so every call faulted its answers' pages in again: 3,600 faults,
+    about 5 ms, in a call of 307,200 rays whose rays took 4.  One block of
+    their sum is kept by malloc for the next call (docs/benchmarks.md,
+    "Answers in one allocation")."""
+    block = np.empty(n * sum(w for _, w in columns))
+    out, start = [], 0
+    for dtype, width in columns:
+        a = block[start:start + n * width].view(dtype)
+        out.append(a if width == 1 else a.reshape(n, width))
+        start += n * width
+    return out
+
+
 def _closest(geo, acc, origins, dirs, t_min, t_max, check=True, entries=None):
     """((t, prim, b1, b2), counters) for (n, 3) rays and (n,) bounds;
     RaytraceError if a ray is bad (with ``check``; else it misses).
@@ -302,7 +321,8 @@ def _closest(geo, acc, origins, dirs, t_min, t_max, check=True, entries=None):
     (kernels/cast.py closest_alone), for rays as _rays makes them."""
     k = _kernels()
     n = len(origins)
-    out = (np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n))
+    out = tuple(fresh_columns(n, ((np.float64, 1), (np.int64, 1), (np.float64, 1),
+                                  (np.float64, 1))))
     cnt = _counter_rows(n)
     if entries is not None and len(cnt) == 1:
         k.closest_alone(geo, acc, (origins, dirs, t_min, t_max), out, cnt, _clock(), entries)

@@ -24,6 +24,7 @@ from raytrace.cast.rays import (
     _rays,
     _shaped,
     _unsorted,
+    fresh_columns,
 )
 from raytrace.cast.results import ClosestPoints, HitList, RayHits
 from raytrace.errors import RaytraceError
@@ -194,8 +195,8 @@ class RayScene:
         p = self._built()
         from raytrace.accel.bvh.points import CHUNK, closest_points
         n = len(q)
-        point, prim = np.empty((n, 3)), np.empty(n, np.int64)
-        u, v, d2 = np.empty(n), np.empty(n), np.empty(n)
+        point, prim, u, v, d2 = fresh_columns(n, ((np.float64, 3), (np.int64, 1), (np.float64, 1),
+                                                  (np.float64, 1), (np.float64, 1)))
         closest_points(p.geo, p.bvh(), q, point, prim, u, v, d2, _blocks(n, CHUNK), _clock())
         return point, d2, prim, u, v
 
