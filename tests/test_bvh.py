@@ -465,9 +465,46 @@ def test_counting_stack_holds_the_deepest_rounds():
     assert k[NODES_VISITED] == 2 * len(child) + 2 * n
 
 
+def test_coherent_rays_count_as_packets_through_edges_and_vertices():
+    """Parallel rays on a lattice go as packets (accel/bvh/packet.py,
+    count_packet) and meet a subdivided closed box exactly on its edges
+    and vertices, where the crossing rule gives each crossing to one
+    triangle: every ray through the box crosses it twice, and each ray's
+    count and counters are the ones it has alone (a count never narrows a
+    ray, so a packet visits what its rays visit one by one)."""
+    import trimesh
+    box = trimesh.creation.box().subdivide().subdivide().subdivide()   # edges every 1/8
+    geo, ranges = make_scene(box.vertices[box.faces], [((0.0, 0.0, 3.0), 0.25)],
+                             planes=[((0, 0, -2.0), (0, 0, 1))])
+    bvh, _ = build_accel("bvh", geo, ranges)
+    counting = get_structure("bvh").counting_layout(bvh, geo)
+    brute, _ = build_accel("none", geo, ranges)
+    xs = np.arange(-48, 48) / 64                       # 96 rays a row: 6 packets
+    x, y = np.meshgrid(xs, xs)
+    o = np.column_stack([x.ravel(), y.ravel(), np.full(x.size, 5.0)])
+    d = np.tile([0.0, 0.0, -1.0], (len(o), 1))
+    o[100, 0] = np.nan                                 # one packet goes ray by ray
+    t_max = np.full(len(o), np.inf)
+    (c, k), (c0, _) = counts(geo, counting, o, d, t_max), counts(geo, brute, o, d, t_max)
+    assert np.array_equal(c, c0)
+    # Off the box's side faces (a ray along a face is not a crossing) and
+    # the sphere's tangents: the plane, the box twice, the sphere twice.
+    ax, ay = np.abs(o[:, 0]), np.abs(o[:, 1])
+    r = np.hypot(o[:, 0], o[:, 1])
+    clear = (ax != 0.5) & (ay != 0.5) & (r != 0.25)
+    expected = 1 + 2 * ((ax < 0.5) & (ay < 0.5)) + 2 * (r < 0.25)
+    expected[100] = 0
+    assert clear.sum() > 8000 and np.array_equal(c[clear], expected[clear])
+    # Rays through the lattice's vertices and edges on the top face.
+    assert (c[clear & (ax < 0.5) & (ay < 0.5) & (o[:, 0] * 8 % 1 == 0)] >= 3).all()
+    one_at_a_time = sum(counts(geo, counting, o[i:i + 1], d[i:i + 1], t_max[i:i + 1])[1]
+                        for i in range(len(o)))
+    assert np.array_equal(k, one_at_a_time) and k[BAD_RAYS] == 1
+
+
 def test_count_stream_takes_the_rays_as_they_come():
     """The BVH counts two rays in flight, each slot taking the next good
-    ray when its own is done (accel/bvh/traverse.py, count_stream).  Bad rays
+    ray when its own is done (accel/bvh/count_stream.py).  Bad rays
     first, in runs, last, and a batch of nothing else, get 0 and are
     counted; every good ray gets brute force's count (spheres' far roots
     and planes included), and the batch the counters its rays have one at

@@ -19,7 +19,7 @@ branching, queues the leaves it enters and tests their triangles 8 at a
 time (``crossing_mask``), from a copy of them in leaf order (the
 CountingBVH layout, made on a scene's first count): a count tests many
 triangles and hits few.  count_intersections traces two rays at once in
-that loop, a round of each in turn (``count_stream``).
+that loop, a round of each in turn (count_stream.py).
 
 The stack lives in the function's frame (``frame_array``, an alloca), not
 in ``np.empty``: that would need the reference-counted runtime and a heap
@@ -41,12 +41,12 @@ from numba.cpython.unsafe.numbers import trailing_zeros  # llvm.cttz: a mask's l
 
 from raytrace.accel.bvh.layout import BVH, MAX_DEPTH, WIDTH, CountingBVH
 from raytrace.accel.bvh.simd import CROSSING_LANES, box_ray_f32, crossing_mask, ray_aabb4
-from raytrace.kernels.counters import BAD_RAYS, BOX_TESTS, NODES_VISITED, PRIM_HITS, PRIM_TESTS
+from raytrace.kernels.counters import BOX_TESTS, NODES_VISITED, PRIM_HITS, PRIM_TESTS
 from raytrace.kernels.jit import JIT
-from raytrace.kernels.lowlevel import frame_array, popcount, take_ticket
-from raytrace.kernels.prims import count_unbounded_hits, records_hits, test_prim
-from raytrace.kernels.query import ANY_HIT, CLOSEST, register, register_count_stream
-from raytrace.kernels.ray import Hit, closer, make_crossing_ray, no_hit, ray_ok
+from raytrace.kernels.lowlevel import frame_array, popcount
+from raytrace.kernels.prims import records_hits, test_prim
+from raytrace.kernels.query import ANY_HIT, CLOSEST, register
+from raytrace.kernels.ray import Hit, closer, no_hit
 
 STACK_SIZE = 3 * MAX_DEPTH + 4
 # Counting takes ROUND nodes a round (_count_round, written out there)
@@ -380,110 +380,5 @@ def _count_traverse(geo, acc, ray, t_max, cnt):
     return no_hit()
 
 
-@njit(**JIT)
-def _next_good_ray(origins, dirs, t_min, t_max, out, i, end, clock, chunk, cnt):
-    """(i, end): the first ray from i on that ray_ok passes, in the chunk
-    that ends at end or in the next chunks taken by ticket from clock (of
-    ``chunk`` rays), and the end of its chunk; i is the number of rays
-    when none is left.  Each bad ray passed over gets 0 and is counted in
-    cnt[BAD_RAYS]."""
-    n = origins.shape[0]
-    while i < n:
-        if i >= end:
-            i = min(take_ticket(clock) * chunk, n)
-            end = min(i + chunk, n)
-        elif ray_ok(origins, dirs, t_min, t_max, i):
-            break
-        else:
-            cnt[BAD_RAYS] += 1
-            out[i] = 0
-            i += 1
-    return i, end
-
-
-@njit(**JIT)
-def _crossing_ray(origins, dirs, t_min, t_max, i):
-    """Ray i as a CrossingRay and its t_max; past the last ray (a slot with
-    no ray left still holds one, never traced), the last one's."""
-    i = min(i, origins.shape[0] - 1)
-    ray = make_crossing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
-                            dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i])
-    return ray, t_max[i]
-
-
-# What both of count_stream's slots read and write: the scene, its
-# counting tree, the rays, the counts, counters and ticket clock, the chunk
-# size, and whether the scene has hits no tree holds.
-CountJob = namedtuple("CountJob", ["geo", "acc", "origins", "dirs", "t_min", "t_max", "out", "cnt",
-                                   "clock", "chunk", "unbounded"])
-
-
-@njit(**JIT)
-def _count_slot(job, i, ray, tm, br, s, t, stack, queue, after, end):
-    """A round of the ray in one of count_stream's slots (job: the stream's
-    CountJob): ray i (below the number of rays), its t_max tm, BoxRay br
-    and state s; t the stream's tallies.  When its traversal is done its
-    count is written, with the hits no tree holds if the scene has them
-    (``unbounded``: planes, spheres' far roots), and the slot takes the
-    next good ray from ``after`` on (_next_good_ray).  Returns (i, ray,
-    tm, br, s, t, after, end) for the next round."""
-    geo, acc, cnt = job.geo, job.acc, job.cnt
-    origins, dirs, t_min, t_max = job.origins, job.dirs, job.t_min, job.t_max
-    if s.node >= 0:
-        s, t = _count_round(geo, acc, ray, br, tm, stack, queue, s, t)
-    if s.node < 0:
-        job.out[i] = s.hits + (count_unbounded_hits(geo, ray, tm, cnt) if job.unbounded else 0)
-        i, end = _next_good_ray(origins, dirs, t_min, t_max, job.out, after, end, job.clock,
-                                job.chunk, cnt)
-        after = i + 1
-        ray, tm = _crossing_ray(origins, dirs, t_min, t_max, i)
-        br = box_ray(acc, ray)
-        s = _count_start(acc, i < origins.shape[0])
-    return i, ray, tm, br, s, t, after, end
-
-
-def count_stream(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
-    """query.count_rays on a CountingBVH: two rays in flight, a round of
-    one and then a round of the other, each slot taking the next ray when
-    its own is done.  A round's box tests and pushes wait on the loads
-    before them, and one ray's rounds on each other: the other ray's round
-    fills those waits (two in flight: docs/benchmarks.md, "BVH").  Rays
-    come a chunk at a time by ticket, as in kernels/cast.py, each slot
-    taking the thread's next one.
-
-    Not decorated: query.count_rays compiles it as its own implementation
-    for the layout, so that no wrapper adds a level of calls (each level
-    compiles all the code below it again: docs/design.md, "Compile time")."""
-    n = origins.shape[0]
-    if n == 0:      # a slot always holds a ray, the last one past the end
-        return
-    stack_a = frame_array(COUNT_STACK_SIZE, np.int64)
-    queue_a = frame_array(QUEUE_SIZE, np.int64)
-    stack_b = frame_array(COUNT_STACK_SIZE, np.int64)
-    queue_b = frame_array(QUEUE_SIZE, np.int64)
-    unbounded = geo.pl_point.shape[0] + geo.sph_center.shape[0] > 0
-    zero = np.int64(0)     # not literal 0s: _next_good_ray and ray_ok would compile twice
-    ia, end = _next_good_ray(origins, dirs, t_min, t_max, out, zero, zero, clock, chunk, cnt)
-    ib, end = _next_good_ray(origins, dirs, t_min, t_max, out, ia + 1, end, clock, chunk, cnt)
-    after = ib + 1
-    ray_a, tm_a = _crossing_ray(origins, dirs, t_min, t_max, ia)
-    ray_b, tm_b = _crossing_ray(origins, dirs, t_min, t_max, ib)
-    br_a = box_ray(acc, ray_a)
-    br_b = box_ray(acc, ray_b)
-    sa = _count_start(acc, ia < n)
-    sb = _count_start(acc, ib < n)
-    t = Tallies(0, 0, 0, 0)
-    job = CountJob(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk, unbounded)
-    while ia < n or ib < n:
-        if ia < n:
-            ia, ray_a, tm_a, br_a, sa, t, after, end = _count_slot(
-                job, ia, ray_a, tm_a, br_a, sa, t, stack_a, queue_a, after, end)
-        if ib < n:
-            ib, ray_b, tm_b, br_b, sb, t, after, end = _count_slot(
-                job, ib, ray_b, tm_b, br_b, sb, t, stack_b, queue_b, after, end)
-    tally(cnt, t.n_inner, t.n_leaves, t.n_tests, t.n_hits)
-
-
 register(BVH, _traversal(CLOSEST), _traversal(ANY_HIT), None)
 register(CountingBVH, None, None, _count_traverse)
-register_count_stream(CountingBVH, count_stream)
