@@ -28,12 +28,11 @@ and for a batch's last few rays, they take the single-ray path
 (``closest_packet`` and ``occluded_packet`` return False, having written
 nothing).  Rays in every direction pay a sign check a packet, not a load.
 
-Counting every hit (``count_packet``, on a CountingBVH) visits every
-child some ray enters, in lane order, and tests a leaf's triangles with
-counting's crossing rule (``packet_crossing``).  At 1k triangles a count
-of camera rays took 4.3 ms instead of 7.8, at 9k 6.4 instead of 9.4-10.7,
-at 118k the same as the two-ray stream (docs/benchmarks.md, "Counting
-coherent rays as packets").
+Counting every hit (``count_packet``, on a CountingBVH) shares the box
+tests, visiting every child some ray enters, in lane order; each ray
+entering a leaf tests its triangles alone, 8 at a time (``_count_leaf``).
+Camera rays, one call: 1.5-1.9x the two-ray stream's speed at 1k and 118k
+triangles (docs/benchmarks.md, "Counting coherent rays as packets").
 """
 import math
 from collections import namedtuple
@@ -45,7 +44,6 @@ from numba.cpython.unsafe.numbers import trailing_zeros
 from raytrace.accel.bvh.layout import BVH, WIDTH
 from raytrace.accel.bvh.simd_packets import (
     packet_aabb4,
-    packet_crossing,
     packet_rays,
     packet_triangle,
 )
@@ -54,8 +52,10 @@ from raytrace.accel.bvh.traverse import (
     _LANE_BITS,
     BOX32_MARGIN,
     BOX32_RANGE,
+    CHUNK,
     NEAR_LIMIT,
     STACK_SIZE,
+    _count_chunks,
     tally,
 )
 from raytrace.kernels.jit import JIT, STAGE
@@ -157,18 +157,14 @@ def _count_traversal(geo, acc, pk, nx, ny, nz, counts, cnt):
     _count_round), ray by ray.  Nothing narrows a ray, so every child some
     ray enters is visited with those rays, in lane order; a lane is a leaf
     where its ``lanes`` word counts slots (a small subtree counts as one
-    leaf, as it does for one ray), and each of its slots is tested against
-    every ray that entered it (packet_crossing; its unsure lanes and
-    spheres by the scalar test).  So each ray's hits and counters are its
-    own."""
-    fields, axes, consts, t_far, far = pk.fields, pk.axes, pk.consts, pk.t_far, pk.far
-    node_box, lanes, prim_ids = acc.node_box, acc.lanes, acc.prim_ids
+    leaf, as it does for one ray), and each ray that entered it tests its
+    slots (_count_leaf).  So each ray's hits and counters are its own."""
+    consts, t_far, far = pk.consts, pk.t_far, pk.far
+    node_box, lanes = acc.node_box, acc.lanes
     if node_box.shape[0] == 0:
         return
     stack = frame_array(STACK_SIZE, np.int64)
     stack_mask = frame_array(STACK_SIZE, np.int64)
-    n_tris = geo.tri_v0.shape[0]
-    shared_axes = _shared_axes(axes)
     n_inner = 0
     n_leaves = 0
     n_tests = 0
@@ -194,28 +190,37 @@ def _count_traversal(geo, acc, pk, nx, ny, nz, counts, cnt):
                 sp += 1
                 continue
             n_leaves += popcount(entered)
-            for k in range(start, start + size):
-                p = prim_ids[k]
-                todo = entered
-                n_tests += popcount(entered)
-                if p < n_tris and shared_axes:
-                    m = packet_crossing(geo.tri_v0, geo.tri_v1, geo.tri_v2, p, axes[0],
-                                        axes[PACKET], axes[2 * PACKET], fields, far)
-                    hits = entered & m
-                    n_hits += popcount(hits)
-                    while hits:
-                        r = trailing_zeros(hits)
-                        hits &= hits - 1
-                        counts[r] += 1
-                    todo = entered & (m >> PACKET)
-                while todo:
-                    r = trailing_zeros(todo)
-                    todo &= todo - 1
-                    t, _, _ = test_prim(geo, _crossing_ray(pk, r), p, far[r])
-                    if t < np.inf:
-                        n_hits += 1
-                        counts[r] += 1
+            n_tests += popcount(entered) * size
+            todo = entered
+            while todo:
+                r = trailing_zeros(todo)
+                todo &= todo - 1
+                hits = _count_leaf(geo, acc, _crossing_ray(pk, r), start, size, far[r])
+                counts[r] += hits
+                n_hits += hits
     tally(cnt, n_inner, n_leaves, n_tests, n_hits)
+
+
+@njit(**JIT)
+def _count_leaf(geo, acc, ray, start, size, t_max):
+    """The hits of one ray among leaf slots start .. start + size - 1,
+    CHUNK slots at a time, two chunks a test (traverse._count_chunks, the
+    single-ray count's 8-triangle crossing test).  A packet's leaf is
+    entered by a few of its rays, often 1 to 4 at 118k triangles, and a
+    triangle tested against all 16 lanes cost as much as 8 triangles
+    against one ray: so each ray entering a leaf tests its triangles
+    alone."""
+    hits = 0
+    k = start
+    end = start + size
+    while k < end:
+        n = min(CHUNK, end - k)
+        k2 = k + n
+        n2 = min(CHUNK, end - k2)
+        hits += _count_chunks(geo, ray, acc.leaf_tris, acc.prim_ids, k, n, k2 if n2 else k, n2,
+                              t_max)
+        k = k2 + n2
+    return hits
 
 
 @njit(**STAGE)

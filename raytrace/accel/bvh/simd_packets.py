@@ -104,61 +104,6 @@ def packet_aabb4(typingctx, node_box, node, nx, ny, nz, consts, t_far):
 _F64_ROW = types.Array(types.float64, 1, "C")
 
 
-def _packet_test(crossing):
-    """packet_triangle's typing and code, or packet_crossing's (``crossing``)."""
-    def typer(typingctx, v0, v1, v2, p, kx, ky, kz, fields, far):
-        ints = (p, kx, ky, kz)
-        if any(a != VERTICES for a in (v0, v1, v2)) \
-                or not all(isinstance(a, types.Integer) for a in ints) \
-                or fields != _F64_ROW or far != _F64_ROW:
-            return None
-        sig = types.int64(v0, v1, v2, p, kx, ky, kz, fields, far)
-
-        def codegen(context, builder, sig, llargs):
-            i64 = ir.IntType(64)
-            f64 = ir.DoubleType()
-            vec = ir.VectorType(f64, PACKET)
-            data = [context.make_array(sig.args[k])(context, builder, value=llargs[k]).data
-                    for k in range(3)]
-            p, kx, ky, kz = [context.cast(builder, llargs[3 + j], sig.args[3 + j], types.int64)
-                             for j in range(4)]
-            rows = context.make_array(sig.args[7])(context, builder, value=llargs[7]).data
-            far_data = context.make_array(sig.args[8])(context, builder, value=llargs[8]).data
-
-            sx, sy, sz, okx, oky, okz, t_min = [_packet_row(builder, rows, k, vec)
-                                                for k in range(9, 16)]
-            t_max = _packet_row(builder, far_data, 0, vec)
-            base = builder.mul(p, ir.Constant(i64, 3))
-
-            def coordinate(vertices, axis, origin):
-                x = builder.load(builder.gep(vertices, [builder.add(base, axis)]))
-                return builder.fsub(broadcast(builder, vec, x), origin)
-
-            corners = [(coordinate(vertices, kx, okx), coordinate(vertices, ky, oky),
-                        coordinate(vertices, kz, okz)) for vertices in data]
-            edges, mixed = edge_functions(builder, corners, sx, sy)
-            within = within_interval(builder, edges, corners, sz, t_min, t_max)
-            bits = ir.IntType(PACKET)
-            if not crossing:
-                keep = builder.and_(builder.not_(mixed), within)
-                return builder.zext(builder.bitcast(keep, bits), i64)
-            zero = ir.Constant(vec, [0.0] * PACKET)
-
-            def every_edge(op):
-                e0, e1, e2 = [builder.fcmp_ordered(op, e, zero) for e in edges]
-                return builder.and_(builder.and_(e0, e1), e2)
-
-            strict = builder.or_(every_edge(">"), every_edge("<"))
-            hit = builder.and_(strict, within)
-            unsure = builder.and_(builder.not_(mixed), builder.not_(strict))
-            return builder.or_(builder.zext(builder.bitcast(hit, bits), i64),
-                               builder.shl(builder.zext(builder.bitcast(unsure, bits), i64),
-                                           ir.Constant(i64, PACKET)))
-
-        return sig, codegen
-    return typer
-
-
 @intrinsic
 def packet_triangle(typingctx, v0, v1, v2, p, kx, ky, kz, fields, far):
     """The watertight triangle test (intersect._triangle, not the crossing
@@ -172,19 +117,41 @@ def packet_triangle(typingctx, v0, v1, v2, p, kx, ky, kz, fields, far):
     t_max.  Returns the mask of the rays that hit; the scalar test gives a
     hit's distance and barycentrics.
     """
-    return _packet_test(False)(typingctx, v0, v1, v2, p, kx, ky, kz, fields, far)
+    ints = (p, kx, ky, kz)
+    if any(a != VERTICES for a in (v0, v1, v2)) \
+            or not all(isinstance(a, types.Integer) for a in ints) \
+            or fields != _F64_ROW or far != _F64_ROW:
+        return None
+    sig = types.int64(v0, v1, v2, p, kx, ky, kz, fields, far)
 
+    def codegen(context, builder, sig, llargs):
+        i64 = ir.IntType(64)
+        f64 = ir.DoubleType()
+        vec = ir.VectorType(f64, PACKET)
+        data = [context.make_array(sig.args[k])(context, builder, value=llargs[k]).data
+                for k in range(3)]
+        p, kx, ky, kz = [context.cast(builder, llargs[3 + j], sig.args[3 + j], types.int64)
+                         for j in range(4)]
+        rows = context.make_array(sig.args[7])(context, builder, value=llargs[7]).data
+        far_data = context.make_array(sig.args[8])(context, builder, value=llargs[8]).data
 
-@intrinsic
-def packet_crossing(typingctx, v0, v1, v2, p, kx, ky, kz, fields, far):
-    """The crossing triangle test (intersect._triangle with ``crossing``,
-    counting's) of triangle p against a packet's rays, as packet_triangle's,
-    and as simd.crossing_mask decides it: a lane whose three edge functions
-    share a strict sign hits exactly where the scalar test hits (bit r of
-    the result); a lane with mixed signs misses; any other lane (an edge
-    function exactly 0, where the crossing rule gives the edge to one
-    triangle) is unsure (bit PACKET + r): the caller runs the scalar test."""
-    return _packet_test(True)(typingctx, v0, v1, v2, p, kx, ky, kz, fields, far)
+        sx, sy, sz, okx, oky, okz, t_min = [_packet_row(builder, rows, k, vec)
+                                            for k in range(9, 16)]
+        t_max = _packet_row(builder, far_data, 0, vec)
+        base = builder.mul(p, ir.Constant(i64, 3))
+
+        def coordinate(vertices, axis, origin):
+            x = builder.load(builder.gep(vertices, [builder.add(base, axis)]))
+            return builder.fsub(broadcast(builder, vec, x), origin)
+
+        corners = [(coordinate(vertices, kx, okx), coordinate(vertices, ky, oky),
+                    coordinate(vertices, kz, okz)) for vertices in data]
+        edges, mixed = edge_functions(builder, corners, sx, sy)
+        keep = builder.and_(builder.not_(mixed),
+                            within_interval(builder, edges, corners, sz, t_min, t_max))
+        return builder.zext(builder.bitcast(keep, ir.IntType(PACKET)), i64)
+
+    return sig, codegen
 
 
 @intrinsic
