@@ -4,9 +4,9 @@ stream for the CountingBVH layout): coherent rays a packet at a time
 
 Each thread takes chunks of rays by ticket.  A chunk's rays go as packets
 first where they can (a whole packet of valid rays whose directions share
-their signs, as the closest-hit packets), their counts written; the rest
-are marked and counted by the two-ray stream, which passes over the
-counted ones.
+their signs, as the closest-hit packets), their counts written; the
+two-ray stream counts the rest, passing over the packets that went (a
+bit each).
 """
 from collections import namedtuple
 
@@ -33,19 +33,26 @@ from raytrace.kernels.ray import make_crossing_ray, ray_ok
 
 
 @njit(**JIT)
-def _next_good_ray(job, i, end, cnt):
-    """The first ray from i on, below end, that no packet counted and
+def _next_good_ray(job, i, start, end, packed, cnt):
+    """The first ray from i on, below end, that no packet of the chunk
+    from start counted (bit k of ``packed``: packet k went) and that
     ray_ok passes; end when none is left.  Each bad ray passed over gets 0
     and is counted in cnt[BAD_RAYS]."""
-    origins, dirs, t_min, t_max, out = job.origins, job.dirs, job.t_min, job.t_max, job.out
     while i < end:
-        if out[i] < 0:         # not counted in a packet
-            if ray_ok(origins, dirs, t_min, t_max, i):
-                break
+        k = (i - start) // PACKET
+        if k < _PACKETS_A_CHUNK and (packed >> k) & 1:
+            i = start + (k + 1) * PACKET
+        elif ray_ok(job.origins, job.dirs, job.t_min, job.t_max, i):
+            break
+        else:
             cnt[BAD_RAYS] += 1
-            out[i] = 0
-        i += 1
-    return i
+            job.out[i] = 0
+            i += 1
+    return min(i, end)
+
+
+# The packets of a chunk _count_packets tries: one bit each in a word.
+_PACKETS_A_CHUNK = 64
 
 
 # Inlined by Numba into count_stream, its one caller, with the packet
@@ -53,15 +60,18 @@ def _next_good_ray(job, i, end, cnt):
 # (each level optimises all the code below it again: docs/design.md).
 @njit(**STAGE)
 def _count_packets(job, start, end, cnt):
-    """Rays start .. end - 1 that go as a packet counted (packet.count_packet:
-    camera rays and other coherent ones, whose nodes and tests a packet
-    shares), every other one marked -1 for the two-ray stream."""
-    for i0 in range(start, end, PACKET):
-        m = min(PACKET, end - i0)
-        if not count_packet(job.geo, job.acc, job.origins, job.dirs, job.t_min, job.t_max, i0, m,
-                            job.out, cnt):
-            for i in range(i0, i0 + m):
-                job.out[i] = -1
+    """The rays of the chunk start .. end - 1 that go as a packet counted
+    (packet.count_packet: camera rays and other coherent ones, whose nodes
+    a packet shares), up to _PACKETS_A_CHUNK packets; returns the mask of
+    the packets that went.  The two-ray stream counts the rest."""
+    packed = np.int64(0)
+    m = np.int64(PACKET)     # not a literal: count_packet's callees would compile again
+    for k in range(min(_PACKETS_A_CHUNK, (end - start) // PACKET)):
+        i0 = start + k * PACKET
+        if count_packet(job.geo, job.acc, job.origins, job.dirs, job.t_min, job.t_max, i0, m,
+                        job.out, cnt):
+            packed |= np.int64(1) << k
+    return packed
 
 
 @njit(**JIT)
@@ -82,13 +92,14 @@ CountJob = namedtuple("CountJob", ["geo", "acc", "origins", "dirs", "t_min", "t_
 
 
 @njit(**JIT)
-def _count_slot(job, i, ray, tm, br, s, t, stack, queue, after, end):
+def _count_slot(job, i, ray, tm, br, s, t, stack, queue, after, start, end, packed):
     """A round of the ray in one of count_stream's slots (job: the stream's
     CountJob): ray i (below end, the end of the chunk), its t_max tm,
     BoxRay br and state s; t the stream's tallies.  When its traversal is
     done its count is written, with the hits no tree holds if the scene
     has them (``unbounded``: planes, spheres' far roots), and the slot
-    takes the chunk's next good ray from ``after`` on (_next_good_ray).
+    takes the chunk's next good ray from ``after`` on (_next_good_ray:
+    the chunk from start, packed its packets that went).
     Returns (i, ray, tm, br, s, t, after) for the next round."""
     geo, acc, cnt = job.geo, job.acc, job.cnt
     origins, dirs, t_min, t_max = job.origins, job.dirs, job.t_min, job.t_max
@@ -96,7 +107,7 @@ def _count_slot(job, i, ray, tm, br, s, t, stack, queue, after, end):
         s, t = _count_round(geo, acc, ray, br, tm, stack, queue, s, t)
     if s.node < 0:
         job.out[i] = s.hits + (count_unbounded_hits(geo, ray, tm, cnt) if job.unbounded else 0)
-        i = _next_good_ray(job, after, end, cnt)
+        i = _next_good_ray(job, after, start, end, packed, cnt)
         after = i + 1
         ray, tm = _crossing_ray(origins, dirs, t_min, t_max, i)
         br = box_ray(acc, ray)
@@ -127,11 +138,11 @@ def count_stream(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
     c = take_ticket(clock)
     while c * chunk < n:
         start, end = c * chunk, min(n, (c + 1) * chunk)
-        _count_packets(job, start, end, cnt)
+        packed = _count_packets(job, start, end, cnt)
         # A slot past the chunk's end still holds a ray (the last one's),
         # never traced.
-        ia = _next_good_ray(job, start, end, cnt)
-        ib = _next_good_ray(job, ia + 1, end, cnt)
+        ia = _next_good_ray(job, start, start, end, packed, cnt)
+        ib = _next_good_ray(job, ia + 1, start, end, packed, cnt)
         after = ib + 1
         ray_a, tm_a = _crossing_ray(origins, dirs, t_min, t_max, ia)
         ray_b, tm_b = _crossing_ray(origins, dirs, t_min, t_max, ib)
@@ -142,10 +153,10 @@ def count_stream(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
         while ia < end or ib < end:
             if ia < end:
                 ia, ray_a, tm_a, br_a, sa, t, after = _count_slot(
-                    job, ia, ray_a, tm_a, br_a, sa, t, stack_a, queue_a, after, end)
+                    job, ia, ray_a, tm_a, br_a, sa, t, stack_a, queue_a, after, start, end, packed)
             if ib < end:
                 ib, ray_b, tm_b, br_b, sb, t, after = _count_slot(
-                    job, ib, ray_b, tm_b, br_b, sb, t, stack_b, queue_b, after, end)
+                    job, ib, ray_b, tm_b, br_b, sb, t, stack_b, queue_b, after, start, end, packed)
         c = take_ticket(clock)
     tally(cnt, t.n_inner, t.n_leaves, t.n_tests, t.n_hits)
 
