@@ -8,6 +8,7 @@ from raytrace import RayScene, RaytraceError
 from raytrace.cast.cameras import create_rays_pinhole
 from raytrace.kernels.jit import python_callable
 from raytrace.kernels.lowlevel import PACKET
+from raytrace.kernels.query import PACKED, SPARSE
 from raytrace.scene.builtin import teapot
 from raytrace.scene.model import Camera, Plane, Scene, Sphere
 
@@ -109,7 +110,7 @@ def test_which_rays_go_as_a_packet():
         return went, out
 
     went, out = run(o, d)
-    assert went and (out[1] >= 0).any() and (out[0] != -7.0).all()
+    assert went == PACKED and (out[1] >= 0).any() and (out[0] != -7.0).all()
     flipped = d.copy()
     flipped[5, 0] = -0.0
     nan = o.copy()
@@ -117,6 +118,45 @@ def test_which_rays_go_as_a_packet():
     for args in ((o, flipped), (nan, d), (o, d, PACKET - 1)):
         went, out = run(*args)
         assert not went and (out[1] == -7).all()
+
+
+
+def test_a_packet_of_scattered_rays_goes_but_says_so():
+    """Parallel rays from points scattered over the mesh share the signs a
+    packet needs but few of its nodes: the packet goes (its answers are
+    each ray's own) and returns SPARSE, so the caller sends the rest of its
+    chunk ray by ray; the same rays side by side return PACKED.  Whole
+    batches of either give brute force's answers and counts."""
+    from raytrace.accel.bvh.packet import closest_packet, occluded_packet
+    from raytrace.scene.builtin import teapot_mesh
+    mesh = teapot_mesh(24)            # 37k triangles: deep enough to share little
+    scene = RayScene((mesh.vertices, mesh.faces), accel="bvh")
+    bvh = scene._built()
+    closest, occluded = python_callable(closest_packet), python_callable(occluded_packet)
+    lo, hi = bvh.bounds()
+    side = np.linspace(0, 1, 64)
+    y, z = np.meshgrid(lo[1] + side * (hi[1] - lo[1]), lo[2] + side * (hi[2] - lo[2]))
+    o = np.column_stack([np.full(y.size, lo[0] - 1), y.ravel(), z.ravel()])
+    d = np.tile([1.0, 0.0, 0.0], (len(o), 1))
+    scattered = o[np.random.default_rng(3).permutation(len(o))]
+    n = len(o)
+    t_min, t_max = np.zeros(n), np.full(n, np.inf)
+    verdicts = {}
+    for name, rows in (("side by side", o), ("scattered", scattered)):
+        out = np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n)
+        hit = np.zeros(n, np.bool_)
+        cnt = np.zeros(16, np.int64)
+        verdicts[name] = [(closest(bvh.geo, bvh.acc, rows, d, t_min, t_max, i0, PACKET, out, cnt),
+                           occluded(bvh.geo, bvh.acc, rows, d, t_min, t_max, i0, PACKET, hit, cnt))
+                          for i0 in range(PACKET * 16, PACKET * 24, PACKET)]
+    assert {v for pair in verdicts["scattered"] for v in pair} == {SPARSE}
+    assert {v for pair in verdicts["side by side"] for v in pair} == {PACKED}
+    brute = RayScene((mesh.vertices, mesh.faces), accel="none")
+    h, h0 = scene.cast_rays(scattered, d), brute.cast_rays(scattered, d)
+    assert np.array_equal(h.t, h0.t) and np.array_equal(h.prim_id, h0.prim_id)
+    assert np.array_equal(scene.occluded(scattered, d), brute.occluded(scattered, d))
+    assert np.array_equal(scene.count_intersections(scattered, d),
+                          brute.count_intersections(scattered, d))
 
 
 def test_a_bad_ray_among_coherent_ones_is_still_reported(scenes):

@@ -21,7 +21,9 @@ thread's loop (``*_block``) is compiled as a function of its own
 Closest and any hit take the rays PACKET at a time: a structure with
 packet traversals (the BVH, accel/bvh/packet.py) traces neighbouring rays
 together where they can go so, each ray getting the answer it gets alone;
-the rest, and every other structure, go one ray at a time.  Calls of
+the rest, and every other structure, go one ray at a time, as does the
+rest of a chunk after a packet whose rays shared too few nodes (SPARSE)
+or REFUSED_MAX packets in a row that could not go.  Calls of
 fewer than PACKET_MIN rays go one ray at a time through kernels compiled
 without the packet code.
 
@@ -43,6 +45,9 @@ from raytrace.kernels.entry import Entry
 from raytrace.kernels.jit import BLOCK, JIT
 from raytrace.kernels.lowlevel import PACKET, frame_array, take_rows, take_ticket
 from raytrace.kernels.query import (
+    NOT_PACKED,
+    PACKED,
+    REFUSED_MAX,
     closest_hit,
     closest_packet,
     count_rays,
@@ -76,12 +81,19 @@ def _closest_kernel(packets):
         c = take_ticket(clock)
         while c < n_chunks:
             end = min(n, (c + 1) * CHUNK)
+            try_packets = packets and not per_ray
+            refused = 0
             for i0 in range(c * CHUNK, end, PACKET):
                 m = min(PACKET, end - i0)
-                if packets and not per_ray:
-                    if closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs,
-                                      cnt[0]):
+                if try_packets:
+                    went = closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs,
+                                          cnt[0])
+                    if went != NOT_PACKED:
+                        try_packets = went == PACKED    # not SPARSE: the chunk's rest alone
+                        refused = 0
                         continue
+                    refused += 1
+                    try_packets = refused < REFUSED_MAX
                 for i in range(i0, i0 + m):
                     row = cnt[rows[i]] if per_ray else cnt[0]
                     if ray_ok(origins, dirs, t_min, t_max, i):
@@ -107,12 +119,19 @@ def _occluded_kernel(packets):
         c = take_ticket(clock)
         while c < n_chunks:
             end = min(n, (c + 1) * CHUNK)
+            try_packets = packets and not per_ray
+            refused = 0
             for i0 in range(c * CHUNK, end, PACKET):
                 m = min(PACKET, end - i0)
-                if packets and not per_ray:
-                    if occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit,
-                                       cnt[0]):
+                if try_packets:
+                    went = occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit,
+                                           cnt[0])
+                    if went != NOT_PACKED:
+                        try_packets = went == PACKED
+                        refused = 0
                         continue
+                    refused += 1
+                    try_packets = refused < REFUSED_MAX
                 for i in range(i0, i0 + m):
                     row = cnt[rows[i]] if per_ray else cnt[0]
                     if ray_ok(origins, dirs, t_min, t_max, i):

@@ -28,6 +28,16 @@ from raytrace.kernels.ray import make_crossing_ray, ray_ok
 # hit (never stop, never narrow the interval: each hit is counted in
 # cnt[PRIM_HITS] and none kept).
 CLOSEST, ANY_HIT, ALL_HITS = 0, 1, 2
+# What a packet query returns (closest_packet, occluded_packet, the BVH's
+# count_packet): its rays did not go as a packet, and go one by one; they
+# went; they went, but shared too few nodes to gain by it, so the rest of
+# the caller's chunk goes one by one (accel/bvh/packet.py, SHARED_MIN).
+NOT_PACKED, PACKED, SPARSE = 0, 1, 2
+# After this many packets in a row that could not go (rays in mixed
+# directions), the rest of a chunk goes ray by ray without the packets'
+# check: a coherent batch's refused packets (where a direction changes
+# sign) come alone.
+REFUSED_MAX = 2
 MODES = ("closest-hit", "any-hit", "every-hit")
 
 # layout class -> (closest, any_hit, all_hits): compiled functions (geo,
@@ -208,8 +218,8 @@ def _list_hits(geo, acc, ray, t_max, cnt):
 def closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
     """Closest hits of rays i0 .. i0 + m - 1 (into outs: the t, prim, u and
     v arrays) as one packet, if the
-    structure traces packets and the rays can go as one; returns whether
-    they did (if not, nothing is written).  Compiled code only."""
+    structure traces packets and the rays can go as one; returns
+    NOT_PACKED (nothing is written), PACKED or SPARSE.  Compiled code only."""
     raise NotImplementedError("compiled code only")
 
 
@@ -240,7 +250,7 @@ def _closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
     packets = _packets(acc, origins, dirs)
     if packets is None:
         def impl(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
-            return False
+            return NOT_PACKED
         return impl
     return packets[0]
 
@@ -250,6 +260,6 @@ def _occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
     packets = _packets(acc, origins, dirs)
     if packets is None:
         def impl(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
-            return False
+            return NOT_PACKED
         return impl
     return packets[1]

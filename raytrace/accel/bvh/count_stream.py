@@ -28,7 +28,7 @@ from raytrace.kernels.counters import BAD_RAYS
 from raytrace.kernels.jit import JIT, STAGE
 from raytrace.kernels.lowlevel import PACKET, frame_array, take_ticket
 from raytrace.kernels.prims import count_unbounded_hits
-from raytrace.kernels.query import register_count_stream
+from raytrace.kernels.query import NOT_PACKED, REFUSED_MAX, SPARSE, register_count_stream
 from raytrace.kernels.ray import make_crossing_ray, ray_ok
 
 
@@ -62,15 +62,26 @@ _PACKETS_A_CHUNK = 64
 def _count_packets(job, start, end, cnt):
     """The rays of the chunk start .. end - 1 that go as a packet counted
     (packet.count_packet: camera rays and other coherent ones, whose nodes
-    a packet shares), up to _PACKETS_A_CHUNK packets; returns the mask of
-    the packets that went.  The two-ray stream counts the rest."""
+    a packet shares), up to _PACKETS_A_CHUNK packets, and none after one
+    whose rays shared too few nodes (SPARSE) or REFUSED_MAX in a row that
+    could not go (query.py); returns the mask of the packets that
+    went.  The two-ray stream counts the rest."""
     packed = np.int64(0)
+    refused = 0
     m = np.int64(PACKET)     # not a literal: count_packet's callees would compile again
     for k in range(min(_PACKETS_A_CHUNK, (end - start) // PACKET)):
         i0 = start + k * PACKET
-        if count_packet(job.geo, job.acc, job.origins, job.dirs, job.t_min, job.t_max, i0, m,
-                        job.out, cnt):
-            packed |= np.int64(1) << k
+        went = count_packet(job.geo, job.acc, job.origins, job.dirs, job.t_min, job.t_max, i0, m,
+                            job.out, cnt)
+        if went == NOT_PACKED:
+            refused += 1
+            if refused == REFUSED_MAX:
+                break
+            continue
+        refused = 0
+        packed |= np.int64(1) << k
+        if went == SPARSE:      # its rays shared few nodes: the chunk's rest alone
+            break
     return packed
 
 
@@ -89,17 +100,19 @@ def _crossing_ray(origins, dirs, t_min, t_max, i):
 # size, and whether the scene has hits no tree holds.
 CountJob = namedtuple("CountJob", ["geo", "acc", "origins", "dirs", "t_min", "t_max", "out", "cnt",
                                    "clock", "chunk", "unbounded"])
+# The chunk of rays the stream is on: rays start .. end - 1, and the
+# packets of it that went (_count_packets: bit k, packet k).
+Span = namedtuple("Span", ["start", "end", "packed"])
 
 
 @njit(**JIT)
-def _count_slot(job, i, ray, tm, br, s, t, stack, queue, after, start, end, packed):
+def _count_slot(job, span, i, ray, tm, br, s, t, stack, queue, after):
     """A round of the ray in one of count_stream's slots (job: the stream's
-    CountJob): ray i (below end, the end of the chunk), its t_max tm,
+    CountJob) in ``span`` (a Span of a chunk): ray i (below its end), its t_max tm,
     BoxRay br and state s; t the stream's tallies.  When its traversal is
     done its count is written, with the hits no tree holds if the scene
     has them (``unbounded``: planes, spheres' far roots), and the slot
-    takes the chunk's next good ray from ``after`` on (_next_good_ray:
-    the chunk from start, packed its packets that went).
+    takes the chunk's next good ray from ``after`` on (_next_good_ray).
     Returns (i, ray, tm, br, s, t, after) for the next round."""
     geo, acc, cnt = job.geo, job.acc, job.cnt
     origins, dirs, t_min, t_max = job.origins, job.dirs, job.t_min, job.t_max
@@ -107,11 +120,11 @@ def _count_slot(job, i, ray, tm, br, s, t, stack, queue, after, start, end, pack
         s, t = _count_round(geo, acc, ray, br, tm, stack, queue, s, t)
     if s.node < 0:
         job.out[i] = s.hits + (count_unbounded_hits(geo, ray, tm, cnt) if job.unbounded else 0)
-        i = _next_good_ray(job, after, start, end, packed, cnt)
+        i = _next_good_ray(job, after, span.start, span.end, span.packed, cnt)
         after = i + 1
         ray, tm = _crossing_ray(origins, dirs, t_min, t_max, i)
         br = box_ray(acc, ray)
-        s = _count_start(acc, i < end)
+        s = _count_start(acc, i < span.end)
     return i, ray, tm, br, s, t, after
 
 
@@ -139,6 +152,7 @@ def count_stream(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
     while c * chunk < n:
         start, end = c * chunk, min(n, (c + 1) * chunk)
         packed = _count_packets(job, start, end, cnt)
+        span = Span(start, end, packed)
         # A slot past the chunk's end still holds a ray (the last one's),
         # never traced.
         ia = _next_good_ray(job, start, start, end, packed, cnt)
@@ -153,10 +167,10 @@ def count_stream(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
         while ia < end or ib < end:
             if ia < end:
                 ia, ray_a, tm_a, br_a, sa, t, after = _count_slot(
-                    job, ia, ray_a, tm_a, br_a, sa, t, stack_a, queue_a, after, start, end, packed)
+                    job, span, ia, ray_a, tm_a, br_a, sa, t, stack_a, queue_a, after)
             if ib < end:
                 ib, ray_b, tm_b, br_b, sb, t, after = _count_slot(
-                    job, ib, ray_b, tm_b, br_b, sb, t, stack_b, queue_b, after, start, end, packed)
+                    job, span, ib, ray_b, tm_b, br_b, sb, t, stack_b, queue_b, after)
         c = take_ticket(clock)
     tally(cnt, t.n_inner, t.n_leaves, t.n_tests, t.n_hits)
 

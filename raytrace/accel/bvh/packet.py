@@ -25,8 +25,11 @@ each ray's own visits and tests in the packet's order.
 Rays go as a packet only as a whole PACKET of valid rays whose directions
 have the same signs (so one near plane per axis serves all); otherwise,
 and for a batch's last few rays, they take the single-ray path
-(``closest_packet`` and ``occluded_packet`` return False, having written
-nothing).  Rays in every direction pay a sign check a packet, not a load.
+(``closest_packet`` and ``occluded_packet`` return NOT_PACKED, having
+written nothing).  Rays in every direction pay a sign check a packet, not
+a load.  A packet whose rays share few of the nodes they visit (parallel
+rays from scattered points, in any order) goes, but says so (SPARSE), and
+the caller sends the rest of its chunk ray by ray.
 
 Counting every hit (``count_packet``, on a CountingBVH) shares the box
 tests, visiting every child some ray enters, in lane order; each ray
@@ -66,7 +69,14 @@ from raytrace.kernels.prims import (
     planes_occluded,
     test_prim,
 )
-from raytrace.kernels.query import ANY_HIT, CLOSEST, register_packets
+from raytrace.kernels.query import (
+    ANY_HIT,
+    CLOSEST,
+    NOT_PACKED,
+    PACKED,
+    SPARSE,
+    register_packets,
+)
 from raytrace.kernels.ray import CrossingRay, Hit, Ray, closer, ray_ok
 
 # A packet's rows, each in the frame of the function that traces it:
@@ -80,6 +90,15 @@ Packet = namedtuple("Packet", ["fields", "axes", "consts", "t_far", "far",
 _FIELD_ROWS = 16 * PACKET
 _AXIS_ROWS = 3 * PACKET
 _CONST_ROWS = 12 * PACKET
+# A packet whose node visits served fewer rays than this on average sends
+# the rest of its chunk ray by ray.  Parallel rays from points in random
+# order share 1.5-1.7 rays a visit and their packets ran 1.45-2.3x slower
+# than single rays; coherent packets share 4-14 (camera rays: 14.3 at 1k,
+# 8.8 at 118k, 5.9 at 1M triangles; shadow rays 4.0 at 1M).  Shadow
+# packets of 3 still beat single rays: with 3, shadow rays at 118k took
+# 4.0-5.1 ms instead of 3.1-3.6 (docs/benchmarks.md, "Packets that share
+# too few nodes").
+SHARED_MIN = 2
 
 
 @njit(**JIT)
@@ -158,17 +177,19 @@ def _count_traversal(geo, acc, pk, nx, ny, nz, counts, cnt):
     ray enters is visited with those rays, in lane order; a lane is a leaf
     where its ``lanes`` word counts slots (a small subtree counts as one
     leaf, as it does for one ray), and each ray that entered it tests its
-    slots (_count_leaf).  So each ray's hits and counters are its own."""
+    slots (_count_leaf).  So each ray's hits and counters are its own.
+    Returns _verdict's on its node visits."""
     consts, t_far, far = pk.consts, pk.t_far, pk.far
     node_box, lanes = acc.node_box, acc.lanes
     if node_box.shape[0] == 0:
-        return
+        return PACKED
     stack = frame_array(STACK_SIZE, np.int64)
     stack_mask = frame_array(STACK_SIZE, np.int64)
     n_inner = 0
     n_leaves = 0
     n_tests = 0
     n_hits = 0
+    visits = 0
     stack[0] = 0
     stack_mask[0] = (1 << PACKET) - 1
     sp = np.int64(1)
@@ -177,6 +198,7 @@ def _count_traversal(geo, acc, pk, nx, ny, nz, counts, cnt):
         node = stack[sp]
         rays = stack_mask[sp]
         n_inner += popcount(rays)
+        visits += 1
         masks, _ = packet_aabb4(node_box, node, nx, ny, nz, consts, t_far)
         for lane in range(WIDTH):
             entered = masks[lane] & rays
@@ -199,6 +221,7 @@ def _count_traversal(geo, acc, pk, nx, ny, nz, counts, cnt):
                 counts[r] += hits
                 n_hits += hits
     tally(cnt, n_inner, n_leaves, n_tests, n_hits)
+    return _verdict(n_inner, visits)
 
 
 @njit(**JIT)
@@ -227,9 +250,9 @@ def _count_leaf(geo, acc, ray, start, size, t_max):
 def count_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out, cnt):
     """out[i] = the hits of ray i (count_hits of a CrossingRay) for rays
     i0 .. i0 + m - 1, if they go as a packet (a CountingBVH); returns
-    whether they did."""
+    NOT_PACKED, PACKED or SPARSE (query.py)."""
     if not _packet(origins, dirs, t_min, t_max, i0, m):
-        return False
+        return NOT_PACKED
     pk = Packet(frame_array(_FIELD_ROWS, np.float64), frame_array(_AXIS_ROWS, np.int64),
                 frame_array(_CONST_ROWS, np.float32), frame_array(PACKET, np.float32),
                 frame_array(PACKET, np.float64), frame_array(PACKET, np.float64),
@@ -237,16 +260,16 @@ def count_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out, cnt):
                 frame_array(PACKET, np.float64))
     nx, ny, nz = _load(acc, origins, dirs, t_min, t_max, i0, pk)
     if nx < 0:
-        return False
+        return NOT_PACKED
     counts = pk.best_prim     # a packet's row of int64s, unused by a count
     for r in range(PACKET):
         counts[r] = 0
-    _count_traversal(geo, acc, pk, nx, ny, nz, counts, cnt)
+    verdict = _count_traversal(geo, acc, pk, nx, ny, nz, counts, cnt)
     unbounded = geo.pl_point.shape[0] + geo.sph_center.shape[0] > 0
     for r in range(PACKET):
         out[i0 + r] = counts[r] + (count_unbounded_hits(geo, _crossing_ray(pk, r), pk.far[r],
                                                         cnt) if unbounded else 0)
-    return True
+    return verdict
 
 
 def _packet_traversal(mode):
@@ -254,13 +277,14 @@ def _packet_traversal(mode):
     def traverse(geo, acc, pk, nx, ny, nz, alive, cnt):
         """The packet's rays of ``alive`` through the tree; returns the rays
         still without a hit (any hit), or alive unchanged (closest: the
-        packet's best_* rows hold each ray's closest hit)."""
+        packet's best_* rows hold each ray's closest hit), and _verdict's
+        on its node visits."""
         fields, axes, consts, t_far, far = pk.fields, pk.axes, pk.consts, pk.t_far, pk.far
         best_t, best_p, best_u, best_v = pk.best_t, pk.best_prim, pk.best_u, pk.best_v
         node_box, node_child, node_count, prim_ids = (acc.node_box, acc.node_child,
                                                       acc.node_count, acc.prim_ids)
         if node_box.shape[0] == 0:
-            return alive
+            return alive, PACKED
         stack = frame_array(STACK_SIZE, np.int64)
         stack_mask = frame_array(STACK_SIZE, np.int64)
         stack_t = frame_array(STACK_SIZE, np.float64)
@@ -270,6 +294,7 @@ def _packet_traversal(mode):
         n_leaves = 0
         n_tests = 0
         n_hits = 0
+        visits = 0
         # int64s, not literal 0s: a call given a literal is compiled again
         # for it (as in traverse.py).
         entry = np.int64(0)
@@ -278,6 +303,7 @@ def _packet_traversal(mode):
         while entry != _DONE:
             if entry >= 0:
                 n_inner += popcount(rays)
+                visits += 1
                 masks, near = packet_aabb4(node_box, entry, nx, ny, nz, consts, t_far)
                 base = sp
                 sp = _push_children(node_child, node_count, entry, masks, near, rays, stack,
@@ -344,8 +370,15 @@ def _packet_traversal(mode):
                 if rays:
                     entry = stack[sp]
         tally(cnt, n_inner, n_leaves, n_tests, n_hits)
-        return alive
+        return alive, _verdict(n_inner, visits)
     return traverse
+
+
+@njit(**JIT)
+def _verdict(ray_visits, visits):
+    """PACKED, or SPARSE where the packet's node visits served fewer than
+    SHARED_MIN of its rays each on average."""
+    return SPARSE if ray_visits < SHARED_MIN * visits else PACKED
 
 
 @njit(**JIT)
@@ -407,10 +440,10 @@ def _packet_query(mode):
     def query(geo, acc, origins, dirs, t_min, t_max, i0, m, outs, cnt):
         """Rays i0 .. i0 + m - 1 as a packet, if they can go as one, their
         answers written into ``outs`` (closest: the t, prim, u and v
-        arrays; any hit: the blocked flags' array); returns whether they
-        went."""
+        arrays; any hit: the blocked flags' array); returns NOT_PACKED,
+        PACKED or SPARSE (query.py)."""
         if not _packet(origins, dirs, t_min, t_max, i0, m):
-            return False
+            return NOT_PACKED
         pk = Packet(frame_array(_FIELD_ROWS, np.float64), frame_array(_AXIS_ROWS, np.int64),
                     frame_array(_CONST_ROWS, np.float32), frame_array(PACKET, np.float32),
                     frame_array(PACKET, np.float64), frame_array(PACKET, np.float64),
@@ -418,9 +451,10 @@ def _packet_query(mode):
                     frame_array(PACKET, np.float64))
         nx, ny, nz = _load(acc, origins, dirs, t_min, t_max, i0, pk)
         if nx < 0:
-            return False
+            return NOT_PACKED
+        verdict = PACKED
         if mode == CLOSEST:
-            traverse(geo, acc, pk, nx, ny, nz, np.int64((1 << PACKET) - 1), cnt)
+            _, verdict = traverse(geo, acc, pk, nx, ny, nz, np.int64((1 << PACKET) - 1), cnt)
             for r in range(PACKET):
                 hit = planes_closest(geo, _ray(pk, r), pk.far[r],
                                      Hit(pk.best_t[r], pk.best_prim[r], pk.best_u[r],
@@ -436,10 +470,10 @@ def _packet_query(mode):
             for r in range(PACKET):
                 alive |= (not planes_occluded(geo, _ray(pk, r), pk.far[r], cnt)) << r
             if alive:
-                alive = traverse(geo, acc, pk, nx, ny, nz, alive, cnt)
+                alive, verdict = traverse(geo, acc, pk, nx, ny, nz, alive, cnt)
             for r in range(PACKET):
                 outs[i0 + r] = not ((alive >> r) & 1)
-        return True
+        return verdict
     return query
 
 
@@ -453,9 +487,10 @@ def _packet_query(mode):
 closest_packet = _packet_query(CLOSEST)
 closest_packet.__doc__ = """Closest hits of rays i0 .. i0 + m - 1 as cast_closest writes them
 (outs: its t, prim, u and v arrays), if they go as a packet; returns
-whether they did."""
+NOT_PACKED, PACKED or SPARSE (query.py)."""
 occluded_packet = _packet_query(ANY_HIT)
 occluded_packet.__doc__ = """Whether rays i0 .. i0 + m - 1 are blocked, as cast_occluded writes
-it (outs: its flags' array), if they go as a packet; returns whether they did."""
+it (outs: its flags' array), if they go as a packet; returns NOT_PACKED,
+PACKED or SPARSE (query.py)."""
 
 register_packets(BVH, closest_packet, occluded_packet)
