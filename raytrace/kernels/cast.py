@@ -22,8 +22,7 @@ Closest and any hit take the rays PACKET at a time: a structure with
 packet traversals (the BVH, accel/bvh/packet.py) traces neighbouring rays
 together where they can go so, each ray getting the answer it gets alone;
 the rest, and every other structure, go one ray at a time, as does the
-rest of a chunk after a packet whose rays shared too few nodes (SPARSE)
-or REFUSED_MAX packets in a row that could not go.  Calls of
+rest of a chunk after a packet whose rays shared too few nodes (SPARSE).  Calls of
 fewer than PACKET_MIN rays go one ray at a time through kernels compiled
 without the packet code.
 
@@ -47,7 +46,6 @@ from raytrace.kernels.lowlevel import PACKET, frame_array, take_rows, take_ticke
 from raytrace.kernels.query import (
     NOT_PACKED,
     PACKED,
-    REFUSED_MAX,
     closest_hit,
     closest_packet,
     count_rays,
@@ -82,7 +80,6 @@ def _closest_kernel(packets):
         while c < n_chunks:
             end = min(n, (c + 1) * CHUNK)
             try_packets = packets and not per_ray
-            refused = 0
             for i0 in range(c * CHUNK, end, PACKET):
                 m = min(PACKET, end - i0)
                 if try_packets:
@@ -90,10 +87,7 @@ def _closest_kernel(packets):
                                           cnt[0])
                     if went != NOT_PACKED:
                         try_packets = went == PACKED    # not SPARSE: the chunk's rest alone
-                        refused = 0
                         continue
-                    refused += 1
-                    try_packets = refused < REFUSED_MAX
                 for i in range(i0, i0 + m):
                     row = cnt[rows[i]] if per_ray else cnt[0]
                     if ray_ok(origins, dirs, t_min, t_max, i):
@@ -120,7 +114,6 @@ def _occluded_kernel(packets):
         while c < n_chunks:
             end = min(n, (c + 1) * CHUNK)
             try_packets = packets and not per_ray
-            refused = 0
             for i0 in range(c * CHUNK, end, PACKET):
                 m = min(PACKET, end - i0)
                 if try_packets:
@@ -128,10 +121,7 @@ def _occluded_kernel(packets):
                                            cnt[0])
                     if went != NOT_PACKED:
                         try_packets = went == PACKED
-                        refused = 0
                         continue
-                    refused += 1
-                    try_packets = refused < REFUSED_MAX
                 for i in range(i0, i0 + m):
                     row = cnt[rows[i]] if per_ray else cnt[0]
                     if ray_ok(origins, dirs, t_min, t_max, i):

@@ -33,11 +33,6 @@ CLOSEST, ANY_HIT, ALL_HITS = 0, 1, 2
 # went; they went, but shared too few nodes to gain by it, so the rest of
 # the caller's chunk goes one by one (accel/bvh/packet.py, SHARED_MIN).
 NOT_PACKED, PACKED, SPARSE = 0, 1, 2
-# After this many packets in a row that could not go (rays in mixed
-# directions), the rest of a chunk goes ray by ray without the packets'
-# check: a coherent batch's refused packets (where a direction changes
-# sign) come alone.
-REFUSED_MAX = 2
 MODES = ("closest-hit", "any-hit", "every-hit")
 
 # layout class -> (closest, any_hit, all_hits): compiled functions (geo,

@@ -28,7 +28,7 @@ from raytrace.kernels.counters import BAD_RAYS
 from raytrace.kernels.jit import JIT, STAGE
 from raytrace.kernels.lowlevel import PACKET, frame_array, take_ticket
 from raytrace.kernels.prims import count_unbounded_hits
-from raytrace.kernels.query import NOT_PACKED, REFUSED_MAX, SPARSE, register_count_stream
+from raytrace.kernels.query import NOT_PACKED, SPARSE, register_count_stream
 from raytrace.kernels.ray import make_crossing_ray, ray_ok
 
 
@@ -63,22 +63,16 @@ def _count_packets(job, start, end, cnt):
     """The rays of the chunk start .. end - 1 that go as a packet counted
     (packet.count_packet: camera rays and other coherent ones, whose nodes
     a packet shares), up to _PACKETS_A_CHUNK packets, and none after one
-    whose rays shared too few nodes (SPARSE) or REFUSED_MAX in a row that
-    could not go (query.py); returns the mask of the packets that
-    went.  The two-ray stream counts the rest."""
+    whose rays shared too few nodes (SPARSE); returns the mask of the
+    packets that went.  The two-ray stream counts the rest."""
     packed = np.int64(0)
-    refused = 0
     m = np.int64(PACKET)     # not a literal: count_packet's callees would compile again
     for k in range(min(_PACKETS_A_CHUNK, (end - start) // PACKET)):
         i0 = start + k * PACKET
         went = count_packet(job.geo, job.acc, job.origins, job.dirs, job.t_min, job.t_max, i0, m,
                             job.out, cnt)
         if went == NOT_PACKED:
-            refused += 1
-            if refused == REFUSED_MAX:
-                break
             continue
-        refused = 0
         packed |= np.int64(1) << k
         if went == SPARSE:      # its rays shared few nodes: the chunk's rest alone
             break
