@@ -79,10 +79,12 @@ def _closest_kernel(packets):
         c = take_ticket(clock)
         while c < n_chunks:
             end = min(n, (c + 1) * CHUNK)
-            try_packets = packets and not per_ray
+            try_packets = not per_ray
             for i0 in range(c * CHUNK, end, PACKET):
                 m = min(PACKET, end - i0)
-                if try_packets:
+                # ``packets`` first: a compile-time False prunes the branch, so the
+                # one-ray kernel compiles no packet code.
+                if packets and try_packets:
                     went = closest_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, outs,
                                           cnt[0])
                     if went != NOT_PACKED:
@@ -113,10 +115,12 @@ def _occluded_kernel(packets):
         c = take_ticket(clock)
         while c < n_chunks:
             end = min(n, (c + 1) * CHUNK)
-            try_packets = packets and not per_ray
+            try_packets = not per_ray
             for i0 in range(c * CHUNK, end, PACKET):
                 m = min(PACKET, end - i0)
-                if try_packets:
+                # ``packets`` first: a compile-time False prunes the branch, so the
+                # one-ray kernel compiles no packet code.
+                if packets and try_packets:
                     went = occluded_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out_hit,
                                            cnt[0])
                     if went != NOT_PACKED:
