@@ -22,9 +22,9 @@ Closest and any hit take the rays PACKET at a time: a structure with
 packet traversals (the BVH, accel/bvh/packet.py) traces neighbouring rays
 together where they can go so, each ray getting the answer it gets alone;
 the rest, and every other structure, go one ray at a time, as does the
-rest of a chunk after a packet whose rays shared too few nodes (SPARSE).  Calls of
-fewer than PACKET_MIN rays go one ray at a time through kernels compiled
-without the packet code.
+rest of a chunk after a packet whose rays shared too few nodes (SPARSE).
+Calls of fewer than PACKET_MIN rays go one ray at a time through kernels
+compiled without the packet code.
 
 Rays are checked as they are read (``ray_ok``): a bad one is not traced,
 its output is a miss, and it is counted in column BAD_RAYS of the counter

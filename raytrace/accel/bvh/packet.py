@@ -45,11 +45,7 @@ from numba import njit
 from numba.cpython.unsafe.numbers import trailing_zeros
 
 from raytrace.accel.bvh.layout import BVH, WIDTH
-from raytrace.accel.bvh.simd_packets import (
-    packet_aabb4,
-    packet_rays,
-    packet_triangle,
-)
+from raytrace.accel.bvh.simd_packets import packet_aabb4, packet_rays, packet_triangle
 from raytrace.accel.bvh.traverse import (
     _DONE,
     _LANE_BITS,
