@@ -117,6 +117,20 @@ def _load(acc, origins, dirs, t_min, t_max, i0, pk):
     return nx, ny, nz
 
 
+# Inlined by Numba, so its frame arrays are its caller's.
+@njit(**STAGE)
+def _loaded_packet(acc, origins, dirs, t_min, t_max, i0):
+    """A packet's rows, in the caller's frame, holding rays i0 ..
+    i0 + PACKET - 1 (_load), and their shared near rows (nx < 0: none)."""
+    pk = Packet(frame_array(_FIELD_ROWS, np.float64), frame_array(_AXIS_ROWS, np.int64),
+                frame_array(_CONST_ROWS, np.float32), frame_array(PACKET, np.float32),
+                frame_array(PACKET, np.float64), frame_array(PACKET, np.float64),
+                frame_array(PACKET, np.int64), frame_array(PACKET, np.float64),
+                frame_array(PACKET, np.float64))
+    nx, ny, nz = _load(acc, origins, dirs, t_min, t_max, i0, pk)
+    return pk, nx, ny, nz
+
+
 @njit(**JIT)
 def _ray(pk, r):
     """Ray r of the packet, as make_ray made it."""
@@ -249,12 +263,7 @@ def count_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out, cnt):
     NOT_PACKED, PACKED or SPARSE (query.py)."""
     if not _packet(origins, dirs, t_min, t_max, i0, m):
         return NOT_PACKED
-    pk = Packet(frame_array(_FIELD_ROWS, np.float64), frame_array(_AXIS_ROWS, np.int64),
-                frame_array(_CONST_ROWS, np.float32), frame_array(PACKET, np.float32),
-                frame_array(PACKET, np.float64), frame_array(PACKET, np.float64),
-                frame_array(PACKET, np.int64), frame_array(PACKET, np.float64),
-                frame_array(PACKET, np.float64))
-    nx, ny, nz = _load(acc, origins, dirs, t_min, t_max, i0, pk)
+    pk, nx, ny, nz = _loaded_packet(acc, origins, dirs, t_min, t_max, i0)
     if nx < 0:
         return NOT_PACKED
     counts = pk.best_prim     # a packet's row of int64s, unused by a count
@@ -440,12 +449,7 @@ def _packet_query(mode):
         PACKED or SPARSE (query.py)."""
         if not _packet(origins, dirs, t_min, t_max, i0, m):
             return NOT_PACKED
-        pk = Packet(frame_array(_FIELD_ROWS, np.float64), frame_array(_AXIS_ROWS, np.int64),
-                    frame_array(_CONST_ROWS, np.float32), frame_array(PACKET, np.float32),
-                    frame_array(PACKET, np.float64), frame_array(PACKET, np.float64),
-                    frame_array(PACKET, np.int64), frame_array(PACKET, np.float64),
-                    frame_array(PACKET, np.float64))
-        nx, ny, nz = _load(acc, origins, dirs, t_min, t_max, i0, pk)
+        pk, nx, ny, nz = _loaded_packet(acc, origins, dirs, t_min, t_max, i0)
         if nx < 0:
             return NOT_PACKED
         verdict = PACKED
