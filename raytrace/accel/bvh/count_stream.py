@@ -48,7 +48,7 @@ def _next_good_ray(job, i, start, end, packed, cnt):
             cnt[BAD_RAYS] += 1
             job.out[i] = 0
             i += 1
-    return min(i, end)
+    return i
 
 
 # The packets of a chunk _count_packets tries: one bit each in a word.

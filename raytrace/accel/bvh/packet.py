@@ -35,7 +35,8 @@ Counting every hit (``count_packet``, on a CountingBVH) shares the box
 tests, visiting every child some ray enters, in lane order; each ray
 entering a leaf tests its triangles alone, 8 at a time (``_count_leaf``).
 Camera rays, one call: 1.5-1.9x the two-ray stream's speed at 1k and 118k
-triangles (docs/benchmarks.md, "Counting coherent rays as packets").
+triangles, none at 1M, where a packet's rays share only the top of the tree
+(docs/benchmarks.md, "Counting coherent rays as packets").
 """
 import math
 from collections import namedtuple
@@ -172,7 +173,7 @@ def _push_children(node_child, node_count, node, masks, near, active, stack, sta
 
 
 @njit(**JIT)
-def _crossing_ray(pk, r):
+def _counting_ray(pk, r):
     """Ray r of the packet as make_crossing_ray made it (counting's test)."""
     return CrossingRay(*_ray(pk, r))
 
@@ -227,7 +228,7 @@ def _count_traversal(geo, acc, pk, nx, ny, nz, counts, cnt):
             while todo:
                 r = trailing_zeros(todo)
                 todo &= todo - 1
-                hits = _count_leaf(geo, acc, _crossing_ray(pk, r), start, size, far[r])
+                hits = _count_leaf(geo, acc, _counting_ray(pk, r), start, size, far[r])
                 counts[r] += hits
                 n_hits += hits
     tally(cnt, n_inner, n_leaves, n_tests, n_hits)
@@ -250,6 +251,8 @@ def _count_leaf(geo, acc, ray, start, size, t_max):
         n = min(CHUNK, end - k)
         k2 = k + n
         n2 = min(CHUNK, end - k2)
+        # An empty second chunk reads the first's columns (masked out), not
+        # columns past the copy's end.
         hits += _count_chunks(geo, ray, acc.leaf_tris, acc.prim_ids, k, n, k2 if n2 else k, n2,
                               t_max)
         k = k2 + n2
@@ -272,7 +275,7 @@ def count_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out, cnt):
     verdict = _count_traversal(geo, acc, pk, nx, ny, nz, counts, cnt)
     unbounded = geo.pl_point.shape[0] + geo.sph_center.shape[0] > 0
     for r in range(PACKET):
-        out[i0 + r] = counts[r] + (count_unbounded_hits(geo, _crossing_ray(pk, r), pk.far[r],
+        out[i0 + r] = counts[r] + (count_unbounded_hits(geo, _counting_ray(pk, r), pk.far[r],
                                                         cnt) if unbounded else 0)
     return verdict
 
