@@ -89,7 +89,7 @@ def assert_same_as_brute(geo, ranges, o, d, t_max_occ, name="bvh", **build_opts)
     # time), and for the BVH on this builder's own tree copied the same way.
     layouts = [get_structure(name).counting_layout(bvh, geo)]
     if name == "bvh":
-        layouts.append(counting_copy(bvh, geo))
+        layouts.append(counting_copy(bvh))
     for counting, t_max in itertools.product(layouts, (np.full(len(o), np.inf), t_max_occ)):
         (c0, k0), (c1, k1) = counts(geo, brute, o, d, t_max), counts(geo, counting, o, d, t_max)
         assert np.array_equal(c0, c1), f"{(c0 != c1).sum()} counts differ"
@@ -325,19 +325,26 @@ def test_build_accel_fields():
 
 @pytest.mark.parametrize("bvh_build", ["sah", "median", "lbvh"])
 @pytest.mark.parametrize("n_tris", [5, 50, 700])
-def test_counting_layout_copies_leaf_triangles_and_packs_lanes(n_tris, bvh_build):
-    """counting_copy, on any builder's tree: column k of leaf_tris holds
-    slot k's triangle (NaN for a sphere's slot and the 3 columns of
-    padding); each lane word unpacks to the lane's child and count, unused
-    lanes' -1 child included, but for an inner lane whose subtree holds at
-    most COUNT_LEAF primitives, which is a leaf over exactly that subtree's
-    slots."""
+def test_leaf_triangles_lane_entries_and_counting_lanes(n_tris, bvh_build):
+    """Any builder's tree: column k of leaf_tris holds slot k's triangle
+    (NaN for a sphere's slot and the 3 columns of padding); a lane_entry
+    word is the lane's child node, or a leaf's first slot and count.
+    counting_copy: each lane word unpacks to the lane's child and count,
+    unused lanes' -1 child included, but for an inner lane whose subtree
+    holds at most COUNT_LEAF primitives, which is a leaf over exactly that
+    subtree's slots."""
     from raytrace.accel.bvh.layout import COUNT_LEAF
     rng = np.random.default_rng(2)
     geo, ranges = make_scene(random_soup(rng, n_tris, 0.1), spheres=[((0, 0, 0), 0.3)])
     acc, _ = build_accel("bvh", geo, ranges, bvh_build=bvh_build)
-    c = counting_copy(acc, geo)
+    c = counting_copy(acc)
     assert c.prim_ids is acc.prim_ids and c.node_box is acc.node_box
+    assert c.leaf_tris is acc.leaf_tris
+    leaf = acc.node_count > 0
+    word = ~acc.lane_entry[leaf]
+    assert np.array_equal(word >> 32, acc.node_child[leaf])
+    assert np.array_equal(word & 0xFFFFFFFF, acc.node_count[leaf])
+    assert np.array_equal(acc.lane_entry[~leaf], acc.node_child[~leaf])
     tri = acc.prim_ids < n_tris
     for corner, v in enumerate((geo.tri_v0, geo.tri_v1, geo.tri_v2)):
         rows = c.leaf_tris[3 * corner:3 * corner + 3]
@@ -380,7 +387,7 @@ def test_counting_layout_is_a_tree_built_for_counting():
     tracing, _ = build_accel("bvh", geo, ranges)
     c = get_structure("bvh").counting_layout(tracing, geo)
     own = build(geo, ranges, leaf_size=COUNT_LEAF, traversal_cost=COUNT_TRAVERSAL_COST)
-    for got, want in zip(c, counting_copy(own, geo)):
+    for got, want in zip(c, counting_copy(own)):
         assert np.array_equal(got, want, equal_nan=True)
     assert len(c.node_box) < len(tracing.node_box)
 
@@ -442,7 +449,7 @@ def test_counting_stack_holds_the_deepest_rounds():
     STACK_SIZE is 184), a ray through every box and the one triangle all
     the leaves hold counts each leaf once (with a stack of STACK_SIZE the
     kernel crashed)."""
-    from raytrace.accel.bvh.layout import CountingBVH
+    from raytrace.accel.bvh.layout import CountingBVH, lane_entries
     from raytrace.accel.bvh.traverse import COUNT_STACK_SIZE, ROUND, STACK_SIZE
     levels = MAX_DEPTH - 3           # its twigs lie MAX_DEPTH - 1 levels down
     child, count, n = _rounds_that_pile_up(levels, PILE_UP[ROUND])
@@ -455,7 +462,7 @@ def test_counting_stack_holds_the_deepest_rounds():
     prim_ids = np.arange(n)
     leaf_tris = np.full((9, n + 3), np.nan)
     leaf_tris[:, :n] = tri.reshape(9, 1)
-    acc = CountingBVH(node_box, child, count, prim_ids, 2.0, leaf_tris,
+    acc = CountingBVH(node_box, child, count, prim_ids, 2.0, lane_entries(child, count), leaf_tris,
                       ((child << 32) | count).ravel())
     assert 3 * ROUND * (levels - 1) > STACK_SIZE and 3 * ROUND * levels < COUNT_STACK_SIZE
     o = np.array([[0.1, 0.0, 1.0], [1.5, 1.5, 1.0]])

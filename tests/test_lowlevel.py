@@ -12,11 +12,11 @@ import pytest
 from numba import njit, prange
 
 from raytrace.accel.bvh.boxes import box_bound
-from raytrace.accel.bvh.counting import counting_copy
-from raytrace.accel.bvh.layout import BOX, BVH, WIDTH
-from raytrace.accel.bvh.simd import crossing_mask
+from raytrace.accel.bvh.build import leaf_corners
+from raytrace.accel.bvh.layout import BOX, BVH, WIDTH, lane_entries
+from raytrace.accel.bvh.simd import LEAF_LANES, crossing_mask, leaf_hits
 from raytrace.accel.bvh.traverse import BOX32_RANGE, NEAR_LIMIT, box_ray, child_boxes
-from raytrace.kernels.intersect import ray_triangle_crossing
+from raytrace.kernels.intersect import ray_triangle, ray_triangle_crossing
 from raytrace.kernels.lowlevel import frame_array, take_rows, take_ticket
 from raytrace.kernels.ray import make_crossing_ray, make_ray
 
@@ -81,7 +81,8 @@ def as_tree(lo, hi):
         box[k // WIDTH, :3, k % WIDTH] = lo32[k]
         box[k // WIDTH, 3:, k % WIDTH] = hi32[k]
     nothing = np.zeros((m, WIDTH), np.int64)
-    return BVH(box, nothing, nothing, np.zeros(0, np.int64), box_bound(box))
+    return BVH(box, nothing, nothing, np.zeros(0, np.int64), box_bound(box),
+               lane_entries(nothing, nothing), np.full((9, 3), np.nan))
 
 
 def check(lo, hi, o, d, t_max, slack=1e-5, tight=True):
@@ -300,18 +301,11 @@ def edge_signs(v0, v1, v2, consts):
     return neg & pos, strict
 
 
-@pytest.mark.parametrize("scale", [1.0, 1e-6, 1e8])
-def test_crossing_mask_decides_as_the_scalar_test(scale):
-    """Rays aimed exactly at vertices and edge midpoints of a grid of
-    triangles (edge functions exactly 0), near them, and at random; axis
-    directions; rays at the triangles' centroids; degenerate triangles (a
-    point, a segment); each hit again with its interval cut at its exact
-    distance and just past it, at either end.  Columns in leaf order
-    (counting_copy), two of them spheres; each chunk of 4 tested as the
-    first half of the 8 lanes and as the second, beside another chunk.
-    Every lane with strictly signed edge functions hits exactly where the
-    scalar crossing test hits; a lane with mixed signs is a miss; every
-    other lane, and a sphere's, is left to the scalar test."""
+def grid_leaf(scale):
+    """Triangles of a grid (with degenerate ones: a point, a segment) and
+    two spheres' ids in shuffled slots, their leaf_tris, and rays aimed
+    exactly at the grid's vertices, edge midpoints and the triangles'
+    centroids, near them, and at random (a third along an axis)."""
     rng = np.random.default_rng(5)
     g = np.arange(4.0)
     x, y = np.meshgrid(g, g)
@@ -325,8 +319,7 @@ def test_crossing_mask_decides_as_the_scalar_test(scale):
     # Slots in a shuffled order, with two spheres' ids (n_tris and above).
     prim_ids = rng.permutation(n_tris + 2)
     geo = SimpleNamespace(tri_v0=v0, tri_v1=v1, tri_v2=v2)
-    no_nodes = np.zeros((0, WIDTH), np.int64)
-    leaf_tris = counting_copy(BVH(None, no_nodes, no_nodes, prim_ids, 0.0), geo).leaf_tris
+    leaf_tris = leaf_corners(geo, prim_ids)
     assert leaf_tris.shape == (9, n_tris + 5) and np.isnan(leaf_tris[:, -3:]).all()
     targets = np.concatenate([a, 0.5 * (a[:-1] + a[1:]), 0.5 * (a[:-4] + a[4:]),
                               t.mean(axis=1) / scale]) * scale
@@ -339,6 +332,23 @@ def test_crossing_mask_decides_as_the_scalar_test(scale):
     d3 = targets * (1 + 1e-12) + 1e-13 * scale - o    # just beside them
     origins = np.concatenate([o, o2, o])
     dirs = np.concatenate([d, d2, d3])
+    return v0, v1, v2, n_tris, prim_ids, leaf_tris, origins, dirs
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e-6, 1e8])
+def test_crossing_mask_decides_as_the_scalar_test(scale):
+    """Rays aimed exactly at vertices and edge midpoints of a grid of
+    triangles (edge functions exactly 0), near them, and at random; axis
+    directions; rays at the triangles' centroids; degenerate triangles (a
+    point, a segment); each hit again with its interval cut at its exact
+    distance and just past it, at either end.  Columns in leaf order
+    (counting_copy), two of them spheres; each chunk of 4 tested as the
+    first half of the 8 lanes and as the second, beside another chunk.
+    Every lane with strictly signed edge functions hits exactly where the
+    scalar crossing test hits; a lane with mixed signs is a miss; every
+    other lane, and a sphere's, is left to the scalar test."""
+    rng = np.random.default_rng(5)
+    v0, v1, v2, n_tris, prim_ids, leaf_tris, origins, dirs = grid_leaf(scale)
     t_min = np.zeros(len(origins))
     t_max = np.full(len(origins), np.inf)
 
@@ -379,6 +389,69 @@ def test_crossing_mask_decides_as_the_scalar_test(scale):
     for lo, hi, kept in cuts:
         hits2 = check(origins[ray], dirs[ray], lo, hi)[0]
         assert np.array_equal(hits2[np.arange(len(ray)), lane], np.full(len(ray), kept))
+
+
+@njit(error_model="numpy")
+def leaf_tests(leaf_tris, v0, v1, v2, origins, dirs, t_min, t_max):
+    """For every ray and every column of leaf_tris, tested 4 columns at a
+    time by leaf_hits: the hit and NaN bits, and t, b1, b2 (n_rays,
+    n_columns); and the scalar test's (t, b1, b2) for each of the
+    triangles v0, v1, v2."""
+    n, m = origins.shape[0], leaf_tris.shape[1] - 3
+    bits = np.zeros((2, n, m), np.bool_)
+    found = np.full((3, n, m), np.nan)
+    scalar = np.empty((3, n, v0.shape[0]))
+    for i in range(n):
+        ray = make_ray(origins[i, 0], origins[i, 1], origins[i, 2],
+                       dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i])
+        for g in range(0, m, LEAF_LANES):
+            mask, t, b1, b2 = leaf_hits(leaf_tris, g, ray, t_max[i])
+            for j in range(min(LEAF_LANES, m - g)):
+                bits[0, i, g + j] = (mask >> j) & 1
+                bits[1, i, g + j] = (mask >> (LEAF_LANES + j)) & 1
+                found[0, i, g + j], found[1, i, g + j], found[2, i, g + j] = t[j], b1[j], b2[j]
+        for p in range(v0.shape[0]):
+            scalar[0, i, p], scalar[1, i, p], scalar[2, i, p] = ray_triangle(ray, v0, v1, v2, p,
+                                                                             t_max[i])
+    return bits, found, scalar
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e-6, 1e8])
+def test_leaf_hits_is_the_scalar_test_bit_for_bit(scale):
+    """leaf_hits (the single-ray traversal's leaf test, 4 slots at once) on
+    grid_leaf's triangles and rays: a lane hits exactly where the scalar
+    test hits, rays through shared edges and vertices included, at the
+    same t, b1 and b2 bit for bit; a sphere's slot and the padding are
+    NaN lanes, left to test_prim, and never hits.  Each hit again with its
+    interval cut at its exact distance and just past it, at either end."""
+    v0, v1, v2, n_tris, prim_ids, leaf_tris, origins, dirs = grid_leaf(scale)
+
+    def check(t_min, t_max):
+        bits, found, scalar = leaf_tests(leaf_tris, v0, v1, v2, origins, dirs, t_min, t_max)
+        hits, nan = bits
+        tri = prim_ids < n_tris
+        assert nan[:, ~tri].all() and not hits[:, ~tri].any()
+        assert not nan[:, tri].any()
+        order = prim_ids[tri]
+        want = scalar[:, :, order]
+        assert np.array_equal(hits[:, tri], want[0] < np.inf)
+        got = found[:, :, tri]
+        assert np.array_equal(got[:, hits[:, tri]], want[:, hits[:, tri]])
+        return hits[:, tri], want[0]
+
+    inf = np.full(len(origins), np.inf)
+    hits, t_hit = check(np.zeros(len(origins)), inf)
+    # Rays through an edge or a vertex hit every triangle there: some rays
+    # hit two or more.
+    assert hits.any() and (hits.sum(axis=1) >= 2).any()
+    ray, lane = np.nonzero(hits)
+    d_hit = t_hit[ray, lane]
+    origins, dirs = origins[ray], dirs[ray]
+    zero, inf = np.zeros_like(d_hit), np.full_like(d_hit, np.inf)
+    for lo, hi, kept in [(zero, d_hit, False), (zero, d_hit * (1 + 1e-9), True),
+                         (d_hit, inf, False), (d_hit * (1 - 1e-9), inf, True)]:
+        assert np.array_equal(check(lo, hi)[0][np.arange(len(ray)), lane],
+                              np.full(len(ray), kept))
 
 
 @njit

@@ -19,6 +19,7 @@ from raytrace.accel.bvh.layout import (
     PARALLEL_MIN,
     TRAVERSAL_COST,
     WIDTH,
+    lane_entries,
 )
 from raytrace.accel.bvh.sah import build_bvh, build_bvh_parallel
 from raytrace.accel.bvh.stats import outline, statistics  # noqa: F401  (the registry's)
@@ -74,14 +75,28 @@ def build(geo, obj_ranges, bvh_build="sah", leaf_size=MAX_LEAF, traversal_cost=T
     node_box, node_child, node_count4 = collapse_bvh4(node_lo, node_hi, node_start, node_count,
                                                       links)
     return BVH(node_box=node_box, node_child=node_child, node_count=node_count4, prim_ids=prim_ids,
-               box_bound=box_bound(node_box))
+               box_bound=box_bound(node_box), lane_entry=lane_entries(node_child, node_count4),
+               leaf_tris=leaf_corners(geo, prim_ids))
+
+
+def leaf_corners(geo, prim_ids):
+    """The BVH's leaf_tris: the corners of the triangle in each slot of
+    prim_ids, copied in leaf order (72 bytes a triangle)."""
+    leaf_tris = np.full((9, len(prim_ids) + 3), np.nan)
+    slots = np.flatnonzero(prim_ids < geo.tri_v0.shape[0])
+    tris = prim_ids[slots]
+    for corner, v in enumerate((geo.tri_v0, geo.tri_v1, geo.tri_v2)):
+        for axis in range(3):
+            leaf_tris[3 * corner + axis, slots] = v[tris, axis]
+    return leaf_tris
 
 
 def empty():
     """A layout of no primitives, of the built ones' types (cast/precompile.py)."""
     return BVH(node_box=np.zeros((0, 6, WIDTH), BOX), node_child=np.zeros((0, WIDTH), np.int64),
                node_count=np.zeros((0, WIDTH), np.int64), prim_ids=np.zeros(0, np.int64),
-               box_bound=0.0)
+               box_bound=0.0, lane_entry=np.zeros((0, WIDTH), np.int64),
+               leaf_tris=np.full((9, 3), np.nan))
 
 
 def for_counting(bvh, geo):
@@ -92,4 +107,4 @@ def for_counting(bvh, geo):
     any tree (the tests are exact); ``bvh``'s builder and leaf size are
     not used."""
     tree = build(geo, None, leaf_size=COUNT_LEAF, traversal_cost=COUNT_TRAVERSAL_COST)
-    return counting_copy(tree, geo)
+    return counting_copy(tree)

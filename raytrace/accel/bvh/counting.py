@@ -1,5 +1,5 @@
 """The layout counting and listing every hit read (layout.CountingBVH): a
-tree built for counting, its triangles copied in leaf order."""
+tree built for counting, its lanes packed."""
 
 import numpy as np
 
@@ -7,19 +7,9 @@ from raytrace.accel.bvh.layout import COUNT_LEAF, CountingBVH
 from raytrace.accel.bvh.stats import levels
 
 
-def counting_copy(bvh, geo):
-    """The CountingBVH over tree ``bvh``: its triangles' corners copied in
-    leaf order (72 bytes a triangle) and its lanes packed (8 bytes a
-    lane).  Counting loads a leaf's triangles as 4 contiguous columns where
-    it gathered 9 coordinates from 3 arrays for each (docs/design.md,
-    "Counting decides 4 triangles at once")."""
-    ids = bvh.prim_ids
-    leaf_tris = np.full((9, len(ids) + 3), np.nan)
-    slots = np.flatnonzero(ids < geo.tri_v0.shape[0])
-    tris = ids[slots]
-    for corner, v in enumerate((geo.tri_v0, geo.tri_v1, geo.tri_v2)):
-        for axis in range(3):
-            leaf_tris[3 * corner + axis, slots] = v[tris, axis]
+def counting_copy(bvh):
+    """The CountingBVH over tree ``bvh``: its lanes packed (8 bytes a
+    lane)."""
     child, count = bvh.node_child, bvh.node_count
     inner = (count == 0) & (child >= 0)
     below = np.where(inner, child, 0)
@@ -29,7 +19,7 @@ def counting_copy(bvh, geo):
     small = inner & (total[below] <= COUNT_LEAF) & (end[below] - first[below] == total[below])
     child = np.where(small, first[below], child)
     count = np.where(small, total[below], count)
-    return CountingBVH(*bvh, leaf_tris, ((child << 32) | count).ravel())
+    return CountingBVH(*bvh, ((child << 32) | count).ravel())
 
 
 def _subtree_slots(bvh):

@@ -11,19 +11,35 @@ import numpy as np
 # node_child (or an unused lane, whose box is +inf).  prim_ids: unified ids.
 # box_bound: the largest magnitude of a box coordinate (inf past float32's
 # range), which bounds the float32 box test's distances (accel/bvh/traverse.py).
-BVH = namedtuple("BVH", ["node_box", "node_child", "node_count", "prim_ids", "box_bound"])
+# lane_entry (m, 4) int64: what a traversal pushes for each lane, from
+# node_child and node_count (lane_entries): an inner lane its node, a leaf
+# ~(first slot << 32 | count), so an entered lane is one load, and a leaf
+# popped from the stack names its slots without another.
+# leaf_tris, (9, len(prim_ids) + 3) float64: column k the corners of the
+# triangle in slot k of prim_ids, row 3 * corner + axis; NaN where a slot
+# holds a sphere, and in the 3 columns past the end, so a leaf loads 4
+# columns at a time (simd.leaf_hits, simd.crossing_mask) where it
+# gathered 9 coordinates from 3 arrays through prim_ids for each triangle.
+BVH = namedtuple("BVH", ["node_box", "node_child", "node_count", "prim_ids", "box_bound",
+                         "lane_entry", "leaf_tris"])
+
+
+def lane_entries(node_child, node_count):
+    """The BVH's lane_entry words.  A slot below 2^31 and a count below 2^32
+    (any mesh that fits in memory) keep every leaf's word above
+    traverse._DONE, -2^63."""
+    leaf = ~((node_child << 32) | node_count)
+    return np.where(node_count > 0, leaf, node_child).astype(np.int64)
+
+
 # The layout counting and listing every hit read (for_counting): the
 # fields of a BVH of its own, built for counting (COUNT_TRAVERSAL_COST), and
-# - leaf_tris, (9, len(prim_ids) + 3) float64: column k the corners of
-#   the triangle in slot k of prim_ids, row 3 * corner + axis; NaN where a
-#   slot holds a sphere, and in the 3 columns past the end, so a leaf
-#   loads 4 columns at a time (simd.crossing_mask);
 # - lanes, (m * 4,) int64: each lane's node_child << 32 | node_count, one
 #   load where a lane took two (a leaf's is its queue entry as it stands),
 #   where an inner lane whose subtree holds at most COUNT_LEAF primitives
 #   in contiguous slots (every builder's subtrees do) is a leaf over them,
 #   so counting tests them at once instead of visiting its nodes.
-CountingBVH = namedtuple("CountingBVH", BVH._fields + ("leaf_tris", "lanes"))
+CountingBVH = namedtuple("CountingBVH", BVH._fields + ("lanes",))
 # One 8-lane crossing test (simd.CROSSING_LANES): 6% faster
 # counts than the tree's own leaves, 10 and 16 no faster (docs/design.md).
 COUNT_LEAF = 8

@@ -49,13 +49,13 @@ from raytrace.accel.bvh.layout import BVH, WIDTH
 from raytrace.accel.bvh.simd_packets import packet_aabb4, packet_rays, packet_triangle
 from raytrace.accel.bvh.traverse import (
     _DONE,
-    _LANE_BITS,
     BOX32_MARGIN,
     BOX32_RANGE,
     CHUNK,
     NEAR_LIMIT,
     STACK_SIZE,
     _count_chunks,
+    leaf_slots,
     tally,
 )
 from raytrace.kernels.jit import JIT, STAGE
@@ -146,8 +146,8 @@ def _ray(pk, r):
 
 
 @njit(**JIT)
-def _push_children(node_child, node_count, node, masks, near, active, stack, stack_mask,
-                   stack_t, sp, ordered):
+def _push_children(lane_entry, node, masks, near, active, stack, stack_mask, stack_t, sp,
+                   ordered):
     """Push node's children that some ray of ``active`` enters (masks,
     near: packet_aabb4's), each with its rays and nearest entry; with
     ``ordered`` (a compile-time constant) the nearest on top."""
@@ -155,9 +155,7 @@ def _push_children(node_child, node_count, node, masks, near, active, stack, sta
     for lane in range(WIDTH):
         rays = masks[lane] & active
         if rays:
-            entry = node_child[node, lane]
-            if node_count[node, lane] > 0:
-                entry = ~((node << _LANE_BITS) | lane)
+            entry = lane_entry[node, lane]
             dl = near[lane] if ordered else 0.0
             k = sp
             while ordered and k > base and stack_t[k - 1] < dl:
@@ -289,8 +287,7 @@ def _packet_traversal(mode):
         on its node visits."""
         fields, axes, consts, t_far, far = pk.fields, pk.axes, pk.consts, pk.t_far, pk.far
         best_t, best_p, best_u, best_v = pk.best_t, pk.best_prim, pk.best_u, pk.best_v
-        node_box, node_child, node_count, prim_ids = (acc.node_box, acc.node_child,
-                                                      acc.node_count, acc.prim_ids)
+        node_box, lane_entry, prim_ids = acc.node_box, acc.lane_entry, acc.prim_ids
         if node_box.shape[0] == 0:
             return alive, PACKED
         stack = frame_array(STACK_SIZE, np.int64)
@@ -314,8 +311,8 @@ def _packet_traversal(mode):
                 visits += 1
                 masks, near = packet_aabb4(node_box, entry, nx, ny, nz, consts, t_far)
                 base = sp
-                sp = _push_children(node_child, node_count, entry, masks, near, rays, stack,
-                                    stack_mask, stack_t, sp, mode == CLOSEST)
+                sp = _push_children(lane_entry, entry, masks, near, rays, stack, stack_mask,
+                                    stack_t, sp, mode == CLOSEST)
                 if sp > base:
                     sp -= 1
                     entry = stack[sp]
@@ -325,11 +322,7 @@ def _packet_traversal(mode):
                     continue
             else:
                 n_leaves += popcount(rays)
-                leaf = ~entry
-                node = leaf >> _LANE_BITS
-                lane = leaf & (WIDTH - 1)
-                k = node_child[node, lane]
-                end = k + node_count[node, lane]
+                k, end = leaf_slots(entry)
                 while k < end and rays != 0:
                     p = prim_ids[k]
                     todo = rays

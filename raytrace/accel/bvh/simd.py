@@ -43,8 +43,8 @@ def within_interval(builder, edges, corners, sz, t_min, t_max):
     lane and operation for operation: the lanes whose determinant is not 0
     and whose distance lies in t_min < t < t_max (tested scaled first,
     against 0 and t_max * det, then divided out), as the scalar test
-    decides them.  ``corners`` as edge_functions takes them; sz, t_min,
-    t_max splatted or per lane."""
+    decides them; and each lane's t and 1 / det.  ``corners`` as
+    edge_functions takes them; sz, t_min, t_max splatted or per lane."""
     e0, e1, e2 = edges
     (_, _, az), (_, _, bz), (_, _, cz) = corners
     zero = ir.Constant(e0.type, [0.0] * e0.type.count)
@@ -61,10 +61,11 @@ def within_interval(builder, edges, corners, sz, t_min, t_max):
     out_neg = builder.or_(cmp(">", t_scaled, zero), cmp("<=", t_scaled, bound))
     out_pos = builder.or_(cmp("<", t_scaled, zero), cmp(">=", t_scaled, bound))
     out = builder.select(cmp("<", det, zero), out_neg, out_pos)
-    t = builder.fmul(t_scaled, builder.fdiv(one, det))
+    inv_det = builder.fdiv(one, det)
+    t = builder.fmul(t_scaled, inv_det)
     within = builder.and_(cmp(">", t, t_min), cmp("<", t, t_max))
     return builder.and_(builder.and_(builder.not_(cmp("==", det, zero)), builder.not_(out)),
-                        within)
+                        within), t, inv_det
 
 
 BOX_ARRAY = types.Array(from_dtype(np.dtype(BOX)), 3, "C")
@@ -336,11 +337,79 @@ def crossing_mask(typingctx, leaf_tris, k, k2, ray, t_max):
             return builder.and_(builder.and_(e0, e1), e2)
 
         strict = builder.or_(every_edge(">"), every_edge("<"))
-        hit = builder.and_(strict, within_interval(builder, edges, corners, sz, t_min, t_max))
+        hit = builder.and_(strict, within_interval(builder, edges, corners, sz, t_min, t_max)[0])
         unsure = builder.and_(builder.not_(mixed), builder.not_(strict))
         bits = ir.IntType(lanes)
         return builder.or_(builder.zext(builder.bitcast(hit, bits), i64),
                            builder.shl(builder.zext(builder.bitcast(unsure, bits), i64),
                                        ir.Constant(i64, lanes)))
+
+    return sig, codegen
+
+
+LEAF_LANES = 4    # leaf_hits's lanes: the slots of a leaf of MAX_LEAF
+# The fields of a ray leaf_hits reads: crossing_mask's.
+_LEAF_FIELDS = _CROSSING_FIELDS
+
+
+@intrinsic
+def leaf_hits(typingctx, leaf_tris, k, ray, t_max):
+    """The triangle test (intersect._triangle without ``crossing``) of one
+    ray (a Ray: its watertight constants and t_min) against the triangles
+    in slots k .. k + 3 of ``leaf_tris`` (layout.BVH), in <4 x double>,
+    each lane operation for operation as the scalar test (no fused
+    multiply-adds), so a lane hits exactly where the scalar test hits, at
+    the same t, b1, b2.
+
+    Returns (mask, t, b1, b2): hits in bits 0-3; in bits 4-7 the lanes
+    whose determinant is NaN, a sphere's or a padding column (the caller
+    runs test_prim on them; a triangle there, of coordinates past float64's
+    range, the scalar test misses too); t, b1, b2 as 4-tuples.
+    """
+    names = getattr(ray, "fields", ())
+    if not all(f in names for f in _LEAF_FIELDS):
+        return None
+    place = [names.index(f) for f in _LEAF_FIELDS]
+    ints = (k,) + tuple(ray.types[j] for j in place[:3])
+    floats = tuple(ray.types[j] for j in place[3:]) + (t_max,)
+    if leaf_tris != VERTICES or not all(isinstance(a, types.Integer) for a in ints) \
+            or not all(isinstance(a, types.Float) for a in floats):
+        return None
+    lanes = types.UniTuple(types.float64, LEAF_LANES)
+    sig = types.Tuple((types.int64, lanes, lanes, lanes))(leaf_tris, k, ray, t_max)
+
+    def codegen(context, builder, sig, llargs):
+        i32, i64 = ir.IntType(32), ir.IntType(64)
+        vec = ir.VectorType(ir.DoubleType(), LEAF_LANES)
+        rows = context.make_array(sig.args[0])(context, builder, value=llargs[0])
+        stride = builder.extract_value(rows.shape, 1)
+        values = [llargs[1], *(builder.extract_value(llargs[2], j) for j in place), llargs[3]]
+        k, kx, ky, kz = [context.cast(builder, v, t, types.int64)
+                         for v, t in zip(values[:4], ints)]
+        okx, oky, okz, sx, sy, sz, t_min, t_max = [
+            broadcast(builder, vec, context.cast(builder, v, t, types.float64))
+            for v, t in zip(values[4:], floats)]
+
+        def coordinate(corner, axis):
+            """Component ``axis`` of the 4 triangles' corner, one per lane."""
+            row = builder.mul(builder.add(ir.Constant(i64, 3 * corner), axis), stride)
+            p = builder.gep(rows.data, [builder.add(row, k)])
+            return builder.load(builder.bitcast(p, vec.as_pointer()), align=8)
+
+        corners = [[builder.fsub(coordinate(c, axis), origin)
+                    for axis, origin in ((kx, okx), (ky, oky), (kz, okz))] for c in range(3)]
+        edges, mixed = edge_functions(builder, corners, sx, sy)
+        within, t, inv_det = within_interval(builder, edges, corners, sz, t_min, t_max)
+        hit = builder.and_(builder.not_(mixed), within)
+        unsure = builder.fcmp_unordered("uno", inv_det, inv_det)    # NaN where det is
+        bits = ir.IntType(LEAF_LANES)
+        mask = builder.or_(builder.zext(builder.bitcast(hit, bits), i64),
+                           builder.shl(builder.zext(builder.bitcast(unsure, bits), i64),
+                                       ir.Constant(i64, LEAF_LANES)))
+        outs = [mask]
+        for v in (t, builder.fmul(edges[1], inv_det), builder.fmul(edges[2], inv_det)):
+            outs.append(context.make_tuple(builder, lanes, [
+                builder.extract_element(v, ir.Constant(i32, j)) for j in range(LEAF_LANES)]))
+        return context.make_tuple(builder, sig.return_type, outs)
 
     return sig, codegen

@@ -148,7 +148,7 @@ def packet_triangle(typingctx, v0, v1, v2, p, kx, ky, kz, fields, far):
                     coordinate(vertices, kz, okz)) for vertices in data]
         edges, mixed = edge_functions(builder, corners, sx, sy)
         keep = builder.and_(builder.not_(mixed),
-                            within_interval(builder, edges, corners, sz, t_min, t_max))
+                            within_interval(builder, edges, corners, sz, t_min, t_max)[0])
         return builder.zext(builder.bitcast(keep, ir.IntType(PACKET)), i64)
 
     return sig, codegen

@@ -9,16 +9,18 @@ children the ray enters go on a fixed-size stack with their entry
 distances, sorted so the nearest is on top, and the nearest is visited
 next.  A popped entry is skipped when a hit closer than its entry distance
 has been found since.  Leaves are children too: a stack entry below zero is
-``~(node * 4 + lane)``, the leaf in that lane.  Any hit is the same loop
-stopped at the first hit (tinybvh's and madmann91/bvh's IsAnyHit flag, here
-the compile-time mode of ``_traversal``): until then its best distance is
-inf, so it tests boxes against t_max.  Counting every hit never narrows
-the interval nor stops, so the order of visits does not matter: its loop
-(``_count_traverse``) takes two nodes a round, pushes without sorting or
-branching, queues the leaves it enters and tests their triangles 8 at a
-time (``crossing_mask``), from a copy of them in leaf order (the
-CountingBVH layout, made on a scene's first count): a count tests many
-triangles and hits few.  count_intersections traces two rays at once in
+a leaf's lane_entry word, ``~(first slot << 32 | count)``.  A leaf's
+triangles are tested 4 at a time (``leaf_hits``) from the tree's copy of
+them in leaf order (``leaf_tris``), exactly as the scalar test tests each.
+Any hit is the same loop stopped at the first hit (tinybvh's and
+madmann91/bvh's IsAnyHit flag, here the compile-time mode of
+``_traversal``): until then its best distance is inf, so it tests boxes
+against t_max.  Counting every hit never narrows the interval nor stops,
+so the order of visits does not matter: its loop (``_count_traverse``)
+takes two nodes a round, pushes without sorting or branching, queues the
+leaves it enters and tests their triangles 8 at a time
+(``crossing_mask``), on a tree of its own (the CountingBVH layout, made on
+a scene's first count): a count tests many triangles and hits few.  count_intersections traces two rays at once in
 that loop, a round of each in turn (count_stream.py).
 
 The stack lives in the function's frame (``frame_array``, an alloca), not
@@ -40,7 +42,14 @@ from numba import njit
 from numba.cpython.unsafe.numbers import trailing_zeros  # llvm.cttz: a mask's lowest set bit
 
 from raytrace.accel.bvh.layout import BVH, MAX_DEPTH, WIDTH, CountingBVH
-from raytrace.accel.bvh.simd import CROSSING_LANES, box_ray_f32, crossing_mask, ray_aabb4
+from raytrace.accel.bvh.simd import (
+    CROSSING_LANES,
+    LEAF_LANES,
+    box_ray_f32,
+    crossing_mask,
+    leaf_hits,
+    ray_aabb4,
+)
 from raytrace.kernels.counters import BOX_TESTS, NODES_VISITED, PRIM_HITS, PRIM_TESTS
 from raytrace.kernels.jit import JIT
 from raytrace.kernels.lowlevel import frame_array, popcount
@@ -63,8 +72,7 @@ COUNT_STACK_SIZE = 3 * ROUND * (MAX_DEPTH - 1) + WIDTH * ROUND
 # most ROUND * WIDTH.  Random rays through a closed mesh enter ~12 leaves.
 QUEUE_SIZE = 64
 CHUNK = CROSSING_LANES // 2   # slots of a leaf a crossing test takes at once
-_LANE_BITS = WIDTH.bit_length() - 1   # a leaf's stack entry is ~(node << 2 | lane)
-_DONE = -(1 << 62)  # "stack empty": below every leaf entry
+_DONE = -(1 << 63)  # "stack empty": below every leaf's lane_entry word
 
 # A ray's constants for the float32 box test (simd.ray_aabb4): the
 # rows of its near planes, and on each axis the origin and the inverse
@@ -79,6 +87,14 @@ BOX32_MARGIN = 2.0 ** -20
 # 2^63: their products stay below 2^126, and float32's range ends at 2^128.
 BOX32_RANGE = 2.0 ** 62
 NEAR_LIMIT = 2.0 ** 63
+
+
+@njit(**JIT)
+def _unsigned(i):
+    """Index i as Numba indexes without a sign test: a signed index is
+    first wrapped (a negative one counts from the end), a test and an add
+    at every access.  For indices that cannot be negative."""
+    return np.uint64(i)
 
 
 @njit(**JIT)
@@ -119,12 +135,13 @@ def child_boxes(node_box, node, br, t_box):
 
 
 @njit(**JIT)
-def _push_children(node_box, node_child, node_count, node, br, t_box, stack, stack_t, sp):
-    """Test node's 4 child boxes; push the ones the ray enters, nearest on
-    top (insertion into the entries pushed here, usually 1 or 2).  Returns
-    the new stack pointer.  Lanes are chosen by the mask's bits rather than
-    by their distances (and a node whose children all miss skips the
-    loop), which is faster (docs/benchmarks.md, "BVH")."""
+def _push_children(node_box, lane_entry, node, br, t_box, stack, stack_t, sp):
+    """Test node's 4 child boxes; push the ones the ray enters (their
+    lane_entry words), nearest on top (insertion into the entries pushed
+    here, usually 1 or 2).  Returns the new stack pointer.  Lanes are
+    chosen by the mask's bits rather than by their distances (and a node
+    whose children all miss skips the loop), which is faster
+    (docs/benchmarks.md, "BVH").  Indices unsigned: sp never goes below 0."""
     mask, d = child_boxes(node_box, node, br, t_box)
     if mask == 0:
         return sp
@@ -132,28 +149,24 @@ def _push_children(node_box, node_child, node_count, node, br, t_box, stack, sta
     for lane in range(WIDTH):
         dl = d[lane]
         if mask & (1 << lane):
-            entry = node_child[node, lane]
-            if node_count[node, lane] > 0:
-                entry = ~((node << _LANE_BITS) | lane)
             k = sp
-            while k > base and stack_t[k - 1] < dl:
-                stack[k] = stack[k - 1]
-                stack_t[k] = stack_t[k - 1]
+            while k > base and stack_t[_unsigned(k - 1)] < dl:
+                stack[_unsigned(k)] = stack[_unsigned(k - 1)]
+                stack_t[_unsigned(k)] = stack_t[_unsigned(k - 1)]
                 k -= 1
-            stack[k] = entry
-            stack_t[k] = dl
+            stack[_unsigned(k)] = lane_entry[_unsigned(node), lane]
+            stack_t[_unsigned(k)] = dl
             sp += 1
     return sp
 
 
 @njit(**JIT)
-def _leaf_range(node_child, node_count, entry):
-    """prim_ids slots [start, end) of the leaf a stack entry ~(node << 2 | lane) names."""
-    leaf = ~entry
-    node = leaf >> _LANE_BITS
-    lane = leaf & (WIDTH - 1)
-    start = node_child[node, lane]
-    return start, start + node_count[node, lane]
+def leaf_slots(entry):
+    """prim_ids slots [start, end) of the leaf whose lane_entry word is
+    ``entry`` (below zero)."""
+    word = ~entry
+    start = word >> 32
+    return start, start + (word & 0xFFFFFFFF)
 
 
 @njit(**JIT)
@@ -166,11 +179,40 @@ def tally(cnt, n_inner, n_leaves, n_tests, n_hits):
     cnt[PRIM_HITS] += n_hits
 
 
+@njit(**JIT)
+def _test_slots(geo, acc, ray, k, n, t_max, best, first):
+    """Test the primitives in slots k .. k + n - 1 (n <= 4) at once
+    (leaf_hits; test_prim for a sphere's slot); returns the closer of their
+    hits and best, and the tests and hits to count.  With ``first`` (any
+    hit) the slots count as the scalar loop met them, up to the first hit."""
+    m, ts, us, vs = leaf_hits(acc.leaf_tris, k, ray, t_max)
+    inside = (1 << n) - 1
+    found = m & inside
+    todo = found | ((m >> LEAF_LANES) & inside)
+    tests = n
+    hits = 0
+    while todo:
+        lane = trailing_zeros(todo)
+        p = acc.prim_ids[k + lane]
+        if found & (1 << lane):
+            t, u, v = ts[lane], us[lane], vs[lane]
+        else:
+            t, u, v = test_prim(geo, ray, p, t_max)
+        todo &= todo - 1
+        if t < np.inf:
+            hits += 1
+            if closer(t, p, best):
+                best = Hit(t, p, u, v)
+            if first:
+                tests = lane + 1
+                todo = 0
+    return best, tests, hits
+
+
 def _traversal(mode):
     @njit(**JIT)
     def traverse(geo, acc, ray, t_max, cnt):
-        node_box, node_child, node_count, prim_ids = (acc.node_box, acc.node_child,
-                                                      acc.node_count, acc.prim_ids)
+        node_box, lane_entry = acc.node_box, acc.lane_entry
         best = no_hit()
         if node_box.shape[0] == 0:
             return best
@@ -182,40 +224,37 @@ def _traversal(mode):
         n_tests = 0
         n_hits = 0
         # int64s, not literal 0s: a call given a literal is compiled again
-        # for it (_push_children and _leaf_range were, twice each).
+        # for it (_push_children and leaf_slots were, twice each).
         entry = np.int64(0)
         sp = np.int64(0)
         while entry != _DONE:
             if entry >= 0:
                 n_inner += 1
                 base = sp
-                sp = _push_children(node_box, node_child, node_count, entry, br,
-                                    min(best.t, t_max), stack, stack_t, sp)
+                sp = _push_children(node_box, lane_entry, entry, br, min(best.t, t_max), stack,
+                                    stack_t, sp)
                 if sp > base:
                     # The nearest child was just pushed: its entry is within
                     # best.t, so it is taken without the check below.
                     sp -= 1
-                    entry = stack[sp]
+                    entry = stack[_unsigned(sp)]
                     continue
             else:
                 n_leaves += 1
-                k, end = _leaf_range(node_child, node_count, entry)
+                k, end = leaf_slots(entry)
                 while k < end and not (mode == ANY_HIT and best.prim >= 0):
-                    p = prim_ids[k]
-                    n_tests += 1
-                    t, u, v = test_prim(geo, ray, p, t_max)
-                    if t < np.inf:
-                        n_hits += 1
-                        if closer(t, p, best):
-                            best = Hit(t, p, u, v)
-                    k += 1
+                    best, tests, hits = _test_slots(geo, acc, ray, k, min(end - k, LEAF_LANES),
+                                                    t_max, best, mode == ANY_HIT)
+                    n_tests += tests
+                    n_hits += hits
+                    k += LEAF_LANES
             # Pop the nearest pending entry that may still hold a closer hit.
             entry = _DONE
             if not (mode == ANY_HIT and best.prim >= 0):
                 while sp > 0 and entry == _DONE:
                     sp -= 1
-                    if stack_t[sp] <= best.t:
-                        entry = stack[sp]
+                    if stack_t[_unsigned(sp)] <= best.t:
+                        entry = stack[_unsigned(sp)]
         tally(cnt, n_inner, n_leaves, n_tests, n_hits)
         return best
     return traverse
@@ -281,14 +320,6 @@ def _count_queue(geo, ray, leaf_tris, prim_ids, queue, qn, t_max):
         n_tests += n1 + n2
         i, k, end, k1, n1 = _next_chunk(queue, qn, i, k, end)
     return n_hits, n_tests
-
-
-@njit(**JIT)
-def _unsigned(i):
-    """Index i as Numba indexes without a sign test: a signed index is
-    first wrapped (a negative one counts from the end), a test and an add
-    at every access.  For indices that cannot be negative."""
-    return np.uint64(i)
 
 
 @njit(**JIT)
