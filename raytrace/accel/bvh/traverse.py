@@ -20,8 +20,9 @@ so the order of visits does not matter: its loop (``_count_traverse``)
 takes two nodes a round, pushes without sorting or branching, queues the
 leaves it enters and tests their triangles 8 at a time
 (``crossing_mask``), on a tree of its own (the CountingBVH layout, made on
-a scene's first count): a count tests many triangles and hits few.  count_intersections traces two rays at once in
-that loop, a round of each in turn (count_stream.py).
+a scene's first count): a count tests many triangles and hits few.
+count_intersections traces two rays at once in that loop, a round of each
+in turn (count_stream.py).
 
 The stack lives in the function's frame (``frame_array``, an alloca), not
 in ``np.empty``: that would need the reference-counted runtime and a heap
