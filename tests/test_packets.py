@@ -58,6 +58,35 @@ def test_camera_and_shadow_rays_in_packets_hit_as_brute_force(scenes):
                           brute.occluded(o, d, t_min=t_min, t_max=t_max))
 
 
+def test_leaves_entered_by_one_or_two_of_a_packets_rays_hit_as_brute_force():
+    """A bumpy grid of 32,768 small triangles under 64x64 camera rays: a
+    packet's neighbouring rays lie about a leaf's width apart, so the
+    packets share the upper nodes (and stay packets) while most leaves are
+    entered by one or two of their rays and tested ray by ray
+    (packet.ALONE_MAX), the rest triangle by triangle.  Closest hits, and
+    any hit with intervals cut at and just past each hit, as brute force
+    (a ray alone's u left unwritten, or its any hit given to its
+    neighbour, fails this)."""
+    from raytrace.accel.bvh.packet import ALONE_MAX
+    assert ALONE_MAX >= 1
+    n = 128
+    x, z = np.meshgrid(np.linspace(-1, 1, n + 1), np.linspace(-1, 1, n + 1))
+    y = 0.05 * np.sin(7 * x) * np.cos(5 * z)
+    v = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    i = (np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]).ravel()
+    f = np.concatenate([np.column_stack([i, i + 1, i + n + 2]),
+                        np.column_stack([i, i + n + 2, i + n + 1])])
+    bvh, brute = RayScene((v, f), accel="bvh"), RayScene((v, f), accel="none")
+    rays = create_rays_pinhole(40, [0, 0, 0], [0.2, 2.0, 0.3], [0, 0, -1], 64, 64).reshape(-1, 6)
+    o, d = rays[:, :3], rays[:, 3:]
+    h = bvh.cast_rays(o, d)
+    _same(h, brute.cast_rays(o, d))
+    assert h.hit.all()
+    for t_max in (h.t, np.nextafter(h.t, np.inf)):
+        assert np.array_equal(bvh.occluded(o, d, t_max=t_max), brute.occluded(o, d, t_max=t_max))
+    assert not bvh.occluded(o, d, t_max=h.t).any() and bvh.occluded(o, d, t_max=h.t * 1.01).all()
+
+
 def _octahedron():
     v = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
     f = np.array([[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5],
