@@ -158,7 +158,7 @@ def test_a_packet_of_scattered_rays_goes_but_says_so():
     batches of either give brute force's answers and counts."""
     from raytrace.accel.bvh.packet import closest_packet, occluded_packet
     from raytrace.scene.builtin import teapot_mesh
-    mesh = teapot_mesh(24)            # 37k triangles: deep enough to share little
+    mesh = teapot_mesh(32)            # 65k triangles: deep enough to share little
     scene = RayScene((mesh.vertices, mesh.faces), accel="bvh")
     bvh = scene._built()
     closest, occluded = python_callable(closest_packet), python_callable(occluded_packet)

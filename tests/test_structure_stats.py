@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from raytrace.accel.bvh.layout import TRAVERSAL_COST
 from raytrace.accel.registry import STRUCTURES, get
 from raytrace.cli.main import main
 from raytrace.kernels.buffers import prim_bounds
@@ -26,19 +27,21 @@ TWO_APART = ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[10, 0, 0], [11, 0, 0], [10, 1,
 def test_bvh_of_two_triangles_far_apart():
     geo, ranges = scene_of(*TWO_APART)
     s = get("bvh")
-    bvh, _ = s.build(geo, ranges)
+    # Leaves of one: at TRAVERSAL_COST 2 the SAH never splits two triangles.
+    bvh, _ = s.build(geo, ranges, leaf_size=1)
     st = s.statistics(bvh, 2)
     assert (st["nodes"], st["leaves"], st["max_depth"], st["mean_leaf_depth"]) == (1, 2, 1, 1.0)
     assert st["primitives_per_leaf_mean"] == 1.0 and st["primitives_per_leaf_max"] == 1
     assert st["leaf_size_histogram"]["1"] == 2
-    # One root visit, then each leaf's test weighted by its box's share of the
-    # root box's area (the boxes are flat triangles' boxes, padded by 1e-9).
+    # One root visit (TRAVERSAL_COST tests' worth), then each leaf's test
+    # weighted by its box's share of the root box's area (the boxes are flat
+    # triangles' boxes, padded by 1e-9).
     lo, hi = prim_bounds(geo)
     e = hi - lo
     leaf = e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0]
     r = hi.max(axis=0) - lo.min(axis=0)
     root = r[0] * r[1] + r[1] * r[2] + r[2] * r[0]
-    assert st["sah_cost"] == pytest.approx(1.0 + leaf.sum() / root, rel=1e-6)
+    assert st["sah_cost"] == pytest.approx(TRAVERSAL_COST + leaf.sum() / root, rel=1e-6)
     assert st["memory_bytes"] == sum(a.nbytes for a in bvh if isinstance(a, np.ndarray))
     assert st["bytes_per_primitive"] == st["memory_bytes"] / 2
 
@@ -66,7 +69,8 @@ def test_bvh_sah_cost_is_summed_over_every_block_of_nodes(monkeypatch):
     root = box[0, :3][:, used[0]].min(axis=1), box[0, 3:][:, used[0]].max(axis=1)
     r = root[1] - root[0]
     root_area = r[0] * r[1] + r[1] * r[2] + r[2] * r[0]
-    want = 1.0 + area[inner].sum() / root_area + (area * bvh.node_count)[leaf].sum() / root_area
+    want = (TRAVERSAL_COST * (1.0 + area[inner].sum() / root_area)
+            + (area * bvh.node_count)[leaf].sum() / root_area)
     assert whole == pytest.approx(want, rel=1e-9)
 
 

@@ -44,7 +44,7 @@ CountingBVH = namedtuple("CountingBVH", BVH._fields + ("lanes",))
 # counts than the tree's own leaves, 10 and 16 no faster (docs/design.md).
 COUNT_LEAF = 8
 # The counting tree's SAH weighs a node visit as 4 triangle tests, where a
-# tree for tracing weighs it as 1 (TRAVERSAL_COST): its leaves hold up to
+# tree for tracing weighs it as 2 (TRAVERSAL_COST): its leaves hold up to
 # COUNT_LEAF triangles, tested 8 at a time, and a count visits every node
 # the ray meets.  5% faster counts than on the tracing tree; 2 and 8 no
 # better than 4, leaves of 16 slower (docs/design.md).
@@ -68,9 +68,15 @@ N_BINS = 12
 # (docs/benchmarks.md, "BVH").  --leaf-size sets it.
 MAX_LEAF = 4
 # Cost of one node visit (two child box tests) relative to one primitive
-# test, in the SAH: C = TRAVERSAL_COST + (A_L N_L + A_R N_R) / A.  0.5, 1
-# and 2 trace alike fast (docs/benchmarks.md, "BVH").
-TRAVERSAL_COST = 1.0
+# test, in the SAH: C = TRAVERSAL_COST + (A_L N_L + A_R N_R) / A.  2 since
+# leaves test their triangles 4 at a time (simd.leaf_hits), so a triangle
+# test costs less against a node visit than the 1 the scalar test was
+# weighed at: fuller leaves, fewer nodes.  One thread, against 1: 5-15%
+# faster on random, shuffled and bounce rays at 118k and on every ray set at
+# 1M, 3-30% on four meshes no bench had (a triangle soup, a terrain, two
+# other tools' files); 1k camera and shadow packets 2-7% slower
+# (docs/benchmarks.md, "Leaves tested 4 triangles at a time").
+TRAVERSAL_COST = 2.0
 # Leaves are forced at this depth, so traversal's fixed-size stack (at most 3
 # pending children per level of the 4-wide tree, accel/bvh/traverse.py) can never
 # overflow: part of the layout's contract.  The 118k-triangle surface builds 21 deep; only adversarial
