@@ -10,7 +10,9 @@ the least of their entries, for any hit in lane order (most shadow rays
 are blocked by nothing, so the order buys little and costs a sort).  A
 leaf's triangles are tested against its rays at once where they share
 their watertight axes (``simd_packets.packet_triangle``, <16 x double>), one
-ray at a time otherwise.  Neighbouring camera and shadow
+ray at a time otherwise; a leaf entered by only one or two of the rays
+(deep in a big tree, where they have spread apart) is tested by each ray
+alone, 4 triangles at a time, with the single-ray leaf test (ALONE_MAX).  Neighbouring camera and shadow
 rays enter nearly the same nodes, so a node's loads, box arithmetic and
 branches serve many rays (docs/benchmarks.md, "BVH").
 
