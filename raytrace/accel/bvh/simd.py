@@ -267,8 +267,48 @@ VERTICES = types.Array(types.float64, 2, "C")
 
 
 CROSSING_LANES = 8    # crossing_mask's lanes: two chunks of 4 columns
-# The fields of a ray crossing_mask reads: axes, then floats.
-_CROSSING_FIELDS = ("kx", "ky", "kz", "okx", "oky", "okz", "sx", "sy", "sz", "t_min")
+# The fields of a ray the leaf tests (crossing_mask, leaf_hits) read: axes,
+# then floats.
+_LEAF_RAY_FIELDS = ("kx", "ky", "kz", "okx", "oky", "okz", "sx", "sy", "sz", "t_min")
+
+
+def _leaf_test_types(leaf_tris, slots, ray, t_max):
+    """The typing a leaf test shares: (the places of the ray's fields,
+    the integer arguments' types: slots then axes, the floats' types), or
+    None where the arguments do not fit."""
+    names = getattr(ray, "fields", ())
+    if not all(f in names for f in _LEAF_RAY_FIELDS):
+        return None
+    place = [names.index(f) for f in _LEAF_RAY_FIELDS]
+    ints = tuple(slots) + tuple(ray.types[j] for j in place[:3])
+    floats = tuple(ray.types[j] for j in place[3:]) + (t_max,)
+    if leaf_tris != VERTICES or not all(isinstance(a, types.Integer) for a in ints) \
+            or not all(isinstance(a, types.Float) for a in floats):
+        return None
+    return place, ints, floats
+
+
+def _leaf_test_values(context, builder, sig, llargs, n_slots, place, ints, floats, vec):
+    """The values a leaf test's code starts from: (leaf_tris's data
+    pointer and row stride, the slots, the ray's axes kx, ky, kz as
+    int64s, its origin okx, oky, okz, shear sx, sy, sz, t_min and t_max
+    splatted over ``vec``)."""
+    rows = context.make_array(sig.args[0])(context, builder, value=llargs[0])
+    stride = builder.extract_value(rows.shape, 1)
+    ray = llargs[1 + n_slots]
+    values = [*llargs[1:1 + n_slots], *(builder.extract_value(ray, j) for j in place),
+              llargs[2 + n_slots]]
+    n_ints = n_slots + 3
+    whole = [context.cast(builder, v, t, types.int64) for v, t in zip(values[:n_ints], ints)]
+    splat = [broadcast(builder, vec, context.cast(builder, v, t, types.float64))
+             for v, t in zip(values[n_ints:], floats)]
+    return rows.data, stride, whole[:n_slots], whole[n_slots:], splat
+
+
+def _corner_lanes(builder, coordinate, axes, origin):
+    """Each corner's coordinates on the ray's axes, less its origin:
+    [[x, y, z] of corner 0, 1, 2], as edge_functions takes them."""
+    return [[builder.fsub(coordinate(c, a), o) for a, o in zip(axes, origin)] for c in range(3)]
 
 
 @intrinsic
@@ -293,15 +333,10 @@ def crossing_mask(typingctx, leaf_tris, k, k2, ray, t_max):
       decides which triangle owns the edge, or NaN: a column that holds
       no triangle) is unsure: the caller runs the scalar test on it.
     """
-    names = getattr(ray, "fields", ())
-    if not all(f in names for f in _CROSSING_FIELDS):
+    typed = _leaf_test_types(leaf_tris, (k, k2), ray, t_max)
+    if typed is None:
         return None
-    place = [names.index(f) for f in _CROSSING_FIELDS]
-    ints = (k, k2) + tuple(ray.types[j] for j in place[:3])
-    floats = tuple(ray.types[j] for j in place[3:]) + (t_max,)
-    if leaf_tris != VERTICES or not all(isinstance(a, types.Integer) for a in ints) \
-            or not all(isinstance(a, types.Float) for a in floats):
-        return None
+    place, ints, floats = typed
     sig = types.int64(leaf_tris, k, k2, ray, t_max)
     lanes = CROSSING_LANES
 
@@ -310,25 +345,19 @@ def crossing_mask(typingctx, leaf_tris, k, k2, ray, t_max):
         chunk = ir.VectorType(ir.DoubleType(), lanes // 2)
         vec = ir.VectorType(ir.DoubleType(), lanes)
         both = ir.Constant(ir.VectorType(ir.IntType(32), lanes), list(range(lanes)))
-        rows = context.make_array(sig.args[0])(context, builder, value=llargs[0])
-        stride = builder.extract_value(rows.shape, 1)
-        values = [*llargs[1:3], *(builder.extract_value(llargs[3], j) for j in place), llargs[4]]
-        k, k2, kx, ky, kz = [context.cast(builder, v, t, types.int64)
-                             for v, t in zip(values[:5], ints)]
-        okx, oky, okz, sx, sy, sz, t_min, t_max = [
-            broadcast(builder, vec, context.cast(builder, v, t, types.float64))
-            for v, t in zip(values[5:], floats)]
+        data, stride, chunks, axes, splat = _leaf_test_values(context, builder, sig, llargs, 2,
+                                                              place, ints, floats, vec)
+        okx, oky, okz, sx, sy, sz, t_min, t_max = splat
 
         def coordinate(corner, axis):
             """Component ``axis`` of the 8 triangles' corner, one per lane."""
             row = builder.mul(builder.add(ir.Constant(i64, 3 * corner), axis), stride)
-            halves = [builder.load(builder.bitcast(builder.gep(rows.data, [builder.add(row, c)]),
+            halves = [builder.load(builder.bitcast(builder.gep(data, [builder.add(row, c)]),
                                                    chunk.as_pointer()), align=8)
-                      for c in (k, k2)]
+                      for c in chunks]
             return builder.shuffle_vector(halves[0], halves[1], both)
 
-        corners = [[builder.fsub(coordinate(c, axis), origin)
-                    for axis, origin in ((kx, okx), (ky, oky), (kz, okz))] for c in range(3)]
+        corners = _corner_lanes(builder, coordinate, axes, (okx, oky, okz))
         edges, mixed = edge_functions(builder, corners, sx, sy)
         zero = ir.Constant(vec, [0.0] * lanes)
 
@@ -348,8 +377,6 @@ def crossing_mask(typingctx, leaf_tris, k, k2, ray, t_max):
 
 
 LEAF_LANES = 4    # leaf_hits's lanes: the slots of a leaf of MAX_LEAF
-# The fields of a ray leaf_hits reads: crossing_mask's.
-_LEAF_FIELDS = _CROSSING_FIELDS
 
 
 @intrinsic
@@ -366,38 +393,27 @@ def leaf_hits(typingctx, leaf_tris, k, ray, t_max):
     runs test_prim on them; a triangle there, of coordinates past float64's
     range, the scalar test misses too); t, b1, b2 as 4-tuples.
     """
-    names = getattr(ray, "fields", ())
-    if not all(f in names for f in _LEAF_FIELDS):
+    typed = _leaf_test_types(leaf_tris, (k,), ray, t_max)
+    if typed is None:
         return None
-    place = [names.index(f) for f in _LEAF_FIELDS]
-    ints = (k,) + tuple(ray.types[j] for j in place[:3])
-    floats = tuple(ray.types[j] for j in place[3:]) + (t_max,)
-    if leaf_tris != VERTICES or not all(isinstance(a, types.Integer) for a in ints) \
-            or not all(isinstance(a, types.Float) for a in floats):
-        return None
+    place, ints, floats = typed
     lanes = types.UniTuple(types.float64, LEAF_LANES)
     sig = types.Tuple((types.int64, lanes, lanes, lanes))(leaf_tris, k, ray, t_max)
 
     def codegen(context, builder, sig, llargs):
         i32, i64 = ir.IntType(32), ir.IntType(64)
         vec = ir.VectorType(ir.DoubleType(), LEAF_LANES)
-        rows = context.make_array(sig.args[0])(context, builder, value=llargs[0])
-        stride = builder.extract_value(rows.shape, 1)
-        values = [llargs[1], *(builder.extract_value(llargs[2], j) for j in place), llargs[3]]
-        k, kx, ky, kz = [context.cast(builder, v, t, types.int64)
-                         for v, t in zip(values[:4], ints)]
-        okx, oky, okz, sx, sy, sz, t_min, t_max = [
-            broadcast(builder, vec, context.cast(builder, v, t, types.float64))
-            for v, t in zip(values[4:], floats)]
+        data, stride, (k,), axes, splat = _leaf_test_values(context, builder, sig, llargs, 1,
+                                                            place, ints, floats, vec)
+        okx, oky, okz, sx, sy, sz, t_min, t_max = splat
 
         def coordinate(corner, axis):
             """Component ``axis`` of the 4 triangles' corner, one per lane."""
             row = builder.mul(builder.add(ir.Constant(i64, 3 * corner), axis), stride)
-            p = builder.gep(rows.data, [builder.add(row, k)])
+            p = builder.gep(data, [builder.add(row, k)])
             return builder.load(builder.bitcast(p, vec.as_pointer()), align=8)
 
-        corners = [[builder.fsub(coordinate(c, axis), origin)
-                    for axis, origin in ((kx, okx), (ky, oky), (kz, okz))] for c in range(3)]
+        corners = _corner_lanes(builder, coordinate, axes, (okx, oky, okz))
         edges, mixed = edge_functions(builder, corners, sx, sy)
         within, t, inv_det = within_interval(builder, edges, corners, sz, t_min, t_max)
         hit = builder.and_(builder.not_(mixed), within)
