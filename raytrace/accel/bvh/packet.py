@@ -48,7 +48,6 @@ from numba import njit
 from numba.cpython.unsafe.numbers import trailing_zeros
 
 from raytrace.accel.bvh.layout import BVH, WIDTH
-from raytrace.accel.bvh.simd import LEAF_LANES
 from raytrace.accel.bvh.simd_packets import packet_aabb4, packet_rays, packet_triangle
 from raytrace.accel.bvh.traverse import (
     _DONE,
@@ -58,9 +57,9 @@ from raytrace.accel.bvh.traverse import (
     NEAR_LIMIT,
     STACK_SIZE,
     _count_chunks,
-    _test_slots,
     leaf_slots,
     tally,
+    test_leaf,
 )
 from raytrace.kernels.jit import JIT, STAGE
 from raytrace.kernels.lowlevel import PACKET, frame_array, popcount
@@ -283,7 +282,7 @@ def count_packet(geo, acc, origins, dirs, t_min, t_max, i0, m, out, cnt):
 
 
 # A leaf entered by at most this many of a packet's rays is tested ray by
-# ray, 4 slots at a time (traverse._test_slots), not triangle by triangle
+# ray, 4 slots at a time (traverse.test_leaf), not triangle by triangle
 # for all PACKET lanes.  Kernel alone, one thread, 640x480 camera and
 # shadow rays: at 1k triangles no row changes; at 118k shadow rays 5-16%
 # faster, at 1M camera rays 10% and shadow rays 12-18%.  4 cost 5-15% at
@@ -293,10 +292,11 @@ ALONE_MAX = 2
 
 
 @njit(**JIT)
-def _rays_alone(geo, acc, pk, rays, alive, k, end, first):
-    """Each ray of ``rays`` against leaf slots k .. end - 1 on its own
-    (traverse._test_slots), its best_* rows and t_far updated; with
-    ``first`` (any hit) a ray stops at its first hit and leaves ``alive``.
+def _rays_alone(geo, acc, pk, rays, alive, entry, first):
+    """Each ray of ``rays`` against the leaf whose lane_entry word is
+    ``entry`` on its own (traverse.test_leaf), its best_* rows and t_far
+    updated; with ``first`` (any hit) a ray stops at its first hit and
+    leaves ``alive``.
     Returns alive, and the tests and hits to count: each ray's own, as
     the packet's triangle-by-triangle loop counts them."""
     n_tests = 0
@@ -307,13 +307,9 @@ def _rays_alone(geo, acc, pk, rays, alive, k, end, first):
         todo &= todo - 1
         ray = _ray(pk, r)
         best = Hit(pk.best_t[r], pk.best_prim[r], pk.best_u[r], pk.best_v[r])
-        slot = k
-        while slot < end and not (first and best.prim >= 0):
-            best, tests, hits = _test_slots(geo, acc, ray, slot, min(end - slot, LEAF_LANES),
-                                            pk.far[r], best, first)
-            n_tests += tests
-            n_hits += hits
-            slot += LEAF_LANES
+        best, tests, hits = test_leaf(geo, acc, ray, entry, pk.far[r], best, first)
+        n_tests += tests
+        n_hits += hits
         if first:
             if best.prim >= 0:
                 alive &= ~(1 << r)
@@ -370,8 +366,7 @@ def _packet_traversal(mode):
                     continue
             elif popcount(rays) <= ALONE_MAX:
                 n_leaves += popcount(rays)
-                k, end = leaf_slots(entry)
-                alive, tests, hits = _rays_alone(geo, acc, pk, rays, alive, k, end, mode == ANY_HIT)
+                alive, tests, hits = _rays_alone(geo, acc, pk, rays, alive, entry, mode == ANY_HIT)
                 n_tests += tests
                 n_hits += hits
             else:

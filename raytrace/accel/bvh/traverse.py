@@ -52,7 +52,7 @@ from raytrace.accel.bvh.simd import (
     ray_aabb4,
 )
 from raytrace.kernels.counters import BOX_TESTS, NODES_VISITED, PRIM_HITS, PRIM_TESTS
-from raytrace.kernels.jit import JIT
+from raytrace.kernels.jit import JIT, STAGE
 from raytrace.kernels.lowlevel import frame_array, popcount
 from raytrace.kernels.prims import records_hits, test_prim
 from raytrace.kernels.query import ANY_HIT, CLOSEST, register
@@ -210,6 +210,24 @@ def _test_slots(geo, acc, ray, k, n, t_max, best, first):
     return best, tests, hits
 
 
+# Two callers (the traversal and packet._rays_alone): inlined by Numba into
+# each, no library of its own to optimise and emit (kernels/jit.py).
+@njit(**STAGE)
+def test_leaf(geo, acc, ray, entry, t_max, best, first):
+    """The leaf whose lane_entry word is ``entry`` tested LEAF_LANES slots
+    at a time (_test_slots); with ``first`` (any hit) up to the first hit.
+    Returns (best, tests, hits) as _test_slots does."""
+    k, end = leaf_slots(entry)
+    tests = 0
+    hits = 0
+    while k < end and not (first and best.prim >= 0):
+        best, n, h = _test_slots(geo, acc, ray, k, min(end - k, LEAF_LANES), t_max, best, first)
+        tests += n
+        hits += h
+        k += LEAF_LANES
+    return best, tests, hits
+
+
 def _traversal(mode):
     @njit(**JIT)
     def traverse(geo, acc, ray, t_max, cnt):
@@ -242,13 +260,10 @@ def _traversal(mode):
                     continue
             else:
                 n_leaves += 1
-                k, end = leaf_slots(entry)
-                while k < end and not (mode == ANY_HIT and best.prim >= 0):
-                    best, tests, hits = _test_slots(geo, acc, ray, k, min(end - k, LEAF_LANES),
-                                                    t_max, best, mode == ANY_HIT)
-                    n_tests += tests
-                    n_hits += hits
-                    k += LEAF_LANES
+                best, tests, hits = test_leaf(geo, acc, ray, entry, t_max, best,
+                                              mode == ANY_HIT)
+                n_tests += tests
+                n_hits += hits
             # Pop the nearest pending entry that may still hold a closer hit.
             entry = _DONE
             if not (mode == ANY_HIT and best.prim >= 0):
