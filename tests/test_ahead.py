@@ -257,3 +257,70 @@ def test_the_second_process_imports_this_processs_raytrace_from_any_directory(tm
     child = subprocess.run(where, capture_output=True, text=True, check=True,
                            **ahead.child_setting(str(cache))).stdout.strip()
     assert child == raytrace.__file__
+
+
+def test_a_kdtree_after_another_structure_compiles_its_rays_ahead(monkeypatch, started):
+    """The stages cached, the kd-tree's traversal not: its ray kernels
+    compile in the second process while this one compiles its builder; not
+    for the grid (its builder compiles in less than the second process
+    takes to start), nor once the kd-tree's traversal is cached."""
+    monkeypatch.setattr(core.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr("raytrace.kernels.cachedir.render_kernel_cached", lambda: True)
+    monkeypatch.setattr("raytrace.kernels.cachedir.kernel_cached", lambda *globs: True)
+    looked = []
+    monkeypatch.setattr("raytrace.kernels.cachedir.traversal_cached",
+                        lambda module: looked.append(module) or module != "kdtree")
+    ahead.start(None, "whitted", "grid", "hard")
+    assert started == []
+    monkeypatch.setattr("raytrace.kernels.cachedir.traversal_cached", lambda module: True)
+    ahead.start(None, "whitted", "kdtree", "hard")
+    assert started == []
+    monkeypatch.setattr("raytrace.kernels.cachedir.traversal_cached",
+                        lambda module: looked.append(module) or module != "kdtree")
+    ahead.start(None, "whitted", "kdtree", "soft")
+    assert looked == ["kdtree"]
+    assert len(started) == 1 and started[0][-6:] == ["raytrace.renderer.precompile", "0", "0", "0",
+                                                     "kdtree", "soft"]
+    assert ahead.compiles_rays()
+    core.stop("render")
+
+
+def test_a_first_kdtree_query_after_another_structures_compiles_ahead(monkeypatch, started):
+    from raytrace.cast import ahead as query_ahead
+    monkeypatch.setattr(core.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr("raytrace.kernels.cachedir.kernel_cached", lambda *names: True)
+    monkeypatch.setattr("raytrace.kernels.cachedir.traversal_cached",
+                        lambda module: module != "kdtree")
+    query_ahead.start("grid", "closest", 1)
+    assert started == []
+    query_ahead.start("kdtree", "closest", 1)
+    assert len(started) == 1 and started[0][-4:] == ["raytrace.cast.precompile", "kdtree",
+                                                     "closest", "0"]
+    core.stop("query")
+
+
+def test_a_kernel_cached_in_both_has_the_second_processs_entries_merged(tmp_path):
+    """A function in both caches (every structure's closest-hit kernel is
+    one): the entries ours lacks join its index, each data file signed for
+    its new name, so both load; ours stay as they were, and an index of
+    another source stamp adds nothing."""
+    from raytrace.kernels.kernel_cache import CheckedCacheFile, merge_index
+    base = "cast.block-73.py311"
+    ours_dir, theirs_dir, stale_dir = (tmp_path / n for n in ("ours", "theirs", "stale"))
+    for d in (ours_dir, theirs_dir, stale_dir):
+        d.mkdir()
+    ours = CheckedCacheFile(str(ours_dir), base, (1.0, 10))
+    theirs = CheckedCacheFile(str(theirs_dir), base, (1.0, 10))
+    ours.save(("bvh",), "bvh code")
+    theirs.save(("kdtree",), "kdtree code")       # their data file 1, as ours is
+    theirs.save(("bvh",), "their bvh code")
+    theirs.save(("grid",), "grid code")
+    merge_index(theirs_dir / f"{base}.nbi", ours_dir / f"{base}.nbi")
+    merged = CheckedCacheFile(str(ours_dir), base, (1.0, 10))
+    assert {k: merged.load(k) for k in [("bvh",), ("kdtree",), ("grid",)]} == {
+        ("bvh",): "bvh code", ("kdtree",): "kdtree code", ("grid",): "grid code"}
+    assert sorted(p.name for p in ours_dir.glob("*.nbc")) == [f"{base}.{i}.nbc" for i in (1, 2, 3)]
+    stale = CheckedCacheFile(str(stale_dir), base, (2.0, 10))
+    stale.save(("lbvh",), "stale code")
+    merge_index(stale_dir / f"{base}.nbi", ours_dir / f"{base}.nbi")
+    assert CheckedCacheFile(str(ours_dir), base, (1.0, 10)).load(("lbvh",)) is None

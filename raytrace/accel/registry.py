@@ -25,6 +25,14 @@ class Structure:
     module: str                   # its folder, raytrace/accel/<module>/
     visit_metric: str = None      # its own counter per ray, if any (stats.derive), a bench column
     build_options: tuple = ()     # the render options its build takes (raytrace/options.py)
+    # Whether a run that compiles both its builder and its ray kernels
+    # compiles the ray kernels in a second process meanwhile (renderer/ahead.py,
+    # cast/ahead.py), where the stages or query kernels of another structure
+    # are cached: worth a second process's start (about 1 s) only where the
+    # builder compiles about as long as the ray kernels (the kd-tree's, 1.9 s
+    # each here; `--accel kdtree` after a BVH teapot 4.1 -> 3.3 s, the grid's
+    # 3.0 -> 3.7, docs/benchmarks.md).
+    rays_ahead: bool = False
 
     def package(self):
         """The structure's build module, ``raytrace/accel/<module>/build.py``,
@@ -54,6 +62,14 @@ class Structure:
         t0 = time.perf_counter()
         layout = builder.build(geo, obj_ranges, **options)
         return layout, time.perf_counter() - t0
+
+    def first_rays_ahead(self):
+        """Whether a run of this structure compiles its ray kernels in a
+        second process beside its builder (``rays_ahead``) because its
+        traversal is not in the kernel cache (a glob of its folder's,
+        importing nothing of it)."""
+        from raytrace.kernels.cachedir import traversal_cached
+        return self.rays_ahead and not traversal_cached(self.module)
 
     def empty_layout(self):
         """A layout of no primitives, of the types a build's has, made
@@ -92,7 +108,7 @@ STRUCTURES = {s.name: s for s in (
               "nodes_per_ray", ("bvh_build", "leaf_size")),
     Structure("grid", "uniform grid walked by 3D-DDA", "grid", "cells_per_ray", ("grid_density",)),
     Structure("kdtree", "kd-tree, binned SAH build, front-to-back traversal", "kdtree",
-              "nodes_per_ray"),
+              "nodes_per_ray", rays_ahead=True),
 )}
 DEFAULT = "bvh"
 # Every structure's build options, each once, in registry order: what the

@@ -5,7 +5,8 @@ builds: the kernel's types are known before the build (each structure's
 
 Only for closest and any hit (``cast_rays``, ``occluded``), and only on a
 first run: no closest or any-hit kernel of any structure in the cache
-(a glob).  The second process compiles exactly the kernel the call will
+(a glob), or a first query of a structure whose builder compiles long
+(Structure.first_rays_ahead: the kd-tree after another structure).  The second process compiles exactly the kernel the call will
 run (the structure's, with packets or not by the number of rays,
 kernels/cast.py) and nothing else.
 """
@@ -23,8 +24,9 @@ def start(accel, query, n_rays):
     ``accel`` and a call of ``n_rays`` rays, if none is cached yet."""
     if not ahead.worthwhile(_KEY):
         return
+    from raytrace.accel.registry import get
     from raytrace.kernels.cachedir import kernel_cached
-    if kernel_cached(_INDEX[query]):
+    if kernel_cached(_INDEX[query]) and not get(accel).first_rays_ahead():
         return
     from raytrace.kernels.cast import PACKET_MIN
     ahead.launch(_KEY, "raytrace.cast.precompile", [accel, query, int(n_rays >= PACKET_MIN)])

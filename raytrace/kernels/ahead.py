@@ -89,15 +89,17 @@ def wait(key):
 
 
 def _adopt(cache):
-    """Copy the second process's cache entries into this process's cache,
-    each entry (a function's index and data files) whose index is not there
-    yet: the kernel, and the functions it calls, which the next kernel of
-    another kind links in instead of compiling.  Data files first, then
-    the index naming them, each by an atomic rename.  This process compiles
+    """Copy the second process's cache entries into this process's cache:
+    the kernel, and the functions it calls, which the next kernel of
+    another kind links in instead of compiling.  A function's index and
+    data files where its index is not there yet, else its entries the
+    index lacks (kernel_cache.merge_index: a second structure's ray
+    kernels, where the first's are cached).  Data files first, then the
+    index naming them, each by an atomic rename.  This process compiles
     nothing meanwhile, and an entry it has is left as it is."""
     import numba
 
-    from raytrace.kernels.kernel_cache import index_lock
+    from raytrace.kernels.kernel_cache import index_lock, merge_index
     ours = Path(numba.config.CACHE_DIR)
     theirs = cache / ours.name
     for index in theirs.glob("*/*.nbi"):
@@ -107,6 +109,7 @@ def _adopt(cache):
         # function meanwhile would otherwise lose its entry to the copy.
         with index_lock(target / index.name):
             if (target / index.name).exists():
+                merge_index(index, target / index.name)
                 continue
             stem = index.name[:-len(".nbi")]
             for path in [*index.parent.glob(f"{stem}.*.nbc"), index]:

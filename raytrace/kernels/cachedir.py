@@ -47,19 +47,20 @@ def _numba_version():
     return version("numba")
 
 
-def kernel_cached(*index_globs):
+def kernel_cached(*index_globs, folder="*"):
     """Whether any version of a kernel is in the cache: an index file
     matching one of ``index_globs`` (file names, as Numba names a
-    function's index).  If not, this is a first run and a compile is
-    certain."""
+    function's index) in a folder matching ``folder`` (Numba's, one a
+    source folder: "kdtree_<hash>").  If not, this is a first run and a
+    compile is certain."""
     from importlib.metadata import PackageNotFoundError
     try:
         where = cache_dir(_numba_version())
     except (PackageNotFoundError, OSError):
         return True                  # unknown: leave it to Numba's compile event
-    key = (where, index_globs)
+    key = (where, folder, index_globs)
     if key not in _FOUND:
-        if not any(any(where.glob(f"*/{name}")) for name in index_globs):
+        if not any(any(where.glob(f"{folder}/{name}")) for name in index_globs):
             return False
         # Found once, taken as there for the rest of the process: a glob
         # costs about 0.5 ms, several a render() call.
@@ -74,6 +75,14 @@ def render_kernel_cached():
     """Whether any version of the render kernels (the shading stages, or
     the mirror-and-glass kernel) is in the cache."""
     return kernel_cached("wavefront.run_stage-*.nbi", "bounces.run_bounce_stage-*.nbi")
+
+
+def traversal_cached(module):
+    """Whether any of structure ``module``'s traversal (its folder's
+    traverse.py, raytrace/accel/<module>/) is in the cache.  If not, its
+    ray kernels will compile (they may be missing even if it is there: a
+    ray query compiled it for other types)."""
+    return kernel_cached("traverse.*.nbi", folder=f"{module}_*")
 
 
 def any_render_kernel_cached():

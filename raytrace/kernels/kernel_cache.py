@@ -177,6 +177,65 @@ def index_lock(index_path):
             fcntl.flock(f, fcntl.LOCK_UN)
 
 
+def merge_index(theirs, ours):
+    """Add to the function index ``ours`` (a path; its lock held) the
+    entries of ``theirs`` (the same function's index in another process's
+    cache) it lacks: each data file copied under a name free in ours,
+    signed for that name, then the index naming them.  An index that does
+    not read, or is of another Numba version or source stamp, adds
+    nothing.  Data names are numbered per index, so a kernel compiled in
+    both for different types (every structure's closest-hit kernel is one
+    function) had its second entry dropped when only missing indexes were
+    copied."""
+    got = [_read_index(path) for path in (theirs, ours)]
+    if None in got or got[0][:2] != got[1][:2]:
+        return
+    (version, stamp, their_entries), (_, _, entries) = got
+    stem = ours.name[:-len(".nbi")]
+    taken = set(entries.values())
+    added = False
+    for key, name in their_entries.items():
+        if key in entries:
+            continue
+        try:
+            with open(theirs.parent / name, "rb") as f:
+                data = f.read()
+        except OSError:
+            continue
+        payload = data[len(MAGIC) + _DIGEST:]
+        if data[:len(MAGIC)] != MAGIC or data[len(MAGIC):len(MAGIC) + _DIGEST] != _digest(
+                name, payload):
+            continue
+        new = next(n for n in (f"{stem}.{i}.nbc" for i in itertools.count(1)) if n not in taken)
+        taken.add(new)
+        _write_whole(ours.parent / new, MAGIC + _digest(new, payload) + payload)
+        entries[key] = new
+        added = True
+    if added:
+        _write_whole(ours, caching.pickle.dumps(version, protocol=-1) +
+                     caching.dumps((stamp, entries)))
+
+
+def _read_index(path):
+    """(Numba version, source stamp, {key: data file name}) of an index
+    file as Numba writes it, or None if it does not read."""
+    try:
+        with open(path, "rb") as f:
+            version = caching.pickle.load(f)
+            stamp, entries = caching.pickle.loads(f.read())
+    except Exception:           # missing, damaged, or another Numba's format
+        return None
+    return (version, stamp, entries) if isinstance(entries, dict) else None
+
+
+def _write_whole(path, data):
+    """Write ``path`` by an atomic rename: a reader sees all of it or none."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    with open(tmp, "wb") as f:
+        f.write(data)
+    os.replace(tmp, path)
+
+
 def _digest(name, payload):
     return hashlib.sha256(name.encode() + b"\0" + payload).digest()
 

@@ -14,8 +14,11 @@ first BVH teapot's builder and build took 2 s here, its stages 4.5 s and
 its packet ray kernels 6 s; mirrors' and glass's stages take 6 s, the
 other structures' one-ray kernels half as long as the BVH's, and the
 grid's and the kd-tree's builders longer (docs/benchmarks.md, "Camera rays
-through packets").  The render waits for the second process (``wait``)
-before its first wave.
+through packets").  Where the stages are cached but a structure whose
+builder compiles long has no traversal there (Structure.first_rays_ahead:
+the kd-tree after another structure), the second process compiles its ray
+kernels while this one compiles its builder.  The render waits for the
+second process (``wait``) before its first wave.
 """
 from raytrace.kernels import ahead
 
@@ -34,13 +37,17 @@ def start(scene, integrator="whitted", accel="bvh", shadows="hard"):
     cores to spare."""
     if not ahead.worthwhile(_KEY):
         return
+    from raytrace.accel.registry import get
     from raytrace.kernels.cachedir import kernel_cached, render_kernel_cached
     path = integrator == "path"
-    if kernel_cached("pathtrace.run_path_shade-*.nbi") if path else render_kernel_cached():
+    stages = kernel_cached("pathtrace.run_path_shade-*.nbi") if path else render_kernel_cached()
+    if stages and (path or not get(accel).first_rays_ahead()):
         return
     from raytrace.scene.kinds import scene_kind
     textures, mirrors = scene_kind(scene)
-    rays = not (path or mirrors) and not kernel_cached(_RAYS_INDEX) and _has_packets(accel)
+    # The stages cached: the structure's rays (its builder compiles here).
+    rays = stages or (not (path or mirrors) and not kernel_cached(_RAYS_INDEX)
+                      and _has_packets(accel))
     ahead.launch(_KEY, "raytrace.renderer.precompile",
                  [int(textures), int(mirrors), int(path), accel if rays else "-", shadows])
     _part["rays"] = rays
