@@ -892,3 +892,20 @@ def test_every_builder_gives_the_brute_force_image(builder, leaf_size):
     # (the float32 box test's overflow argument rests on it).
     used = bvh.node_box[:, 0, :] < np.inf
     assert bvh.box_bound == np.abs(np.moveaxis(bvh.node_box, 1, 2)[used]).max() > 0
+
+
+def test_a_scene_of_spheres_is_weighed_at_the_sphere_cost():
+    """Spheres are tested one by one, triangles 4 at a time: the SAH weighs
+    a node visit against the scene's mean test, so Whitted's two spheres get
+    a leaf each (at the triangles' cost they shared one, and every ray into
+    it tested both), and a triangle mesh keeps TRAVERSAL_COST."""
+    from raytrace.accel.bvh.build import scene_traversal_cost
+    from raytrace.accel.bvh.layout import SPHERE_TRAVERSAL_COST, TRAVERSAL_COST
+    spheres = [((0.55, 1.0, 1.3), 0.8), ((-1.0, 1.2, -1.2), 1.2)]
+    tri = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+    assert scene_traversal_cost(make_scene(spheres=spheres)[0]) == SPHERE_TRAVERSAL_COST
+    assert scene_traversal_cost(make_scene(tris=[tri] * 4)[0]) == TRAVERSAL_COST
+    mixed = scene_traversal_cost(make_scene(tris=[tri] * 2, spheres=spheres)[0])
+    assert SPHERE_TRAVERSAL_COST < mixed < TRAVERSAL_COST
+    acc, _ = build_accel("bvh", *make_scene(spheres=spheres))
+    assert sorted(acc.node_count[acc.node_count > 0].tolist()) == [1, 1]

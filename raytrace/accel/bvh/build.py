@@ -17,6 +17,7 @@ from raytrace.accel.bvh.layout import (
     COUNT_TRAVERSAL_COST,
     MAX_LEAF,
     PARALLEL_MIN,
+    SPHERE_TRAVERSAL_COST,
     TRAVERSAL_COST,
     WIDTH,
     lane_entries,
@@ -46,12 +47,14 @@ def load_big(n_prims, bvh_build="sah", **_):
 BUILDERS = {"sah": None, "median": "raytrace.accel.bvh.median", "lbvh": "raytrace.accel.bvh.lbvh"}
 
 
-def build(geo, obj_ranges, bvh_build="sah", leaf_size=MAX_LEAF, traversal_cost=TRAVERSAL_COST,
-          **_):
+def build(geo, obj_ranges, bvh_build="sah", leaf_size=MAX_LEAF, traversal_cost=None, **_):
     """A BVH over every bounded primitive (planes have no box and are tested
     separately by every structure), built by ``bvh_build`` with leaves of at
     most ``leaf_size`` primitives, collapsed to 4 children per node.  The
-    SAH builder weighs a node visit as ``traversal_cost`` primitive tests."""
+    SAH builder weighs a node visit as ``traversal_cost`` primitive tests
+    (by default the scene's: scene_traversal_cost)."""
+    if traversal_cost is None:
+        traversal_cost = scene_traversal_cost(geo)
     links = None
     threads = _parallel_threads(n_bounded(geo), bvh_build)
     if threads:
@@ -77,6 +80,17 @@ def build(geo, obj_ranges, bvh_build="sah", leaf_size=MAX_LEAF, traversal_cost=T
     return BVH(node_box=node_box, node_child=node_child, node_count=node_count4, prim_ids=prim_ids,
                box_bound=box_bound(node_box), lane_entry=lane_entries(node_child, node_count4),
                leaf_tris=leaf_corners(geo, prim_ids))
+
+
+def scene_traversal_cost(geo):
+    """A node visit weighed against the scene's mean primitive test: the
+    harmonic mean of TRAVERSAL_COST over its triangles and
+    SPHERE_TRAVERSAL_COST over its spheres (a visit costs 1, a triangle
+    test 1 / TRAVERSAL_COST, a sphere test 1 / SPHERE_TRAVERSAL_COST)."""
+    n_tri, n_sph = geo.tri_v0.shape[0], geo.sph_center.shape[0]
+    if n_sph == 0:
+        return TRAVERSAL_COST
+    return (n_tri + n_sph) / (n_tri / TRAVERSAL_COST + n_sph / SPHERE_TRAVERSAL_COST)
 
 
 def leaf_corners(geo, prim_ids):

@@ -77,6 +77,12 @@ MAX_LEAF = 4
 # other tools' files); 1k camera and shadow packets 2-7% slower
 # (docs/benchmarks.md, "Leaves tested 4 triangles at a time").
 TRAVERSAL_COST = 2.0
+# A node visit against one sphere test: spheres are tested one by one (as
+# triangles were at cost 1), so a scene of spheres is built at 1, a mixed
+# one at the harmonic mean over its primitives (build.traversal_cost).  At
+# 2, whitted.toml's two spheres shared a leaf: 1.74 M -> 2.52 M primitive
+# tests a frame (docs/benchmarks.md).
+SPHERE_TRAVERSAL_COST = 1.0
 # Leaves are forced at this depth, so traversal's fixed-size stack (at most 3
 # pending children per level of the 4-wide tree, accel/bvh/traverse.py) can never
 # overflow: part of the layout's contract.  The 118k-triangle surface builds 21 deep; only adversarial
