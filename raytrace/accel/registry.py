@@ -30,7 +30,7 @@ class Structure:
     # cast/ahead.py), where the stages or query kernels of another structure
     # are cached: worth a second process's start (about 1 s) only where the
     # builder compiles about as long as the ray kernels (the kd-tree's, 1.9 s
-    # each here; `--accel kdtree` after a BVH teapot 4.1 -> 3.3 s, the grid's
+    # each here; `--accel kdtree` after a BVH teapot 4.2 -> 3.4 s, the grid's
     # 3.0 -> 3.7, docs/benchmarks.md).
     rays_ahead: bool = False
 

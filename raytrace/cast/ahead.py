@@ -6,9 +6,10 @@ builds: the kernel's types are known before the build (each structure's
 Only for closest and any hit (``cast_rays``, ``occluded``), and only on a
 first run: no closest or any-hit kernel of any structure in the cache
 (a glob), or a first query of a structure whose builder compiles long
-(Structure.first_rays_ahead: the kd-tree after another structure).  The second process compiles exactly the kernel the call will
-run (the structure's, with packets or not by the number of rays,
-kernels/cast.py) and nothing else.
+(Structure.first_rays_ahead: the kd-tree after another structure).  The
+second process compiles exactly the kernel the call will run (the
+structure's, with packets or not by the number of rays, kernels/cast.py)
+and nothing else.
 """
 from raytrace.kernels import ahead
 

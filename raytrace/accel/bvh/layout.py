@@ -79,7 +79,7 @@ MAX_LEAF = 4
 TRAVERSAL_COST = 2.0
 # A node visit against one sphere test: spheres are tested one by one (as
 # triangles were at cost 1), so a scene of spheres is built at 1, a mixed
-# one at the harmonic mean over its primitives (build.traversal_cost).  At
+# one at the harmonic mean over its primitives (build.scene_traversal_cost).  At
 # 2, whitted.toml's two spheres shared a leaf: 1.74 M -> 2.52 M primitive
 # tests a frame (docs/benchmarks.md).
 SPHERE_TRAVERSAL_COST = 1.0
