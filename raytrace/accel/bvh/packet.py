@@ -323,7 +323,10 @@ def _rays_alone(geo, acc, pk, rays, alive, entry, first):
 
 
 def _packet_traversal(mode):
-    @njit(**JIT)
+    # One caller, its query: inlined by Numba, so it has no library of its
+    # own, optimised and emitted before the query's optimises it again
+    # (0.2-0.3 s of each packet kernel's cold compile; kernels/jit.py).
+    @njit(**STAGE)
     def traverse(geo, acc, pk, nx, ny, nz, alive, cnt):
         """The packet's rays of ``alive`` through the tree; returns the rays
         still without a hit (any hit), or alive unchanged (closest: the
