@@ -18,6 +18,7 @@ the file's last vertex), and a damaged file is refused naming its line.
 The format: http://paulbourke.net/dataformats/obj/ (Wavefront, 1992).
 """
 import os
+import re
 
 import numpy as np
 
@@ -195,6 +196,8 @@ def _parse(path, state, out, fmt, each_chunk=None):
                 slots = np.empty(len(buf) // 2 + 1, np.int64)
                 kept = n
                 continue
+            if not state[T.STL] and _names_materials(buf, cut):
+                return None
             data = np.frombuffer(buf, np.uint8)[:cut]
             if state[T.STL] and each_chunk is not None and cut >= SPLIT_MIN and _threads() > 1:
                 done = _halves(path, fmt, state, out, data, (fb, slots), each_chunk, second)
@@ -207,6 +210,21 @@ def _parse(path, state, out, fmt, each_chunk=None):
                 return state
             kept = n - cut
             buf[:kept] = buf[cut:n]
+
+
+# A line whose first word is mtllib or usemtl (blanks: bytes up to 32, as
+# the kernel reads them).
+_MATERIAL_LINE = re.compile(rb"^[\x00-\x09\x0b-\x20]*(?:mtllib|usemtl)(?![^\x00-\x20])", re.M)
+
+
+def _names_materials(buf, n):
+    """Whether buf[:n] has a line naming materials: such a file is
+    trimesh's, and found so it needs no kernel, which would take 1.5-2 s
+    to compile on a first run to find the same (most OBJ files written by
+    modelling tools name materials)."""
+    if buf.find(b"mtllib", 0, n) < 0 and buf.find(b"usemtl", 0, n) < 0:
+        return False
+    return _MATERIAL_LINE.search(memoryview(buf)[:n]) is not None
 
 
 def _lines(path, fmt, state, out, data, scratch, each_chunk):
