@@ -14,8 +14,12 @@ face's three corners from three random reads of its vertices; the
 grouping reads the normals, the sums both.  The normals' arithmetic is
 flatten.cross_rows's and flatten.unit_rows's, operation for operation; the
 angles (the arctan2 of twice the area and a dot product) are libm's, and
-every caller gets them here (normals.face_frames).
+every caller gets them here (normals.face_frames).  ``math.atan2``, not
+``np.arctan2``: both are libm's compiled, but run as Python on a small
+mesh (kernels/uncompiled.py) NumPy's is its own.
 """
+import math
+
 import numpy as np
 from numba import njit
 
@@ -54,9 +58,9 @@ def face_frame(v, f, face, fn, angles):
     cy = e1z * e2x - e1x * e2z
     cz = e1x * e2y - e1y * e2x
     area2 = np.sqrt(cx * cx + cy * cy + cz * cz)
-    angles[face, 0] = np.arctan2(area2, e1x * e2x + e1y * e2y + e1z * e2z)
-    angles[face, 1] = np.arctan2(area2, -(e1x * e3x + e1y * e3y + e1z * e3z))
-    angles[face, 2] = np.arctan2(area2, e2x * e3x + e2y * e3y + e2z * e3z)
+    angles[face, 0] = math.atan2(area2, e1x * e2x + e1y * e2y + e1z * e2z)
+    angles[face, 1] = math.atan2(area2, -(e1x * e3x + e1y * e3y + e1z * e3z))
+    angles[face, 2] = math.atan2(area2, e2x * e3x + e2y * e3y + e2z * e3z)
     fn[face, 0], fn[face, 1], fn[face, 2] = unit3(cx, cy, cz)
 
 

@@ -36,10 +36,12 @@ def face_frames(vertices, faces):
     from the kernel (creases.face_frame) on threads.  One way for every
     caller: NumPy's arctan2 is not libm's on every machine (its AVX-512
     code differs in the last bit), so angles made by both would not agree."""
+    from raytrace.kernels.uncompiled import chosen
     from raytrace.scene.creases import face_frames as frames_kernel
     v = np.ascontiguousarray(vertices, dtype=np.float64)
     f = np.ascontiguousarray(faces, dtype=np.int64)
     m = len(f)
+    frames_kernel = chosen(frames_kernel, 3 * m)
     fn, angles = np.empty((m, 3)), np.empty((m, 3))
     _on_threads(frames_kernel, [(v, f, a, b, fn, angles) for a, b in _face_runs(m)])
     return fn, angles
@@ -75,12 +77,16 @@ def crease_split(vertices, faces, crease=DEFAULT_CREASE, keep=False, welded=Fals
     no two vertices share a position (an STL reader welded them), so they
     are not hashed again.
     """
-    from raytrace.scene.creases import corner_lists, fan_groups, fan_normals
+    from raytrace.kernels.uncompiled import chosen
+    from raytrace.scene import creases
     v = np.ascontiguousarray(vertices, dtype=np.float64)
     f = np.ascontiguousarray(faces, dtype=np.int64)
     n, m = len(v), len(f)
     if m == 0:
         return np.arange(n), f.reshape(0, 3), np.zeros((n, 3))
+    # A small mesh's first split runs the kernels as Python (kernels/uncompiled.py).
+    corner_lists, fan_groups, fan_normals = (chosen(k, 3 * m) for k in (
+        creases.corner_lists, creases.fan_groups, creases.fan_normals))
     position, n_positions = (None, n) if welded else _positions(v)
     pf = f if position is None else position[f]
     corner_position = pf.reshape(-1)
@@ -149,9 +155,11 @@ def equal_rows(a, values=None):
     bit: ids[i] numbers row i's value in order of first appearance, and
     values[k] is value k (scene/weld.py).  ``values``: how many the caller
     expects (the table's first size), all the rows if None."""
+    from raytrace.kernels.uncompiled import chosen
     from raytrace.scene.weld import first_rows, new_table
     if len(a) >= 1 << 31:
         raise ValueError("more than 2^31 vertices")
+    first_rows = chosen(first_rows, len(a))      # as Python for few rows (kernels/uncompiled.py)
     keys = a.view(np.uint32).reshape(len(a), -1)
     ids = np.empty(len(a), np.int64)
     # At its bound: only the values' rows are ever written (pages never

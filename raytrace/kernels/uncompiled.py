@@ -1,0 +1,84 @@
+"""Build kernels run as Python, uncompiled, on inputs too small to repay
+their compile.
+
+A small mesh file's vertices are welded and its normals split at creases
+by kernels (scene/weld.py, scene/creases.py) that take 3-4 s to compile
+cold and milliseconds to run compiled; the same functions run by Python
+take about 16 us a corner here.  So on a first run, for a mesh of at most
+``UNCOMPILED_MAX`` rows or corners (0.1-0.2 s of Python), they run as
+Python: the same code, nothing compiled for it.  Once a kernel is compiled
+(in this process or the kernel cache: ``raytrace warmup``, or a larger
+mesh read before), it is used at every size.
+
+The functions give the compiled kernels' answers bit for bit
+(tests/test_uncompiled.py): they read float64 and integer arrays, and
+their arithmetic is IEEE's either way (``math.atan2`` is libm's in both;
+NumPy's own ``arctan2`` is not).  Integer arithmetic that wraps (a hash)
+wraps the same on NumPy's scalars, under ``np.errstate(over="ignore")``.
+"""
+import types
+
+import numpy as np
+
+# Rows (or corners) of a mesh's arrays at most for which a kernel not yet
+# compiled runs as Python: ~16 us a corner for the crease split (0.13 s at
+# this bound) and ~10 us a row for welding, against 3-4 s to compile them
+# (docs/benchmarks.md, "Small meshes uncompiled").
+UNCOMPILED_MAX = 8192
+
+_python = {}
+
+
+def _stand_ins():
+    """Python versions of the LLVM intrinsics the build kernels call."""
+    from raytrace.kernels import lowlevel
+    return {id(lowlevel.prefetch): lambda arr, i: None}     # a hint: nothing to do in Python
+
+
+def as_python(kernel):
+    """``kernel``'s Python function, with every compiled function it calls
+    (by a module-level name) replaced by its own Python function, so a call
+    compiles nothing."""
+    func = getattr(kernel, "py_func", kernel)
+    if func in _python:
+        return _python[func]
+    from numba.core.registry import CPUDispatcher
+    stand_ins = _stand_ins()
+    names = dict(func.__globals__)
+    python = types.FunctionType(func.__code__, names, func.__name__, func.__defaults__,
+                                func.__closure__)
+    _python[func] = python
+    for name in func.__code__.co_names:
+        value = names.get(name)
+        if isinstance(value, CPUDispatcher):
+            names[name] = as_python(value)
+        elif id(value) in stand_ins:
+            names[name] = stand_ins[id(value)]
+    return python
+
+
+def runs_compiled(kernel, n):
+    """Whether a call of ``kernel`` on n rows or corners should run
+    compiled: it is compiled already (in this process or in the kernel
+    cache), or n is larger than UNCOMPILED_MAX."""
+    if n > UNCOMPILED_MAX or kernel.signatures:
+        return True
+    from raytrace.kernels.cachedir import kernel_cached
+    func = kernel.py_func
+    # Numba's index name: the module's last part, the function, its line.
+    return kernel_cached(f"{func.__module__.rsplit('.', 1)[-1]}.{func.__qualname__}-*.nbi")
+
+
+def chosen(kernel, n):
+    """``kernel`` itself, or where runs_compiled says not, its Python
+    function, called as the compiled one behaves: wrapping integers and
+    division by zero without a warning (the kernels' error model is
+    NumPy's)."""
+    if runs_compiled(kernel, n):
+        return kernel
+    python = as_python(kernel)
+
+    def call(*args):
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            return python(*args)
+    return call

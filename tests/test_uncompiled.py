@@ -1,0 +1,98 @@
+"""A small mesh's weld and crease split, run as Python on a first run
+(kernels/uncompiled.py), give the compiled kernels' bits."""
+import os
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import pytest
+import trimesh
+
+from raytrace.kernels import uncompiled
+from raytrace.scene.creases import SMALL_FAN
+from raytrace.scene.normals import crease_split, equal_rows, face_frames
+
+
+def _bits(a):
+    a = np.asarray(a)
+    return a.view(np.uint64) if a.dtype == np.float64 else a
+
+
+def _both(monkeypatch, call):
+    """call() with the kernels compiled, then run as Python."""
+    answers = []
+    for compiled in (True, False):
+        monkeypatch.setattr(uncompiled, "runs_compiled", lambda kernel, n, c=compiled: c)
+        answers.append([_bits(a) for a in call()])
+    return answers
+
+
+def _meshes():
+    rng = np.random.default_rng(7)
+    ball = trimesh.creation.icosphere(subdivisions=2)
+    bumped = ball.vertices * (1 + 0.2 * rng.random((len(ball.vertices), 1)))
+    # An STL's soup: every face's corners repeated, faces meeting by position.
+    soup = bumped[ball.faces].reshape(-1, 3), np.arange(3 * len(ball.faces)).reshape(-1, 3)
+    box = trimesh.creation.box()
+    # A cone whose apex has more faces than SMALL_FAN (its edges paired by
+    # sorting), with a degenerate face and a face used twice.
+    cone = trimesh.creation.cone(radius=1.0, height=0.5, sections=3 * SMALL_FAN)
+    cf = np.vstack([cone.faces, [[0, 0, 1]], cone.faces[:1]])
+    return [(bumped, ball.faces), soup, (box.vertices, box.faces), (cone.vertices, cf)]
+
+
+@pytest.mark.parametrize("keep", [False, True])
+@pytest.mark.parametrize("crease", [0.0, 35.0, 180.0])
+def test_the_crease_split_run_as_python_gives_the_compiled_bits(monkeypatch, keep, crease):
+    for v, f in _meshes():
+        compiled, python = _both(monkeypatch, lambda: crease_split(v, f, crease, keep=keep))
+        assert all(np.array_equal(a, b) for a, b in zip(compiled, python))
+        compiled, python = _both(monkeypatch, lambda: face_frames(v, f))
+        assert all(np.array_equal(a, b) for a, b in zip(compiled, python))
+
+
+def test_equal_rows_run_as_python_gives_the_compiled_numbers(monkeypatch):
+    rng = np.random.default_rng(3)
+    rows = rng.integers(0, 40, (3000, 3)).astype(np.float64) / 7
+    rows[::50] = -0.0          # -0.0 and 0.0 differ bit for bit
+    rows[1::50] = 0.0
+    rows[2::97] = np.nan
+    # From a table for 16 values: it grows several times on the way.  The
+    # hash's multiplies wrap, as compiled, without a warning.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        compiled, python = _both(monkeypatch, lambda: equal_rows(rows, values=16))
+    assert all(np.array_equal(a, b) for a, b in zip(compiled, python))
+    assert compiled[2] < len(rows)
+
+
+def test_a_kernel_runs_compiled_when_compiled_already_or_for_large_inputs():
+    from raytrace.scene.creases import fan_groups
+    assert uncompiled.runs_compiled(fan_groups, uncompiled.UNCOMPILED_MAX + 1)
+    from numba import njit
+
+    @njit
+    def fresh(x):
+        return x + 1
+    assert not uncompiled.runs_compiled(fresh, 1)       # never compiled, not cached
+    assert uncompiled.chosen(fresh, 1)(2) == 3 and not fresh.signatures
+    fresh(1)
+    assert uncompiled.runs_compiled(fresh, 1)
+
+
+def test_a_first_run_compiles_nothing_to_read_small_mesh_files(tmp_path):
+    """Empty caches: a PLY without normals (welded and split at creases) and
+    an OBJ naming materials (trimesh's) are read without compiling."""
+    assets = os.path.join(os.path.dirname(__file__), os.pardir, "assets")
+    code = (
+        "from raytrace.scene.load import load_scene\n"
+        f"load_scene({os.path.join(assets, 'textured.toml')!r})\n"
+        "from raytrace.scene import creases, weld\n"
+        "from raytrace.scene.formats import objtext\n"
+        "print(sum(len(k.signatures) for k in (creases.fan_groups, creases.fan_normals,\n"
+        "      creases.face_frames, creases.corner_lists, weld.first_rows, objtext.parse_lines)))\n")
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"), XDG_CACHE_HOME=str(tmp_path))
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.split()[-1] == "0"
