@@ -19,12 +19,12 @@ def _bits(a):
     return a.view(np.uint64) if a.dtype == np.float64 else a
 
 
-def _both(monkeypatch, call):
-    """call() with the kernels compiled, then run as Python."""
+def _both(monkeypatch, func, *args, **kw):
+    """func(*args, **kw) with the kernels compiled, then run as Python."""
     answers = []
     for compiled in (True, False):
         monkeypatch.setattr(uncompiled, "runs_compiled", lambda kernel, n, c=compiled: c)
-        answers.append([_bits(a) for a in call()])
+        answers.append([_bits(a) for a in func(*args, **kw)])
     return answers
 
 
@@ -46,9 +46,9 @@ def _meshes():
 @pytest.mark.parametrize("crease", [0.0, 35.0, 180.0])
 def test_the_crease_split_run_as_python_gives_the_compiled_bits(monkeypatch, keep, crease):
     for v, f in _meshes():
-        compiled, python = _both(monkeypatch, lambda: crease_split(v, f, crease, keep=keep))
+        compiled, python = _both(monkeypatch, crease_split, v, f, crease, keep=keep)
         assert all(np.array_equal(a, b) for a, b in zip(compiled, python))
-        compiled, python = _both(monkeypatch, lambda: face_frames(v, f))
+        compiled, python = _both(monkeypatch, face_frames, v, f)
         assert all(np.array_equal(a, b) for a, b in zip(compiled, python))
 
 
@@ -62,7 +62,7 @@ def test_equal_rows_run_as_python_gives_the_compiled_numbers(monkeypatch):
     # hash's multiplies wrap, as compiled, without a warning.
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        compiled, python = _both(monkeypatch, lambda: equal_rows(rows, values=16))
+        compiled, python = _both(monkeypatch, equal_rows, rows, values=16)
     assert all(np.array_equal(a, b) for a, b in zip(compiled, python))
     assert compiled[2] < len(rows)
 
