@@ -60,3 +60,12 @@ def scene_file_error(path):
     assert msg.startswith(f"{path}: "), msg
     assert "\n" not in msg
     return msg
+
+
+@pytest.fixture(params=["compiled", "python"])
+def compiled_and_python(request, monkeypatch):
+    """The test twice: the mesh readers' build kernels compiled, then run as
+    Python as a small mesh's first read runs them (kernels/uncompiled.py)."""
+    from raytrace.kernels import uncompiled
+    compiled = request.param == "compiled"
+    monkeypatch.setattr(uncompiled, "runs_compiled", lambda kernel, n: compiled)

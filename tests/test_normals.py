@@ -14,6 +14,9 @@ from raytrace.scene.normals import (
     shading_normals,
 )
 
+# Every test with the kernels compiled and as Python (conftest.py).
+pytestmark = pytest.mark.usefixtures("compiled_and_python")
+
 libm_atan2 = np.frompyfunc(math.atan2, 2, 1)
 
 

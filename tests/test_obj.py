@@ -11,6 +11,9 @@ from raytrace.scene.formats import obj as objmod
 from raytrace.scene.formats.mesh import _read_with_trimesh, read_mesh_parts
 from raytrace.scene.formats.obj import read_obj
 
+# Every test with the kernels compiled and as Python (conftest.py).
+pytestmark = pytest.mark.usefixtures("compiled_and_python")
+
 
 def mesh_arrays(seed=0):
     """A closed mesh (a subdivided icosahedron, jittered) with normals and

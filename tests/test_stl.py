@@ -9,6 +9,9 @@ from raytrace.errors import RaytraceError
 from raytrace.scene.formats.mesh import _read_with_trimesh, read_mesh_parts
 from raytrace.scene.formats.stl import read_ascii_stl, read_binary_stl, weld
 
+# Every test with the kernels compiled and as Python (conftest.py).
+pytestmark = pytest.mark.usefixtures("compiled_and_python")
+
 
 def sphere():
     s = trimesh.creation.icosphere(subdivisions=2, radius=1.7)

@@ -8,8 +8,16 @@ import warnings
 import numpy as np
 import pytest
 import trimesh
+from numba import njit
 
 from raytrace.kernels import uncompiled
+from raytrace.kernels.lowlevel import (
+    double_from_bits,
+    leading_zeros,
+    load_word,
+    trailing_zeros,
+    wide_product,
+)
 from raytrace.scene.creases import SMALL_FAN
 from raytrace.scene.normals import crease_split, equal_rows, face_frames
 
@@ -82,12 +90,19 @@ def test_a_kernel_runs_compiled_when_compiled_already_or_for_large_inputs():
 
 
 def test_a_first_run_compiles_nothing_to_read_small_mesh_files(tmp_path):
-    """Empty caches: a PLY without normals (welded and split at creases) and
-    an OBJ naming materials (trimesh's) are read without compiling."""
+    """Empty caches: a PLY without normals (welded and split at creases), an
+    OBJ naming materials (trimesh's), a plain OBJ, an ASCII and a binary STL
+    are read without compiling."""
     assets = os.path.join(os.path.dirname(__file__), os.pardir, "assets")
+    ball = trimesh.creation.icosphere(2)
+    ball.export(tmp_path / "ball.stl")
+    (tmp_path / "ascii.stl").write_text(trimesh.exchange.stl.export_stl_ascii(ball))
+    files = [os.path.join(assets, name) for name in ("textured.toml", "house.obj")]
+    files += [str(tmp_path / name) for name in ("ball.stl", "ascii.stl")]
     code = (
         "from raytrace.scene.load import load_scene\n"
-        f"load_scene({os.path.join(assets, 'textured.toml')!r})\n"
+        f"for path in {files!r}:\n"
+        "    load_scene(path)\n"
         "from raytrace.scene import creases, weld\n"
         "from raytrace.scene.formats import objtext\n"
         "print(sum(len(k.signatures) for k in (creases.fan_groups, creases.fan_normals,\n"
@@ -96,3 +111,55 @@ def test_a_first_run_compiles_nothing_to_read_small_mesh_files(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
                          check=True)
     assert out.stdout.split()[-1] == "0"
+
+
+@njit
+def _intrinsics(a, b, data, out, doubles):
+    for i in range(len(a)):
+        out[i, 0], out[i, 1] = wide_product(a[i], b[i])
+        out[i, 2] = leading_zeros(a[i])
+        out[i, 3] = trailing_zeros(b[i])
+        out[i, 4] = load_word(data, i)
+        doubles[i] = double_from_bits(a[i])
+
+
+def test_the_intrinsics_stand_ins_answer_as_the_intrinsics():
+    """Python's versions of kernels/lowlevel.py's intrinsics (the OBJ
+    kernel's word loads, bit counts and 128-bit products, the weld's
+    prefetch) against the compiled ones."""
+    from raytrace.kernels import lowlevel as low
+    rng = np.random.default_rng(5)
+    n = 2000
+    shifts = rng.integers(0, 64, n).astype(np.uint64)
+    a = rng.integers(0, 2 ** 64, n, np.uint64, endpoint=False) >> shifts
+    b = rng.integers(0, 2 ** 64, n, np.uint64, endpoint=False) << shifts
+    a[:3], b[:3] = [0, 2 ** 64 - 1, 1], [2 ** 64 - 1, 0, 2 ** 63]
+    data = rng.integers(0, 256, n + 8, np.uint8)
+    out, doubles = np.empty((n, 5), np.uint64), np.empty(n)
+    _intrinsics(a, b, data, out, doubles)
+    stand = {k: uncompiled._stand_ins()[id(getattr(low, k))] for k in (
+        "wide_product", "leading_zeros", "trailing_zeros", "load_word", "double_from_bits",
+        "prefetch")}
+    wide = data.astype(np.int64)             # the kernel's bytes as Python reads them
+    for i in range(n):
+        assert [int(x) for x in stand["wide_product"](a[i], b[i])] == out[i, :2].tolist()
+        assert stand["leading_zeros"](a[i]) == out[i, 2]
+        assert stand["trailing_zeros"](b[i]) == out[i, 3]
+        assert stand["load_word"](wide, i) == out[i, 4]
+        assert stand["double_from_bits"](a[i]).view(np.uint64) == doubles[i].view(np.uint64) == a[i]
+        assert stand["prefetch"](wide, i) is None
+
+
+def test_decimal_to_double_as_python_gives_the_compiled_doubles():
+    from raytrace.kernels.parse_float import POWERS_OF_FIVE, decimal_to_double
+    from tests.test_parse_float import convert, decimals
+    cases = decimals(np.random.default_rng(11), 400)
+    ms = np.array([m for m, *_ in cases], np.int64)
+    qs = np.array([q for _, q, *_ in cases], np.int64)
+    compiled = np.empty(len(cases))
+    convert(ms, qs, POWERS_OF_FIVE, compiled)
+    python = uncompiled.as_python(decimal_to_double)
+    with np.errstate(over="ignore"):
+        got = np.array([python(m, q, POWERS_OF_FIVE) for m, q in zip(ms, qs)])
+    assert np.array_equal(got.view(np.uint64), compiled.view(np.uint64))
+    assert (compiled < 0).any() and (compiled > 0).any()     # some declined, most read

@@ -1,18 +1,22 @@
-"""Build kernels run as Python, uncompiled, on inputs too small to repay
-their compile.
+"""Mesh readers' kernels run as Python, uncompiled, on inputs too small to
+repay their compile.
 
-A small mesh file's vertices are welded and its normals split at creases
-by kernels (scene/weld.py, scene/creases.py) that take 3-4 s to compile
-cold and milliseconds to run compiled; the same functions run by Python
-take about 16 us a corner here.  So on a first run, for a mesh of at most
+A small mesh file is read (scene/formats/objtext.py: OBJ and ASCII STL
+lines), welded (scene/weld.py) and its normals split at creases
+(scene/creases.py) by kernels that take 1.5-2 s, 0.8 s and 2.5 s to
+compile cold and milliseconds to run compiled; the same functions run by
+Python take about 16 us a corner to split, 25 us a row to weld, and read
+1.5-2 MB of OBJ a second.  So on a first run, for a mesh of at most
 ``UNCOMPILED_MAX`` rows or corners (0.1-0.2 s of Python), they run as
-Python: the same code, nothing compiled for it.  Once a kernel is compiled
-(in this process or the kernel cache: ``raytrace warmup``, or a larger
-mesh read before), it is used at every size.
+Python: the same code, nothing compiled for it, and the LLVM intrinsics
+they call (kernels/lowlevel.py) by Python versions here.  Once a kernel is
+compiled (in this process or the kernel cache: ``raytrace warmup``, or a
+larger mesh read before), it is used at every size.
 
 The functions give the compiled kernels' answers bit for bit
-(tests/test_uncompiled.py): they read float64 and integer arrays, and
-their arithmetic is IEEE's either way (``math.atan2`` is libm's in both;
+(tests/test_uncompiled.py): they read float64 and integer arrays (an OBJ's
+bytes widened to int64: NumPy's uint8 scalars wrap where the compiled
+kernel's integers widen), and their arithmetic is IEEE's either way (``math.atan2`` is libm's in both;
 NumPy's own ``arctan2`` is not).  Integer arithmetic that wraps (a hash)
 wraps the same on NumPy's scalars, under ``np.errstate(over="ignore")``.
 """
@@ -22,17 +26,41 @@ import numpy as np
 
 # Rows (or corners) of a mesh's arrays at most for which a kernel not yet
 # compiled runs as Python: ~16 us a corner for the crease split (0.13 s at
-# this bound) and ~10 us a row for welding, against 3-4 s to compile them
-# (docs/benchmarks.md, "Small meshes uncompiled").
+# this bound), ~25 us a row to weld (0.2 s), an OBJ's 32 bytes a row read at
+# 1.5-2 MB/s (0.15 s), against 5 s to compile them all (docs/benchmarks.md,
+# "Small meshes uncompiled").
 UNCOMPILED_MAX = 8192
 
 _python = {}
 
 
 def _stand_ins():
-    """Python versions of the LLVM intrinsics the build kernels call."""
-    from raytrace.kernels import lowlevel
-    return {id(lowlevel.prefetch): lambda arr, i: None}     # a hint: nothing to do in Python
+    """Python versions of the LLVM intrinsics (kernels/lowlevel.py) the
+    kernels run so call, by id (a kernel's globals hold arrays, which do
+    not hash)."""
+    from raytrace.kernels import lowlevel as low
+    u64, word = np.uint64, (1 << 64) - 1
+
+    def load_word(arr, i):
+        # arr: a file's bytes widened to int64 (formats/obj.py says why).
+        return u64(int.from_bytes(arr[i:i + 8].astype(np.uint8).tobytes(), "little"))
+
+    def trailing_zeros(x):
+        x = int(x) & word
+        return (x & -x).bit_length() - 1 if x else 64
+
+    def wide_product(a, b):
+        product = int(a) * int(b)
+        return u64(product >> 64), u64(product & word)
+
+    return {
+        id(low.prefetch): lambda arr, i: None,        # a hint: nothing to do in Python
+        id(low.load_word): load_word,
+        id(low.trailing_zeros): trailing_zeros,
+        id(low.leading_zeros): lambda x: 64 - (int(x) & word).bit_length(),
+        id(low.wide_product): wide_product,
+        id(low.double_from_bits): lambda bits: np.array([bits], u64).view(np.float64)[0],
+    }
 
 
 def as_python(kernel):

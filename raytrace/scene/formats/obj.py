@@ -23,9 +23,13 @@ import re
 import numpy as np
 
 from raytrace.errors import RaytraceError
+from raytrace.kernels.uncompiled import chosen
 from raytrace.kernels.parse_float import POWERS_OF_FIVE
 from raytrace.scene.formats import objtext as T
 
+# Bytes a vertex or face line takes, about, to weigh a file against
+# kernels/uncompiled.py's bound on rows.
+BYTES_PER_ROW = 32
 CHUNK = 1 << 24     # bytes of file read at a time: lines are cut at the last newline
 SPLIT_MIN = 1 << 20  # an ASCII STL's chunk of at least this is read in two halves at once
 _BOM = b"\xef\xbb\xbf"
@@ -120,6 +124,7 @@ class _Welding:
 
     def _weld(self, rows, at):
         from raytrace.scene.weld import first_rows
+        first_rows = chosen(first_rows, len(rows))      # as Python for a small file's first read
         self.table, self.count = first_rows(rows.view(np.uint32), self.ids[at:at + len(rows)],
                                             self.values, self.table, self.count)
 
@@ -234,7 +239,11 @@ def _lines(path, fmt, state, out, data, scratch, each_chunk):
     fb, slots = scratch
     state[T.NFB] = state[T.FBLEN] = 0
     first_line = int(state[T.LINE]) + 1
-    code = T.parse_lines(data, len(data), state, v, vn, cv, cn, fc, fb, slots, T.POW10, POWERS_OF_FIVE)
+    parse = chosen(T.parse_lines, len(data) // BYTES_PER_ROW)
+    # As Python (a small file's first read, kernels/uncompiled.py), the bytes
+    # widened: NumPy's uint8 scalars would wrap where the kernel's widen.
+    text = data if parse is T.parse_lines else data.astype(np.int64)
+    code = parse(text, len(data), state, v, vn, cv, cn, fc, fb, slots, T.POW10, POWERS_OF_FIVE)
     if code < 0:
         return None
     _exact_fallback(path, fmt, state, (fb, slots, v, vn), (data, first_line))
