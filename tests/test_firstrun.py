@@ -211,8 +211,15 @@ def test_the_early_notice_reads_the_file_and_the_integrator(cold, capsys):
 
     assert notice(cold / "bad.ply", "mesh") == notice(cold / "bad.toml", "toml") == ""
     whitted = firstrun.command_estimate("bvh", None)
+    # A small mesh file's kernels run as Python (kernels/uncompiled.py); a
+    # large one's compile.
     assert notice(good[1], "mesh") == ("compiling kernels for palette.ply: bvh, hard shadows "
-                                       f"(first run only, about {whitted + firstrun.MESH_S} s)\n")
+                                       f"(first run only, about {whitted} s)\n")
+    trimesh.creation.icosphere(5).export(cold / "large.stl")
+    assert (cold / "large.stl").stat().st_size > firstrun.SMALL_MESH_BYTES
+    assert notice(cold / "large.stl", "mesh") == (
+        "compiling kernels for large.stl: bvh, hard shadows "
+        f"(first run only, about {whitted + firstrun.MESH_S} s)\n")
     path = f"path tracer (first run only, about {firstrun.PATH_S} s)\n"
     assert notice("teapot", "builtin", integrator="path").endswith(f"hard shadows, {path}")
     assert notice(cold / "path.toml", "toml").endswith(f"path.toml: bvh, hard shadows, {path}")

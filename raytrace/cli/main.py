@@ -203,7 +203,8 @@ def _announce_first_run(scene, kind, options):
         integrator = integrator or written
     accel, shadows = options.get("accel") or "bvh", options.get("shadows") or "hard"
     firstrun.announce_if_cold(firstrun.render_what(Path(scene).name, accel, shadows, integrator),
-                              firstrun.command_estimate(accel, integrator, kind == "mesh"))
+                              firstrun.command_estimate(accel, integrator,
+                                                        Path(scene).stat().st_size if kind == "mesh" else 0))
 
 
 @main.command("render")

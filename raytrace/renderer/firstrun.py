@@ -28,8 +28,11 @@ VARIANT_S = 4
 # with the BVH's packet closest-hit kernel, 2026-11-28).
 PATH_S = 10
 # A mesh file's reader and shading normals' kernels, compiled as it loads
-# (the weld, the crease split's fan kernels; an OBJ's parser 1.5 s more).
+# (the weld, the crease split's fan kernels; an OBJ's parser 1.5 s more),
+# unless the file is small: then they run as Python (kernels/uncompiled.py;
+# its bound of rows, at 32 bytes a row).
 MESH_S = 3
+SMALL_MESH_BYTES = 1 << 18
 # The first cast_rays (its structure's builder and the closest-hit kernel).
 QUERY_S = {"none": 3, "bvol": 3, "bvh": 3, "grid": 4, "kdtree": 4}
 
@@ -164,11 +167,12 @@ def render_estimate(accel, bounces, textures, integrator="whitted"):
     return base + BOUNCES_S * bool(bounces) + TEXTURES_S * bool(textures)
 
 
-def command_estimate(accel, integrator, mesh=False):
-    """The command's first-run estimate, from its options alone (``mesh``:
-    for a mesh file, whose kernels compile as it loads)."""
+def command_estimate(accel, integrator, mesh_bytes=0):
+    """The command's first-run estimate, from its options alone (``mesh_bytes``:
+    the size of a mesh file, whose kernels compile as it loads if it is not
+    small)."""
     base = PATH_S if integrator == "path" else RENDER_S.get(accel, 8) + 1
-    return base + MESH_S * bool(mesh)
+    return base + MESH_S * (mesh_bytes > SMALL_MESH_BYTES)
 
 
 def render_what(scene_name, accel, shadows, integrator):

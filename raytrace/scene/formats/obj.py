@@ -23,8 +23,8 @@ import re
 import numpy as np
 
 from raytrace.errors import RaytraceError
-from raytrace.kernels.uncompiled import chosen
 from raytrace.kernels.parse_float import POWERS_OF_FIVE
+from raytrace.kernels.uncompiled import chosen
 from raytrace.scene.formats import objtext as T
 
 # Bytes a vertex or face line takes, about, to weigh a file against
