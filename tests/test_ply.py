@@ -8,6 +8,9 @@ import pytest
 from raytrace.scene.formats.mesh import _read_with_trimesh, read_mesh_parts
 from raytrace.scene.formats.ply import read_simple_ply
 
+# Every test with the kernels compiled and as Python (conftest.py).
+pytestmark = pytest.mark.usefixtures("compiled_and_python")
+
 
 def write_ply(path, vertices, faces, *, endian="<", coord="float", index="int", count="uchar",
               normals=None, counts=None, extra_vertex=(), extra_face=(), comment="", tail=b""):

@@ -92,21 +92,30 @@ def test_a_kernel_runs_compiled_when_compiled_already_or_for_large_inputs():
 def test_a_first_run_compiles_nothing_to_read_small_mesh_files(tmp_path):
     """Empty caches: a PLY without normals (welded and split at creases), an
     OBJ naming materials (trimesh's), a plain OBJ, an ASCII and a binary STL
-    are read without compiling."""
+    and a PLY of mixed polygons are read without compiling."""
     assets = os.path.join(os.path.dirname(__file__), os.pardir, "assets")
     ball = trimesh.creation.icosphere(2)
     ball.export(tmp_path / "ball.stl")
     (tmp_path / "ascii.stl").write_text(trimesh.exchange.stl.export_stl_ascii(ball))
+    # A binary PLY of a quad and a triangle: mixed polygons, read record by record.
+    head = ("ply\nformat binary_little_endian 1.0\nelement vertex 5\nproperty float x\n"
+            "property float y\nproperty float z\nelement face 2\n"
+            "property list uchar int vertex_indices\nend_header\n")
+    corners = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0.5, 2, 0.5]], "<f4")
+    faces = bytes([4]) + np.array([0, 1, 2, 3], "<i4").tobytes()
+    faces += bytes([3]) + np.array([3, 2, 4], "<i4").tobytes()
+    (tmp_path / "mixed.ply").write_bytes(head.encode() + corners.tobytes() + faces)
     files = [os.path.join(assets, name) for name in ("textured.toml", "house.obj")]
-    files += [str(tmp_path / name) for name in ("ball.stl", "ascii.stl")]
+    files += [str(tmp_path / name) for name in ("ball.stl", "ascii.stl", "mixed.ply")]
     code = (
         "from raytrace.scene.load import load_scene\n"
         f"for path in {files!r}:\n"
         "    load_scene(path)\n"
         "from raytrace.scene import creases, weld\n"
-        "from raytrace.scene.formats import objtext\n"
+        "from raytrace.scene.formats import objtext, polygons\n"
         "print(sum(len(k.signatures) for k in (creases.fan_groups, creases.fan_normals,\n"
-        "      creases.face_frames, creases.corner_lists, weld.first_rows, objtext.parse_lines)))\n")
+        "      creases.face_frames, creases.corner_lists, weld.first_rows, objtext.parse_lines,\n"
+        "      polygons.polygon_lists)))\n")
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"), XDG_CACHE_HOME=str(tmp_path))
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
                          check=True)

@@ -2,7 +2,7 @@
 repay their compile.
 
 A small mesh file is read (scene/formats/objtext.py: OBJ and ASCII STL
-lines), welded (scene/weld.py) and its normals split at creases
+lines; scene/formats/polygons.py: a binary PLY's mixed polygons), welded (scene/weld.py) and its normals split at creases
 (scene/creases.py) by kernels that take 1.5-2 s, 0.8 s and 2.5 s to
 compile cold and milliseconds to run compiled; the same functions run by
 Python take about 16 us a corner to split, 25 us a row to weld, and read
@@ -110,3 +110,11 @@ def chosen(kernel, n):
         with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
             return python(*args)
     return call
+
+
+def file_bytes(kernel, data):
+    """A file's bytes (uint8) as ``kernel``, one ``chosen`` returned, reads
+    them: as they are compiled, widened to int64 as Python, where NumPy's
+    uint8 scalars would wrap (or refuse a Python int too large) where the
+    compiled kernel's integers widen."""
+    return data if hasattr(kernel, "py_func") else data.astype(np.int64)

@@ -24,7 +24,7 @@ import numpy as np
 
 from raytrace.errors import RaytraceError
 from raytrace.kernels.parse_float import POWERS_OF_FIVE
-from raytrace.kernels.uncompiled import chosen
+from raytrace.kernels.uncompiled import chosen, file_bytes
 from raytrace.scene.formats import objtext as T
 
 # Bytes a vertex or face line takes, about, to weigh a file against
@@ -239,11 +239,9 @@ def _lines(path, fmt, state, out, data, scratch, each_chunk):
     fb, slots = scratch
     state[T.NFB] = state[T.FBLEN] = 0
     first_line = int(state[T.LINE]) + 1
-    parse = chosen(T.parse_lines, len(data) // BYTES_PER_ROW)
-    # As Python (a small file's first read, kernels/uncompiled.py), the bytes
-    # widened: NumPy's uint8 scalars would wrap where the kernel's widen.
-    text = data if parse is T.parse_lines else data.astype(np.int64)
-    code = parse(text, len(data), state, v, vn, cv, cn, fc, fb, slots, T.POW10, POWERS_OF_FIVE)
+    parse = chosen(T.parse_lines, len(data) // BYTES_PER_ROW)   # as Python for a small file
+    code = parse(file_bytes(parse, data), len(data), state, v, vn, cv, cn, fc, fb, slots, T.POW10,
+                 POWERS_OF_FIVE)
     if code < 0:
         return None
     _exact_fallback(path, fmt, state, (fb, slots, v, vn), (data, first_line))

@@ -137,14 +137,16 @@ def _polygons(path, offset, n_faces, face_props, endian):
     if len(face_props) != 1:
         return None, None
     _, count_type, index_type, _ = face_props[0]
+    from raytrace.kernels.uncompiled import chosen, file_bytes
     from raytrace.scene.formats.polygons import polygon_lists
+    polygon_lists = chosen(polygon_lists, n_faces)       # as Python for a small file
     data = np.fromfile(path, np.uint8, offset=offset)
     count_size, index_size = np.dtype(_TYPES[count_type]).itemsize, np.dtype(_TYPES[index_type]).itemsize
     counts = np.empty(n_faces, np.int64)
     # At most this many indices: every record holds a count and three or more.
     indices = np.empty(max(0, (len(data) - n_faces * count_size) // index_size), np.int64)
-    k = polygon_lists(data, n_faces, count_size, index_size, _TYPES[index_type][0] == "i",
-                      endian == ">", counts, indices)
+    k = polygon_lists(file_bytes(polygon_lists, data), n_faces, count_size, index_size,
+                      _TYPES[index_type][0] == "i", endian == ">", counts, indices)
     if k < 0:
         return None, None
     return counts, indices[:k]
