@@ -2,9 +2,10 @@
 repay their compile.
 
 A small mesh file is read (scene/formats/objtext.py: OBJ and ASCII STL
-lines; scene/formats/polygons.py: a binary PLY's mixed polygons), welded (scene/weld.py) and its normals split at creases
-(scene/creases.py) by kernels that take 1.5-2 s, 0.8 s and 2.5 s to
-compile cold and milliseconds to run compiled; the same functions run by
+lines; scene/formats/polygons.py: a binary PLY's mixed polygons), welded
+(scene/weld.py) and its normals split at creases (scene/creases.py) by
+kernels that take 1.5-2 s, 0.4 s, 0.8 s and 2.5 s to compile cold and
+milliseconds to run compiled; the same functions run by
 Python take about 16 us a corner to split, 25 us a row to weld, and read
 1.5-2 MB of OBJ a second.  So on a first run, for a mesh of at most
 ``UNCOMPILED_MAX`` rows or corners (0.1-0.2 s of Python), they run as
