@@ -26,7 +26,11 @@ from numba import njit
 from raytrace.kernels.jit import BUILD, BUILD_STEP
 from raytrace.kernels.vector import unit3
 
-ENTRY = dict(BUILD, nogil=True)
+# Without the reference-counting runtime: the kernels allocate nothing,
+# their scratch comes from the caller (normals.crease_split), and a slice
+# of an array costs no count kept.
+ENTRY = dict(BUILD, nogil=True, _nrt=False)
+STEP = dict(BUILD_STEP, _nrt=False)
 # A fan of more corners than this pairs its edges by sorting (a cone's
 # apex, a fan-triangulated polygon) rather than by testing every pair.
 SMALL_FAN = 24
@@ -35,17 +39,19 @@ LABEL_MASK = (1 << LABEL_BITS) - 1
 
 
 @njit(**ENTRY)
-def corner_lists(corner_position, offsets, corners):
+def corner_lists(corner_position, offsets, corners, fill):
     """Each position's corners, in corner order (a counting sort):
-    corners[offsets[p]:offsets[p + 1]] are those at position p."""
-    fill = offsets[:-1].copy()
+    corners[offsets[p]:offsets[p + 1]] are those at position p.  fill:
+    scratch, a row a position."""
+    for p in range(len(fill)):
+        fill[p] = offsets[p]
     for c in range(len(corner_position)):
         p = corner_position[c]
         corners[fill[p]] = c
         fill[p] += 1
 
 
-@njit(**BUILD_STEP)
+@njit(**STEP)
 def face_frame(v, f, face, fn, angles):
     """fn[face] = flatten.unit_rows(flatten.cross_rows(e1, e2)) of the face,
     angles[face, k] = its angle at corner k: the arctan2 of twice its area
@@ -64,12 +70,12 @@ def face_frame(v, f, face, fn, angles):
     fn[face, 0], fn[face, 1], fn[face, 2] = unit3(cx, cy, cz)
 
 
-@njit(**BUILD_STEP)
+@njit(**STEP)
 def _before(key, i, j):
     return key[i] < key[j] or (key[i] == key[j] and i < j)
 
 
-@njit(**BUILD_STEP)
+@njit(**STEP)
 def _sift(key, order, root, end):
     while 2 * root + 1 < end:
         child = 2 * root + 1
@@ -81,21 +87,21 @@ def _sift(key, order, root, end):
         root = child
 
 
-@njit(**BUILD_STEP)
-def sort_order(key):
-    """The indices of ``key`` in order of (key, index): a stable argsort, by
-    heapsort (NumPy's argsort here added about 4 s of CPU to the cold compile)."""
-    n = len(key)
-    order = np.arange(n)
+@njit(**STEP)
+def sort_order(key, order, n):
+    """order[:n] = the indices of key[:n] in order of (key, index): a stable
+    argsort, by heapsort (NumPy's argsort here added about 4 s of CPU to
+    the cold compile)."""
+    for i in range(n):
+        order[i] = i
     for root in range(n // 2 - 1, -1, -1):
         _sift(key, order, root, n)
     for end in range(n - 1, 0, -1):
         order[0], order[end] = order[end], order[0]
         _sift(key, order, 0, end)
-    return order
 
 
-@njit(**BUILD_STEP)
+@njit(**STEP)
 def find(parent, i):
     while parent[i] != i:
         parent[i] = parent[parent[i]]
@@ -103,7 +109,7 @@ def find(parent, i):
     return i
 
 
-@njit(**BUILD_STEP)
+@njit(**STEP)
 def join(parent, i, j):
     """Union, the smaller index the root: a group's root is its first corner."""
     ri, rj = find(parent, i), find(parent, j)
@@ -113,7 +119,7 @@ def join(parent, i, j):
         parent[ri] = rj
 
 
-@njit(**BUILD_STEP)
+@njit(**STEP)
 def link_if_smooth(fan, far, nrm, cos_crease, parent, i, j):
     """Join fan corners i and j if their faces differ, share an edge at
     this position (far[i] holds the positions at its face's other two
@@ -127,9 +133,10 @@ def link_if_smooth(fan, far, nrm, cos_crease, parent, i, j):
         join(parent, i, j)
 
 
-@njit(**BUILD_STEP)
-def group_fan(fan, far, nrm, cos_crease, parent):
-    """parent[:d] = each fan corner's group root (its first corner)."""
+@njit(**STEP)
+def group_fan(fan, far, nrm, cos_crease, parent, key, order):
+    """parent[:d] = each fan corner's group root (its first corner).  key,
+    order: scratch of 2 d rows."""
     d = len(fan)
     for i in range(d):
         parent[i] = i
@@ -140,8 +147,10 @@ def group_fan(fan, far, nrm, cos_crease, parent):
     else:
         # Each corner's two edges keyed by the position at their far end:
         # corners whose faces share an edge are then neighbours once sorted.
-        key = far[:d].copy().reshape(2 * d)
-        order = sort_order(key)
+        for i in range(d):
+            key[2 * i] = far[i, 0]
+            key[2 * i + 1] = far[i, 1]
+        sort_order(key, order, 2 * d)
         start = 0
         for t in range(1, 2 * d + 1):
             if t == 2 * d or key[order[t]] != key[order[start]]:
@@ -163,22 +172,15 @@ def face_frames(v, f, first, last, fn, angles):
 
 
 @njit(**ENTRY)
-def fan_groups(fn, f, pf, offsets, corners, cos_crease, keep, first, last, packed, counts):
+def fan_groups(fn, f, pf, offsets, corners, cos_crease, keep, first, last, packed, counts, scratch):
     """For positions [first, last): each corner's (group, output vertex)
     numbers within its position, packed as group << 32 | vertex into
     ``packed``, and the position's number of output vertices into
     ``counts``.  A group is one output vertex, or with ``keep`` one per
     input vertex index in it (vertices at one position may carry different
     colours or texture coordinates).  fn: the faces' unit normals
-    (face_frames)."""
-    widest = 1
-    for p in range(first, last):
-        widest = max(widest, offsets[p + 1] - offsets[p])
-    parent = np.empty(widest, np.int64)
-    gid = np.empty(widest, np.int64)
-    label = np.empty(widest, np.int64)
-    nrm = np.empty((widest, 3))
-    far = np.empty((widest, 2), np.int64)
+    (face_frames).  scratch: fan_scratch's arrays for the widest fan."""
+    parent, gid, label, key, order, nrm, far = scratch
     for p in range(first, last):
         fan = corners[offsets[p]:offsets[p + 1]]
         d = len(fan)
@@ -187,7 +189,7 @@ def fan_groups(fn, f, pf, offsets, corners, cos_crease, keep, first, last, packe
             face, k = c // 3, c % 3
             nrm[i, 0], nrm[i, 1], nrm[i, 2] = fn[face, 0], fn[face, 1], fn[face, 2]
             far[i, 0], far[i, 1] = pf[face, (k + 1) % 3], pf[face, (k + 2) % 3]
-        group_fan(fan, far, nrm, cos_crease, parent)
+        group_fan(fan, far, nrm, cos_crease, parent, key, order)
         n_groups = 0
         for i in range(d):
             if parent[i] == i:
@@ -200,16 +202,16 @@ def fan_groups(fn, f, pf, offsets, corners, cos_crease, keep, first, last, packe
                 label[i] = gid[i]
             n_labels = n_groups
         else:
-            n_labels = vertex_labels(f, fan, gid, label)
+            n_labels = vertex_labels(f, fan, gid, label, key, order)
         for i in range(d):
             packed[fan[i]] = (gid[i] << LABEL_BITS) | label[i]
         counts[p] = n_labels
 
 
-@njit(**BUILD_STEP)
-def vertex_labels(f, fan, gid, label):
+@njit(**STEP)
+def vertex_labels(f, fan, gid, label, key, order):
     """label[:d]: one number per distinct (group, input vertex) of the fan,
-    in order of first corner; returns how many."""
+    in order of first corner; returns how many.  key, order: scratch."""
     d = len(fan)
     n = 0
     if d <= SMALL_FAN:
@@ -224,10 +226,9 @@ def vertex_labels(f, fan, gid, label):
                 label[i] = n
                 n += 1
         return n
-    key = np.empty(d, np.int64)
     for i in range(d):
         key[i] = f[fan[i] // 3, fan[i] % 3] * d + gid[i]
-    order = sort_order(key)     # stable: a run's first is its first corner
+    sort_order(key, order, d)     # stable: a run's first is its first corner
     for t in range(d):
         i = order[t]
         if t > 0 and key[order[t - 1]] == key[i]:
@@ -245,17 +246,14 @@ def vertex_labels(f, fan, gid, label):
 
 @njit(**ENTRY)
 def fan_normals(fn, angles, f, offsets, corners, out_offsets, first, last, packed, source,
-                normals):
+                normals, scratch):
     """For positions [first, last): each group's angle-weighted normal
     (Thürmer & Wüthrich 1998), its output vertices' rows of ``normals``
     and ``source`` (the input vertex each copies), and each corner's
     output vertex, written over its ``packed`` entry.  fn, angles: the
-    faces' unit normals and corner angles (face_frames)."""
-    widest = 1
-    for p in range(first, last):
-        widest = max(widest, offsets[p + 1] - offsets[p])
-    summed = np.empty((widest, 3))
-    first_corner = np.empty(widest, np.int64)
+    faces' unit normals and corner angles (face_frames).  scratch:
+    fan_scratch's arrays for the widest fan."""
+    first_corner, summed = scratch[0], scratch[5]
     for p in range(first, last):
         fan = corners[offsets[p]:offsets[p + 1]]
         d = len(fan)
@@ -287,3 +285,11 @@ def fan_normals(fn, angles, f, offsets, corners, out_offsets, first, last, packe
             packed[c] = o
             source[o] = f[c // 3, c % 3]
             normals[o, 0], normals[o, 1], normals[o, 2] = summed[g, 0], summed[g, 1], summed[g, 2]
+
+
+def fan_scratch(widest):
+    """fan_groups's and fan_normals's scratch for fans of at most ``widest``
+    corners: parent, gid, label, key and order (int64), normals (widest, 3)
+    float64 and far corners (widest, 2) int64."""
+    ints = [np.empty(n, np.int64) for n in (widest, widest, widest, 2 * widest, 2 * widest)]
+    return (*ints, np.empty((widest, 3)), np.empty((widest, 2), np.int64))

@@ -93,15 +93,18 @@ def crease_split(vertices, faces, crease=DEFAULT_CREASE, keep=False, welded=Fals
     offsets = np.zeros(n_positions + 1, np.int64)
     np.cumsum(np.bincount(corner_position, minlength=n_positions), out=offsets[1:])
     corners = np.empty(3 * m, np.int64)
-    corner_lists(corner_position, offsets, corners)
+    corner_lists(corner_position, offsets, corners, np.empty(n_positions, np.int64))
     del corner_position
     packed = np.empty(3 * m, np.int64)
     counts = np.zeros(n_positions, np.int64)
     cos_crease = math.cos(math.radians(crease))
     position_runs = _runs(offsets)
+    # Each run's scratch, for its widest fan (the kernels allocate nothing).
+    fans = np.diff(offsets)
+    scratch = [creases.fan_scratch(int(fans[a:b].max())) for a, b in position_runs]
     fn, angles = face_frames(v, f)
     _on_threads(fan_groups, [(fn, f, pf, offsets, corners, cos_crease, bool(keep), a, b, packed,
-                              counts) for a, b in position_runs])
+                              counts, work) for (a, b), work in zip(position_runs, scratch)])
     del pf, position
     out_offsets = np.zeros(n_positions + 1, np.int64)
     np.cumsum(counts, out=out_offsets[1:])
@@ -110,7 +113,7 @@ def crease_split(vertices, faces, crease=DEFAULT_CREASE, keep=False, welded=Fals
     source = np.empty(n_out, np.int64)
     normals = np.empty((n_out, 3))
     _on_threads(fan_normals, [(fn, angles, f, offsets, corners, out_offsets, a, b, packed, source,
-                               normals) for a, b in position_runs])
+                               normals, work) for (a, b), work in zip(position_runs, scratch)])
     return source, packed.reshape(m, 3), normals
 
 
