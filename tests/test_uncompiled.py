@@ -172,3 +172,27 @@ def test_decimal_to_double_as_python_gives_the_compiled_doubles():
         got = np.array([python(m, q, POWERS_OF_FIVE) for m, q in zip(ms, qs)])
     assert np.array_equal(got.view(np.uint64), compiled.view(np.uint64))
     assert (compiled < 0).any() and (compiled > 0).any()     # some declined, most read
+
+
+def test_within_compiled_always_a_kernel_runs_compiled():
+    @njit
+    def fresh(x):
+        return x + 1
+    with uncompiled.compiled_always():
+        assert uncompiled.runs_compiled(fresh, 1) and uncompiled.chosen(fresh, 1) is fresh
+    assert not uncompiled.runs_compiled(fresh, 1)
+
+
+def test_warmup_compiles_the_readers_kernels_from_an_empty_cache(tmp_path):
+    """`raytrace warmup`'s loading step compiles the weld and the crease
+    split on its one triangle, which a first read would run as Python."""
+    code = (
+        "from raytrace.cli.warmup import _loading\n"
+        "_loading()\n"
+        "from raytrace.scene import creases, weld\n"
+        "print(min(len(k.signatures) for k in (weld.first_rows, creases.corner_lists,\n"
+        "      creases.face_frames, creases.fan_groups, creases.fan_normals)))\n")
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"), XDG_CACHE_HOME=str(tmp_path))
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.split()[-1] == "1"

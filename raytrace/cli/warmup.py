@@ -62,6 +62,7 @@ def _queries(accel):
 
 
 def _loading():
+    from raytrace.kernels.uncompiled import compiled_always
     from raytrace.scene.flatten import _kept_corners_parallel
     from raytrace.scene.formats.obj import warm_kernel
     from raytrace.scene.formats.polygons import polygon_lists
@@ -70,8 +71,10 @@ def _loading():
     load_kernels(256)                      # a big teapot's tessellation
     _kept_corners_parallel(np.zeros((1, 3)), np.zeros((3, 1), np.int64), 1)
     # Every mesh file: welding repeated positions and crease-angle normals
-    # (scene/normals.py), with the same types as a file's arrays.
-    crease_split(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float), np.array([[0, 1, 2]]))
+    # (scene/normals.py), with the same types as a file's arrays; compiled,
+    # though a mesh this small would run them as Python.
+    with compiled_always():
+        crease_split(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float), np.array([[0, 1, 2]]))
     # A binary PLY of mixed polygons: one triangle, a uchar count and int indices.
     record = np.array([3, 0, 0, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0], np.uint8)
     polygon_lists(record, 1, 1, 4, True, False, np.empty(1, np.int64), np.empty(3, np.int64))

@@ -21,6 +21,8 @@ kernel's integers widen), and their arithmetic is IEEE's either way (``math.atan
 NumPy's own ``arctan2`` is not).  Integer arithmetic that wraps (a hash)
 wraps the same on NumPy's scalars, under ``np.errstate(over="ignore")``.
 """
+import contextlib
+import threading
 import types
 
 import numpy as np
@@ -86,11 +88,25 @@ def as_python(kernel):
     return python
 
 
+_always = threading.local()
+
+
+@contextlib.contextmanager
+def compiled_always():
+    """Within, on this thread, every kernel runs compiled: ``raytrace
+    warmup`` compiles, on a tiny mesh, what any file's reading will use."""
+    _always.on = True
+    try:
+        yield
+    finally:
+        _always.on = False
+
+
 def runs_compiled(kernel, n):
     """Whether a call of ``kernel`` on n rows or corners should run
     compiled: it is compiled already (in this process or in the kernel
-    cache), or n is larger than UNCOMPILED_MAX."""
-    if n > UNCOMPILED_MAX or kernel.signatures:
+    cache), n is larger than UNCOMPILED_MAX, or within compiled_always."""
+    if n > UNCOMPILED_MAX or kernel.signatures or getattr(_always, "on", False):
         return True
     from raytrace.kernels.cachedir import kernel_cached
     func = kernel.py_func
