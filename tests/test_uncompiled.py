@@ -114,7 +114,7 @@ def test_a_first_run_compiles_nothing_to_read_small_mesh_files(tmp_path):
         "from raytrace.scene import creases, weld\n"
         "from raytrace.scene.formats import objtext, polygons\n"
         "print(sum(len(k.signatures) for k in (creases.fan_groups, creases.fan_normals,\n"
-        "      creases.face_frames, creases.corner_lists, weld.first_rows, objtext.parse_lines,\n"
+        "      creases.face_frames, creases.corner_lists, weld.number_rows, objtext.parse_lines,\n"
         "      polygons.polygon_lists)))\n")
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"), XDG_CACHE_HOME=str(tmp_path))
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
@@ -190,7 +190,7 @@ def test_warmup_compiles_the_readers_kernels_from_an_empty_cache(tmp_path):
         "from raytrace.cli.warmup import _loading\n"
         "_loading()\n"
         "from raytrace.scene import creases, weld\n"
-        "print(min(len(k.signatures) for k in (weld.first_rows, creases.corner_lists,\n"
+        "print(min(len(k.signatures) for k in (weld.number_rows, creases.corner_lists,\n"
         "      creases.face_frames, creases.fan_groups, creases.fan_normals)))\n")
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"), XDG_CACHE_HOME=str(tmp_path))
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,

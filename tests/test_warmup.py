@@ -88,7 +88,7 @@ def test_loading_warmup_compiles_what_mesh_files_use(tmp_path):
     from raytrace.cli.warmup import _loading
     from raytrace.scene import creases, weld
     from raytrace.scene.formats import objtext, polygons
-    kernels = [weld.first_rows, creases.corner_lists, creases.face_frames, creases.fan_groups,
+    kernels = [weld.number_rows, creases.corner_lists, creases.face_frames, creases.fan_groups,
                creases.fan_normals, polygons.polygon_lists, objtext.parse_lines]
     _loading()
     warmed = _kernel_signatures(kernels)

@@ -158,11 +158,9 @@ def equal_rows(a, values=None):
     bit: ids[i] numbers row i's value in order of first appearance, and
     values[k] is value k (scene/weld.py).  ``values``: how many the caller
     expects (the table's first size), all the rows if None."""
-    from raytrace.kernels.uncompiled import chosen
     from raytrace.scene.weld import first_rows, new_table
     if len(a) >= 1 << 31:
         raise ValueError("more than 2^31 vertices")
-    first_rows = chosen(first_rows, len(a))      # as Python for few rows (kernels/uncompiled.py)
     keys = a.view(np.uint32).reshape(len(a), -1)
     ids = np.empty(len(a), np.int64)
     # At its bound: only the values' rows are ever written (pages never

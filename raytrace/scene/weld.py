@@ -6,12 +6,12 @@ import numpy as np
 from numba import njit
 
 from raytrace.kernels.jit import BUILD
-from raytrace.kernels.lowlevel import prefetch
+from raytrace.kernels.lowlevel import frame_array, prefetch
 
 MIX = np.uint64(0x9E3779B97F4A7C15)
 
 
-@njit(**BUILD)
+@njit(**dict(BUILD, _nrt=False))
 def _row_hash(keys, i):
     # Multiply-xorshift (as in splitmix64): the low bits of a multiply
     # depend only on the low bits of its input, and coordinates read from
@@ -23,7 +23,7 @@ def _row_hash(keys, i):
     return h
 
 
-@njit(**BUILD)
+@njit(**dict(BUILD, _nrt=False))
 def _same_row(keys, i, values, k):
     for c in range(keys.shape[1]):
         if keys[i, c] != values[k, c]:
@@ -51,19 +51,23 @@ FIRST_VALUES = 1 << 16
 TAG_BITS = 31           # a slot's hash bits; the home slot is their top ``bits``
 
 
-@njit(**dict(BUILD, nogil=True))
-def _moved(table, bits):
-    """The entries of ``table`` in one of 2^bits slots: each entry's home
-    slot is its tag's top bits, so no row is read again."""
+# Without the reference-counting runtime (the kernels allocate nothing: a
+# grown table comes from first_rows, in Python), and without the GIL (an
+# ASCII STL's chunks are welded on a thread of their own).
+_KERNEL = dict(BUILD, _nrt=False, nogil=True)
+
+
+@njit(**_KERNEL)
+def moved(table, out, bits):
+    """The entries of ``table`` into ``out``, 2^bits slots, all -1: each
+    entry's home slot is its tag's top bits, so no row is read again."""
     size = 1 << bits
-    out = np.full(size, -1, np.int64)
     for entry in table:
         if entry >= 0:
             slot = (entry >> 32) >> (TAG_BITS - bits)
             while out[slot] >= 0:
                 slot = (slot + 1) & (size - 1)
             out[slot] = entry
-    return out
 
 
 def new_table(n):
@@ -74,34 +78,52 @@ def new_table(n):
     return np.full(1 << bits, -1, np.int64)
 
 
-@njit(**dict(BUILD, nogil=True))
 def first_rows(keys, ids, values, table, count):
     """Number the rows of ``keys`` by value, after the ``count`` values
     ``table`` holds already: ids[i] is row i's value's number, in order of
     first appearance, and a new value's row is copied to values[number].
     Returns (table, count), the table grown if it filled.  keys and values:
     (n, w) uint32, rows compared bit for bit; the rows of one mesh file
-    may come a chunk at a time (an ASCII STL's).
+    may come a chunk at a time (an ASCII STL's).  The kernels run as
+    Python for a few rows (kernels/uncompiled.py)."""
+    from raytrace.kernels.uncompiled import chosen
+    number, move = chosen(number_rows, len(keys)), chosen(moved, len(keys))
+    bits = len(table).bit_length() - 1
+    start = 0
+    while True:
+        count, start = number(keys, ids, values, table, bits, count, start)
+        if start == len(keys):
+            return table, count
+        if bits == TAG_BITS:
+            raise MemoryError("more distinct rows than a table of 2^31 slots holds")
+        bits += 1
+        grown = np.full(1 << bits, -1, np.int64)
+        move(table, grown, bits)
+        table = grown
+
+
+@njit(**_KERNEL)
+def number_rows(keys, ids, values, table, bits, count, start):
+    """first_rows's numbering from row ``start``, into ``table`` of 2^bits
+    slots, until every row is numbered or the table is two thirds full;
+    returns (count, the next row).
 
     A slot holds a value's number and, above it, 31 high bits of its
     hash (its tag), whose top bits are its home slot: a row is compared
     with a value only where the tags agree, so a probe past another value
     reads no row, and a table grows without reading any."""
     n = keys.shape[0]
-    bits = 0
-    while (1 << bits) < len(table):
-        bits += 1
-    ahead = np.empty(AHEAD, np.int64)           # the tags of rows i .. i + AHEAD - 1
-    for i in range(min(AHEAD, n)):
-        ahead[i] = np.int64(_row_hash(keys, i) >> np.uint64(64 - TAG_BITS))
-        prefetch(table, ahead[i] >> (TAG_BITS - bits))
-    for i in range(n):
+    ahead = frame_array(AHEAD, np.int64)       # the tags of rows i .. i + AHEAD - 1
+    for i in range(start, min(start + AHEAD, n)):
+        ahead[i % AHEAD] = np.int64(_row_hash(keys, i) >> np.uint64(64 - TAG_BITS))
+        prefetch(table, ahead[i % AHEAD] >> (TAG_BITS - bits))
+    mask = (1 << bits) - 1
+    for i in range(start, n):
         tag = ahead[i % AHEAD]
         if i + AHEAD < n:
             later = np.int64(_row_hash(keys, i + AHEAD) >> np.uint64(64 - TAG_BITS))
             ahead[i % AHEAD] = later
             prefetch(table, later >> (TAG_BITS - bits))
-        mask = (1 << bits) - 1
         slot = tag >> (TAG_BITS - bits)
         while True:
             entry = table[slot]
@@ -112,13 +134,10 @@ def first_rows(keys, ids, values, table, count):
                     values[count, c] = keys[i, c]
                 count += 1
                 if 3 * count > 2 << bits:
-                    if bits == TAG_BITS:
-                        raise MemoryError("more distinct rows than a table of 2^31 slots holds")
-                    bits += 1
-                    table = _moved(table, bits)
+                    return count, i + 1
                 break
             if entry >> 32 == tag and _same_row(keys, i, values, entry & 0xFFFFFFFF):
                 ids[i] = entry & 0xFFFFFFFF
                 break
             slot = (slot + 1) & mask
-    return table, count
+    return count, n

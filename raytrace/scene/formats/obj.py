@@ -124,7 +124,6 @@ class _Welding:
 
     def _weld(self, rows, at):
         from raytrace.scene.weld import first_rows
-        first_rows = chosen(first_rows, len(rows))      # as Python for a small file's first read
         self.table, self.count = first_rows(rows.view(np.uint32), self.ids[at:at + len(rows)],
                                             self.values, self.table, self.count)
 
