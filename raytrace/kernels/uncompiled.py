@@ -35,6 +35,7 @@ import numpy as np
 UNCOMPILED_MAX = 8192
 
 _python = {}
+_made = threading.RLock()
 
 
 def _stand_ins():
@@ -70,23 +71,25 @@ def _stand_ins():
 def as_python(kernel):
     """``kernel``'s Python function, with every compiled function it calls
     (by a module-level name) replaced by its own Python function, so a call
-    compiles nothing."""
+    compiles nothing.  Under a lock: an ASCII STL's weld asks for its
+    kernel on a thread of its own, and a function half made (its names not
+    yet swapped) would call an intrinsic from Python."""
     func = getattr(kernel, "py_func", kernel)
-    if func in _python:
+    with _made:
+        if func in _python:
+            return _python[func]
+        from numba.core.registry import CPUDispatcher
+        stand_ins = _stand_ins()
+        names = dict(func.__globals__)
+        for name in func.__code__.co_names:
+            value = names.get(name)
+            if isinstance(value, CPUDispatcher):
+                names[name] = as_python(value)
+            elif id(value) in stand_ins:
+                names[name] = stand_ins[id(value)]
+        _python[func] = types.FunctionType(func.__code__, names, func.__name__, func.__defaults__,
+                                           func.__closure__)
         return _python[func]
-    from numba.core.registry import CPUDispatcher
-    stand_ins = _stand_ins()
-    names = dict(func.__globals__)
-    python = types.FunctionType(func.__code__, names, func.__name__, func.__defaults__,
-                                func.__closure__)
-    _python[func] = python
-    for name in func.__code__.co_names:
-        value = names.get(name)
-        if isinstance(value, CPUDispatcher):
-            names[name] = as_python(value)
-        elif id(value) in stand_ins:
-            names[name] = stand_ins[id(value)]
-    return python
 
 
 _always = threading.local()
