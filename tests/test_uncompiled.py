@@ -89,6 +89,15 @@ def test_a_kernel_runs_compiled_when_compiled_already_or_for_large_inputs():
     assert uncompiled.runs_compiled(fresh, 1)
 
 
+def _printed_with_empty_caches(code, tmp_path):
+    """The last word ``code`` prints, run in a fresh process with empty
+    kernel caches under tmp_path."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"), XDG_CACHE_HOME=str(tmp_path))
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         check=True)
+    return out.stdout.split()[-1]
+
+
 def test_a_first_run_compiles_nothing_to_read_small_mesh_files(tmp_path):
     """Empty caches: a PLY without normals (welded and split at creases), an
     OBJ naming materials (trimesh's), a plain OBJ, an ASCII and a binary STL
@@ -116,10 +125,7 @@ def test_a_first_run_compiles_nothing_to_read_small_mesh_files(tmp_path):
         "print(sum(len(k.signatures) for k in (creases.fan_groups, creases.fan_normals,\n"
         "      creases.face_frames, creases.corner_lists, weld.number_rows, objtext.parse_lines,\n"
         "      polygons.polygon_lists)))\n")
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"), XDG_CACHE_HOME=str(tmp_path))
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
-                         check=True)
-    assert out.stdout.split()[-1] == "0"
+    assert _printed_with_empty_caches(code, tmp_path) == "0"
 
 
 @njit
@@ -192,7 +198,4 @@ def test_warmup_compiles_the_readers_kernels_from_an_empty_cache(tmp_path):
         "from raytrace.scene import creases, weld\n"
         "print(min(len(k.signatures) for k in (weld.number_rows, creases.corner_lists,\n"
         "      creases.face_frames, creases.fan_groups, creases.fan_normals)))\n")
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"), XDG_CACHE_HOME=str(tmp_path))
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
-                         check=True)
-    assert out.stdout.split()[-1] == "1"
+    assert _printed_with_empty_caches(code, tmp_path) == "1"
