@@ -17,3 +17,13 @@ FROM_ORIGIN = -5e-324
 # Most mirror and glass bounces a ray is followed for (--max-depth): the
 # render kernel keeps a stack of pending rays this deep.
 MAX_BOUNCES = 16
+
+# Rows (or corners) of a mesh's arrays at most for which a mesh reader's
+# kernel not yet compiled runs as Python (kernels/uncompiled.py): ~16 us a
+# corner for the crease split (0.13 s at this bound), ~25 us a row to weld
+# (0.2 s), an OBJ's 32 bytes a row read at 1.5-2 MB/s (0.15 s), against 5 s
+# to compile them all (docs/benchmarks.md, "Small meshes uncompiled").
+UNCOMPILED_MAX = 8192
+# Bytes a vertex or face line of a text file takes, about, to weigh a file
+# against that bound.
+BYTES_PER_ROW = 32

@@ -5,21 +5,22 @@ A small mesh file is read (scene/formats/objtext.py: OBJ and ASCII STL
 lines; scene/formats/polygons.py: a binary PLY's mixed polygons), welded
 (scene/weld.py) and its normals split at creases (scene/creases.py) by
 kernels that take 1.5-2 s, 0.4 s, 0.8 s and 2.5 s to compile cold and
-milliseconds to run compiled; the same functions run by
-Python take about 16 us a corner to split, 25 us a row to weld, and read
-1.5-2 MB of OBJ a second.  So on a first run, for a mesh of at most
-``UNCOMPILED_MAX`` rows or corners (0.1-0.2 s of Python), they run as
-Python: the same code, nothing compiled for it, and the LLVM intrinsics
-they call (kernels/lowlevel.py) by Python versions here.  Once a kernel is
-compiled (in this process or the kernel cache: ``raytrace warmup``, or a
-larger mesh read before), it is used at every size.
+milliseconds to run compiled; the same functions run by Python take about
+16 us a corner to split, 25 us a row to weld, and read 1.5-2 MB of OBJ a
+second.  So on a first run, for a mesh of at most ``UNCOMPILED_MAX`` rows
+or corners (0.1-0.2 s of Python), they run as Python: the same code,
+nothing compiled for it, and the LLVM intrinsics they call
+(kernels/lowlevel.py) by Python versions here.  Once a kernel is compiled
+(in this process or the kernel cache: ``raytrace warmup``, or a larger
+mesh read before), it is used at every size.
 
 The functions give the compiled kernels' answers bit for bit
-(tests/test_uncompiled.py): they read float64 and integer arrays (an OBJ's
+(tests/test_uncompiled.py): they read float64 and integer arrays (a file's
 bytes widened to int64: NumPy's uint8 scalars wrap where the compiled
-kernel's integers widen), and their arithmetic is IEEE's either way (``math.atan2`` is libm's in both;
-NumPy's own ``arctan2`` is not).  Integer arithmetic that wraps (a hash)
-wraps the same on NumPy's scalars, under ``np.errstate(over="ignore")``.
+kernel's integers widen), and their arithmetic is IEEE's either way
+(``math.atan2`` is libm's in both; NumPy's own ``arctan2`` is not).
+Integer arithmetic that wraps (a hash) wraps the same on NumPy's scalars,
+under ``np.errstate(over="ignore")``.
 """
 import contextlib
 import threading
@@ -27,12 +28,7 @@ import types
 
 import numpy as np
 
-# Rows (or corners) of a mesh's arrays at most for which a kernel not yet
-# compiled runs as Python: ~16 us a corner for the crease split (0.13 s at
-# this bound), ~25 us a row to weld (0.2 s), an OBJ's 32 bytes a row read at
-# 1.5-2 MB/s (0.15 s), against 5 s to compile them all (docs/benchmarks.md,
-# "Small meshes uncompiled").
-UNCOMPILED_MAX = 8192
+from raytrace.kernels.limits import UNCOMPILED_MAX
 
 _python = {}
 _made = threading.RLock()

@@ -13,6 +13,8 @@ import os
 import sys
 import threading
 
+from raytrace.kernels.limits import BYTES_PER_ROW, UNCOMPILED_MAX
+
 # Seconds a cold compile takes on the issues' 2-core machine (AMD EPYC with
 # AVX-512; docs/benchmarks.md, "Cold start" and its 2026-11-28 run of
 # `python bench/coldstart.py`), rounded up: the builder and the render
@@ -29,10 +31,9 @@ VARIANT_S = 4
 PATH_S = 10
 # A mesh file's reader and shading normals' kernels, compiled as it loads
 # (the weld, the crease split's fan kernels; an OBJ's parser 1.5 s more),
-# unless the file is small: then they run as Python (kernels/uncompiled.py;
-# its bound of rows, at 32 bytes a row).
+# unless the file is small: then they run as Python (kernels/uncompiled.py).
 MESH_S = 3
-SMALL_MESH_BYTES = 1 << 18
+SMALL_MESH_BYTES = UNCOMPILED_MAX * BYTES_PER_ROW
 # The first cast_rays (its structure's builder and the closest-hit kernel).
 QUERY_S = {"none": 3, "bvol": 3, "bvh": 3, "grid": 4, "kdtree": 4}
 

@@ -23,13 +23,11 @@ import re
 import numpy as np
 
 from raytrace.errors import RaytraceError
+from raytrace.kernels.limits import BYTES_PER_ROW
 from raytrace.kernels.parse_float import POWERS_OF_FIVE
 from raytrace.kernels.uncompiled import chosen, file_bytes
 from raytrace.scene.formats import objtext as T
 
-# Bytes a vertex or face line takes, about, to weigh a file against
-# kernels/uncompiled.py's bound on rows.
-BYTES_PER_ROW = 32
 CHUNK = 1 << 24     # bytes of file read at a time: lines are cut at the last newline
 SPLIT_MIN = 1 << 20  # an ASCII STL's chunk of at least this is read in two halves at once
 _BOM = b"\xef\xbb\xbf"
