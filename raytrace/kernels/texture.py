@@ -20,39 +20,34 @@ from raytrace.kernels.jit import JIT
 
 
 @njit(**JIT)
-def _texel(geo, mat, i, j):
-    """Texel in column i, row j counted from the bottom, both wrapped."""
-    off, w, h = geo.mat_tex[mat, 0], geo.mat_tex[mat, 1], geo.mat_tex[mat, 2]
-    i %= w   # Python's modulo: never negative
-    j %= h
-    k = off + (h - 1 - j) * w + i
-    return geo.tex_rgb[k, 0], geo.tex_rgb[k, 1], geo.tex_rgb[k, 2]
-
-
-@njit(**JIT)
 def texture_rgb(geo, mat, s, t, bilinear):
     """Material ``mat``'s texture at (s, t): the nearest texel, or the
     bilinear blend of the four around it (texel centres at (i + 0.5) /
-    width)."""
-    w, h = geo.mat_tex[mat, 1], geo.mat_tex[mat, 2]
+    width).  Texels in column i, row j counted from the bottom, both
+    wrapped (Python's modulo: never negative); written out in one function
+    (each compiled function has a fixed cost)."""
+    off, w, h = geo.mat_tex[mat, 0], geo.mat_tex[mat, 1], geo.mat_tex[mat, 2]
+    rgb = geo.tex_rgb
     # The fraction first, so a huge coordinate cannot overflow an integer.
     x = (s - np.floor(s)) * w
     y = (t - np.floor(t)) * h
     if not bilinear:
-        return _texel(geo, mat, int(x), int(y))
+        k = off + (h - 1 - int(y) % h) * w + int(x) % w
+        return rgb[k, 0], rgb[k, 1], rgb[k, 2]
     x -= 0.5
     y -= 0.5
     x0, y0 = np.floor(x), np.floor(y)
     fx, fy = x - x0, y - y0
-    i, j = int(x0), int(y0)
-    r00, g00, b00 = _texel(geo, mat, i, j)
-    r10, g10, b10 = _texel(geo, mat, i + 1, j)
-    r01, g01, b01 = _texel(geo, mat, i, j + 1)
-    r11, g11, b11 = _texel(geo, mat, i + 1, j + 1)
+    i0, j0 = int(x0) % w, int(y0) % h
+    i1, j1 = (int(x0) + 1) % w, (int(y0) + 1) % h
+    k00 = off + (h - 1 - j0) * w + i0
+    k10 = off + (h - 1 - j0) * w + i1
+    k01 = off + (h - 1 - j1) * w + i0
+    k11 = off + (h - 1 - j1) * w + i1
     w00, w10, w01, w11 = (1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy
-    return (w00 * r00 + w10 * r10 + w01 * r01 + w11 * r11,
-            w00 * g00 + w10 * g10 + w01 * g01 + w11 * g11,
-            w00 * b00 + w10 * b10 + w01 * b01 + w11 * b11)
+    return (w00 * rgb[k00, 0] + w10 * rgb[k10, 0] + w01 * rgb[k01, 0] + w11 * rgb[k11, 0],
+            w00 * rgb[k00, 1] + w10 * rgb[k10, 1] + w01 * rgb[k01, 1] + w11 * rgb[k11, 1],
+            w00 * rgb[k00, 2] + w10 * rgb[k10, 2] + w01 * rgb[k01, 2] + w11 * rgb[k11, 2])
 
 
 @njit(**JIT)
