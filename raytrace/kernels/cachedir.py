@@ -71,6 +71,18 @@ def kernel_cached(*index_globs, folder="*"):
 _FOUND = set()
 
 
+def has_cache_entries(dispatcher):
+    """Whether Numba's cache holds any compiled version of ``dispatcher`` for
+    the current sources (its index: the caller has Numba loaded already).
+    For the first-run notice, a compile is then a new variant of it, not the
+    whole kernel set; for kernels/uncompiled.py, loading it beats running
+    it as Python."""
+    try:
+        return bool(dispatcher._cache._cache_file._load_index())
+    except Exception:      # Numba's private layout moved, or no cache: assume a cold one
+        return False
+
+
 def render_kernel_cached():
     """Whether any version of the render kernels (the shading stages, or
     the mirror-and-glass kernel) is in the cache."""

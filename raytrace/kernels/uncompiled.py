@@ -108,10 +108,8 @@ def runs_compiled(kernel, n):
     cache), n is larger than UNCOMPILED_MAX, or within compiled_always."""
     if n > UNCOMPILED_MAX or kernel.signatures or getattr(_always, "on", False):
         return True
-    from raytrace.kernels.cachedir import kernel_cached
-    func = kernel.py_func
-    # Numba's index name: the module's last part, the function, its line.
-    return kernel_cached(f"{func.__module__.rsplit('.', 1)[-1]}.{func.__qualname__}-*.nbi")
+    from raytrace.kernels.cachedir import has_cache_entries
+    return has_cache_entries(kernel)
 
 
 def chosen(kernel, n):

@@ -13,6 +13,7 @@ import os
 import sys
 import threading
 
+from raytrace.kernels.cachedir import has_cache_entries
 from raytrace.kernels.limits import BYTES_PER_ROW, UNCOMPILED_MAX
 
 # Seconds a cold compile takes on the issues' 2-core machine (AMD EPYC with
@@ -142,16 +143,6 @@ def announce_if_cold(what, seconds):
             sys.stderr.flush()
         except (OSError, ValueError):
             pass
-
-
-def has_cache_entries(dispatcher):
-    """Whether Numba's cache holds any compiled version of ``dispatcher`` for
-    the current sources: then a compile is a new variant of it, not the
-    whole kernel set."""
-    try:
-        return bool(dispatcher._cache._cache_file._load_index())
-    except Exception:      # Numba's private layout moved: assume a cold cache
-        return False
 
 
 def render_estimate(accel, bounces, textures, integrator="whitted"):
