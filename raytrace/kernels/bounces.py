@@ -31,14 +31,7 @@ from raytrace.kernels.limits import MAX_BOUNCES
 from raytrace.kernels.optics import bounce_weights, reflect, refract
 from raytrace.kernels.ray import Hit, make_ray
 from raytrace.kernels.render import camera_ray, hit_frame, point_albedo, sky, surface_albedo
-from raytrace.kernels.wavefront import (
-    CAMERA,
-    camera_wave,
-    light_entries,
-    lit,
-    room_for_hit,
-    store_wave,
-)
+from raytrace.kernels.wavefront import light_entries, lit, room_for_hit
 
 # A generation's rays: origin, direction and interval as cast.py takes
 # them, their hits, the camera sample each serves (``sample``: its index in
@@ -60,8 +53,8 @@ DIGIT = np.array([3 ** (MAX_BOUNCES - d) if d >= 1 else 0 for d in range(MAX_BOU
 _REFLECTED, _REFRACTED = 1, 2
 _KINDS = np.array([_REFLECTED, _REFRACTED], np.int64)
 
-# run_bounce_stage's steps, after wavefront.CAMERA.
-SHADE, FINISH, STORE = 1, 2, 3
+# run_bounce_stage's steps.
+FIRST, SHADE, FINISH, GATHER = 0, 1, 2, 3
 
 
 @njit(**STAGE)
@@ -238,29 +231,29 @@ def gather(wave, n, light, c):
 
 
 @njit(**BLOCK)
-def run_bounce_stage(step, shading, textures, wave, bufs, counters, band, args):
+def run_bounce_stage(step, shading, textures, wave, bufs, counters, args):
     """One stage of a wave with mirror and glass rays (the Python side:
-    _Generations); bufs = (this generation, the next, shadow rays, light),
-    args five ints, the result four.  CAMERA: camera_wave (args as
-    wavefront.run_stage's) and generation 0; returns (rays, ...).  SHADE:
-    shade_generation of rays args[0] .. args[1] - 1, the next generation
-    from row args[2], light from row args[3], max_depth args[4]; returns
-    its four numbers.  FINISH: finish_generation of rays args[0] ..
-    args[1] - 1, light from row args[2]; returns (light's rows, ...).
-    STORE: gather and store_wave of the wave's args[0] samples with
-    args[1] rows of light."""
+    waves._Generations), between wavefront.run_stage's CAMERA, which makes
+    the wave's camera rays, and its FINISH over no rays, which stores the
+    samples' colours: the steps both renders share are compiled once, in
+    run_stage.  bufs = (this generation, the next, shadow rays, light),
+    args five ints, the result four.  FIRST: the wave's args[0] camera
+    rays as generation 0; returns (rays, ...).  SHADE: shade_generation of
+    rays args[0] .. args[1] - 1, the next generation from row args[2],
+    light from row args[3], max_depth args[4]; returns its four numbers.
+    FINISH: finish_generation of rays args[0] .. args[1] - 1, light from
+    row args[2]; returns (light's rows, ...).  GATHER: the colours of the
+    wave's args[0] samples from args[1] rows of light."""
     gen, nxt, shadow, light = bufs
     a, b, c, d, e = args
-    if step == CAMERA:
-        n = camera_wave(shading, wave, a, b, (c, d), counters, band.row0, e != 0)
-        return _first_generation(wave, n, gen), 0, 0, 0
+    if step == FIRST:
+        return _first_generation(wave, a, gen), 0, 0, 0
     if step == SHADE:
         return shade_generation(shading, textures, wave, gen, (a, b), nxt, c, shadow, light, d,
                                 counters, e)
     if step == FINISH:
         return finish_generation(shading, gen, (a, b), shadow, light, c, counters), 0, 0, 0
     gather(wave, a, light, b)
-    store_wave(shading, wave, a, band)
     return 0, 0, 0, 0
 
 

@@ -111,13 +111,14 @@ class _Generations(_Stages):
     def stage(self, step, bufs, args):
         """bounces.run_bounce_stage with this thread's records."""
         return self.run_bounce_stage(step, self.shading, self.textures, self.wave, bufs,
-                                     self.counters, self.band, args)
+                                     self.counters, args)
 
     def trace(self, top, y_end, q0, q1):
         gen, nxt = self.gens
+        stages = self.shading, self.textures, self.wave, self.shadow, self.counters, self.band
         own = int(self.counters is self.wave.cnt)
-        n, _, _, _ = self.stage(CAMERA, (gen, nxt, self.shadow, self.light),
-                                (top, y_end, q0, q1, own))
+        n, _ = self.run_stage(CAMERA, *stages, (top, y_end, q0, q1, own))
+        self.stage(bounces.FIRST, (gen, nxt, self.shadow, self.light), (n, 0, 0, 0, 0))
         p, c = n, 0
         while p:
             # Each ray spawns at most two and adds at most one contribution.
@@ -139,7 +140,8 @@ class _Generations(_Stages):
                 i = i1
             gen, nxt, p = nxt, gen, q
         self.gens = [gen, nxt]
-        self.stage(bounces.STORE, (gen, nxt, self.shadow, self.light), (n, c, 0, 0, 0))
+        self.stage(bounces.GATHER, (gen, nxt, self.shadow, self.light), (n, c, 0, 0, 0))
+        self.run_stage(FINISH, *stages, (n, n, n, 0, 0))     # no rays to light: stores the wave
 
 
 def _grown(light, rows):
@@ -199,8 +201,9 @@ def load_own_stages(render, band):
 
 
 def load_shading(render, band):
-    """Compile (or load) the shading stages' entry a render uses, on empty
-    buffers; render.lighting.acc is not read (renderer/ahead.py compiles it
+    """Compile (or load) the shading stages' entries a render uses (run_stage,
+    and bounces.run_bounce_stage for mirrors and glass) on empty buffers;
+    render.lighting.acc is not read (renderer/ahead.py compiles it
     in a process of its own, structure or none)."""
     stages = _stages(render, band)
     stages.counters = band.stats_rows
@@ -209,14 +212,13 @@ def load_shading(render, band):
         path_waves.load(stages, shade=True)
         return
     stages.wave, stages.shadow = wave_buffers(0), shadow_buffers(0, 0)
+    run_stage(CAMERA, stages.shading, stages.textures, stages.wave, stages.shadow,
+              stages.counters, band, (0, 0, 0, 0, 0))
     if isinstance(stages, _Generations):
         gen = bounces.generation_buffers(0)
-        bounces.run_bounce_stage(CAMERA, stages.shading, stages.textures, stages.wave,
+        bounces.run_bounce_stage(bounces.FIRST, stages.shading, stages.textures, stages.wave,
                                  (gen, gen, stages.shadow, bounces.light_buffers(0, 0)),
-                                 stages.counters, band, (0, 0, 0, 0, 0))
-    else:
-        run_stage(CAMERA, stages.shading, stages.textures, stages.wave, stages.shadow,
-                  stages.counters, band, (0, 0, 0, 0, 0))
+                                 stages.counters, (0, 0, 0, 0, 0))
 
 
 def _stages(render, band):
