@@ -230,8 +230,11 @@ def test_a_cached_query_kernel_is_found_by_its_index_name():
     scene = RayScene((np.eye(3), np.array([[0, 1, 2]])), accel="none")
     scene.cast_rays([0.0, 0, 0], [1.0, 1, 1])
     scene.occluded([0.0, 0, 0], [1.0, 1, 1])
-    assert kernel_cached(query_ahead._INDEX["closest"])
-    assert kernel_cached(query_ahead._INDEX["occluded"])
+    scene.count_intersections([0.0, 0, 0], [1.0, 1, 1])
+    scene.list_intersections([0.0, 0, 0], [1.0, 1, 1])
+    scene.distance([[1.0, 1, 1]])
+    for query in ("closest", "occluded", "count", "list", "points"):
+        assert kernel_cached(query_ahead._INDEX[query]), query
     assert not kernel_cached("cast._no_such_kernel-*.nbi")
 
 
@@ -324,3 +327,79 @@ def test_a_kernel_cached_in_both_has_the_second_processs_entries_merged(tmp_path
     stale.save(("lbvh",), "stale code")
     merge_index(stale_dir / f"{base}.nbi", ours_dir / f"{base}.nbi")
     assert CheckedCacheFile(str(ours_dir), base, (1.0, 10)).load(("lbvh",)) is None
+
+
+_SAME_KERNEL = """
+import numpy as np
+from raytrace.accel.bvh import points
+from raytrace.cast import precompile
+from raytrace.cast.rayscene import RayScene
+from raytrace.kernels import cast
+blocks = {"count": cast._counts_block, "list": cast._listing_block,
+          "points": points._points_block}
+scene = RayScene((np.eye(3), np.array([[0, 1, 2]])), accel="bvh")
+calls = {"count": lambda: scene.count_intersections([[0.0, 0, 0]] * 3, [1.0, 1, 1]),
+         "list": lambda: scene.list_intersections([[0.0, 0, 0]] * 3, [1.0, 1, 1]),
+         "points": lambda: scene.closest_points([[1.0, 1, 1]] * 3)}
+for query, block in blocks.items():
+    precompile.main("bvh", query, False)
+    after = list(block.signatures)
+    calls[query]()
+    print(query, len(after), list(block.signatures) == after)
+"""
+
+
+def test_the_second_process_compiles_the_count_list_and_point_kernels_the_queries_run():
+    """In a process of its own (no specialisation loaded yet), precompile.main
+    loads or compiles one specialisation of each of these queries'
+    kernels, and a first call then adds none: the one the query runs."""
+    import subprocess
+    import sys
+    out = subprocess.run([sys.executable, "-c", _SAME_KERNEL], capture_output=True, text=True,
+                         check=True).stdout.split("\n")
+    assert out[:3] == ["count 1 True", "list 1 True", "points 1 True"]
+
+
+def test_a_first_query_sends_the_shorter_compile_to_the_second_process(monkeypatch, started):
+    """A first query's kernel compiles in the second process while this one
+    compiles the builder and builds, or, where the kernel is the longer
+    (the BVH's counting, listing and packet kernels), here before the
+    build while the second process compiles the builder, adopted before
+    the build."""
+    import numpy as np
+
+    from raytrace.cast import ahead as query_ahead
+    from raytrace.cast import precompile
+    from raytrace.cast.rayscene import RayScene
+    monkeypatch.setattr(core.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr("raytrace.kernels.cachedir.kernel_cached", lambda *names: False)
+    events = []
+    monkeypatch.setattr(core, "wait", lambda key: events.append("wait"))
+    monkeypatch.setattr(precompile, "main", lambda *a: events.append(("here",) + a))
+    built = RayScene._built
+
+    def building(self, *a, **k):
+        events.append("build" if self._prepared is None else "built")
+        return built(self, *a, **k)
+
+    monkeypatch.setattr(RayScene, "_built", building)
+    mesh = (np.eye(3), np.array([[0, 1, 2]]))
+    many = [[0.0, 0, 0]] * 100
+    calls = [("bvh", "count", lambda s: s.count_intersections([0.0, 0, 0], [1.0, 1, 1])),
+             ("bvh", "list", lambda s: s.list_intersections([0.0, 0, 0], [1.0, 1, 1])),
+             ("bvh", "closest", lambda s: s.cast_rays(many, [1.0, 1, 1])),
+             ("bvh", "closest", lambda s: s.cast_rays([0.0, 0, 0], [1.0, 1, 1])),
+             ("bvh", "points", lambda s: s.distance([[1.0, 1, 1]])),
+             ("grid", "count", lambda s: s.count_intersections([0.0, 0, 0], [1.0, 1, 1])),
+             ("bvh", "count", lambda s: s.signed_distance([[1.0, 1, 1], [0.1, 0.1, 0.1]]))]
+    for accel, query, call in calls:
+        monkeypatch.setattr(core, "_runs", {})
+        started.clear()
+        events.clear()
+        call(RayScene(mesh, accel=accel))
+        here = accel == "bvh" and (query in ("count", "list") or call is calls[2][2])
+        assert [c[-3:-1] for c in started] == [[accel, "builder" if here else query]], query
+        assert events[:3] == (["build", ("here", accel, query, call is calls[2][2]), "wait"]
+                              if here else ["build", "wait"]), (accel, query)
+        assert query_ahead._pending == {}
+    core.stop("query")

@@ -238,3 +238,26 @@ def test_a_path_traced_render_estimates_the_path_stage(monkeypatch):
     assert firstrun.scene_estimate(mirror, "kdtree") == firstrun.RENDER_S["kdtree"] + firstrun.BOUNCES_S
     assert firstrun.scene_estimate(mirror, "kdtree", "path") == firstrun.PATH_S
     assert firstrun.scene_estimate(textured, "bvh", "path") == firstrun.PATH_S + firstrun.TEXTURES_S
+
+
+def test_a_first_query_announces_its_own_kernels_estimate(monkeypatch):
+    """A RayScene's first query sets the notice's estimate by the kernel it
+    compiles: the BVH's packets for many rays, counting, listing, a point
+    query's BVH on another structure."""
+    import numpy as np
+
+    from raytrace.cast.rayscene import RayScene
+    from raytrace.renderer import firstrun
+    monkeypatch.setenv("RAYTRACE_COMPILE_AHEAD", "0")
+    said = []
+    monkeypatch.setattr(firstrun, "expect", lambda what, seconds=None: said.append(seconds))
+    mesh = (np.eye(3), np.array([[0, 1, 2]]))
+    cases = [("bvh", "closest", 1, firstrun.QUERY_S["bvh"]),
+             ("bvh", "occluded", 1000, firstrun.BVH_QUERY_S["packets"]),
+             ("bvh", "count", 1, firstrun.BVH_QUERY_S["count"]),
+             ("bvh", "points", 1, firstrun.POINTS_S["bvh"]),
+             ("grid", "list", 1, firstrun.QUERY_S["grid"] + firstrun.COUNT_S),
+             ("grid", "points", 1, firstrun.POINTS_OTHER_S)]
+    for accel, query, n_rays, seconds in cases:
+        RayScene(mesh, accel=accel)._built(query, n_rays)
+        assert said[-1] == seconds, (accel, query)

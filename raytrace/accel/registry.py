@@ -77,6 +77,12 @@ class Structure:
         kernel for it while this one builds (cast/ahead.py)."""
         return self.package().empty()
 
+    def empty_counting_layout(self):
+        """counting_layout's layout for empty_layout, made without building
+        or compiling: the package's ``empty_counting()`` if it has one."""
+        make = getattr(self.package(), "empty_counting", None)
+        return self.empty_layout() if make is None else make()
+
     def counting_layout(self, layout, geo):
         """The layout that counts and lists every hit: what the accel
         module's ``for_counting(layout, geo)`` makes, if it has one (the

@@ -1,44 +1,92 @@
-"""A first ray query's kernel compiled in a second process
-(kernels/ahead.py) while this one compiles the structure's builder and
-builds: the kernel's types are known before the build (each structure's
-``empty`` layout), so the two compiles overlap.
+"""A first ray query's compiles split over two processes (kernels/ahead.py):
+the query's kernel (its types are known before the build: each
+structure's ``empty`` layout, and its counting layout's) and the
+structure's builder, which this process needs before it builds.  The
+shorter goes to the second process: the kernel where it is the shorter
+(one-ray closest and any-hit kernels, the point queries', every query on
+a structure other than the BVH), while this one compiles the builder and
+builds; else the builder, while this one compiles the kernel (the BVH's
+packet, counting and listing kernels), adopted before it builds.
 
-Only for closest and any hit (``cast_rays``, ``occluded``), and only on a
-first run: no closest or any-hit kernel of any structure in the cache
-(a glob), or a first query of a structure whose builder compiles long
-(Structure.first_rays_ahead: the kd-tree after another structure).  The
-second process compiles exactly the kernel the call will run (the
-structure's, with packets or not by the number of rays, kernels/cast.py)
-and nothing else.
+For every query RayScene has a kernel for, only on a first run: no kernel
+of that query, of any structure, in the cache (a glob), or a first
+closest or any-hit query of a structure whose builder compiles long
+(Structure.first_rays_ahead: the kd-tree after another structure).  Once
+a process: a RayScene's first query.
 """
 from raytrace.kernels import ahead
 
 _KEY = "query"
-# The kernels' cache index names (kernels/cast.py's two block factories;
-# Numba drops a qualified name's "<" and ">").
+# The kernels' cache index names (kernels/cast.py's, and the point
+# queries' in accel/bvh/points.py; Numba drops a qualified name's "<"
+# and ">").
 _INDEX = {"closest": "cast._closest_kernel.locals.block-*.nbi",
-          "occluded": "cast._occluded_kernel.locals.block-*.nbi"}
+          "occluded": "cast._occluded_kernel.locals.block-*.nbi",
+          "count": "cast._counts_block-*.nbi",
+          "list": "cast._listing_block-*.nbi",
+          "points": "points._points_block-*.nbi"}
+# While the second process runs: "query", what it compiles (a query's
+# kernel, or "builder"); "here", precompile.main's arguments where this
+# process compiles the query's kernel (before_build).
+_pending = {}
 
 
 def start(accel, query, n_rays):
-    """Start compiling ``query``'s kernel (closest or occluded) for
-    ``accel`` and a call of ``n_rays`` rays, if none is cached yet."""
+    """Start the second process for a first ``query`` (a key of _INDEX) on
+    ``accel`` of ``n_rays`` rays, unless its kernel is cached: compiling
+    the kernel, or, where the kernel is the longer compile (_kernel_here),
+    the structure's builder while this process compiles the kernel
+    (before_build)."""
     if not ahead.worthwhile(_KEY):
         return
     from raytrace.accel.registry import get
     from raytrace.kernels.cachedir import kernel_cached
-    if kernel_cached(_INDEX[query]) and not get(accel).first_rays_ahead():
+    if kernel_cached(_INDEX[query]) and (query == "points" or not get(accel).first_rays_ahead()):
         return
     from raytrace.kernels.cast import PACKET_MIN
-    ahead.launch(_KEY, "raytrace.cast.precompile", [accel, query, int(n_rays >= PACKET_MIN)])
+    packets = int(n_rays >= PACKET_MIN)
+    here = _kernel_here(accel, query, packets)
+    job = "builder" if here else query
+    ahead.launch(_KEY, "raytrace.cast.precompile", [accel, job, packets])
+    if ahead.pending(_KEY):
+        _pending["query"] = job
+        if here:
+            _pending["here"] = (accel, query, packets == 1)
 
 
-def wait():
-    """Wait for the second process, if one was started, and adopt what it
-    compiled."""
-    ahead.wait(_KEY)
+def _kernel_here(accel, query, packets):
+    """Whether the query's kernel compiles longer than the structure's
+    builder (about 2 s, the BVH's): the BVH's counting and listing kernels
+    (5 and 3 s) and its packet kernels (4 s), not the one-ray kernels nor
+    the point queries' (docs/benchmarks.md, "First queries of every
+    kind")."""
+    return accel == "bvh" and (query in ("count", "list") or
+                               (packets and query in ("closest", "occluded")))
+
+
+def before_build():
+    """Where this process compiles the first query's kernel itself (start),
+    compile it now, for the structure's empty layout, while the second
+    process compiles the builder; then adopt the builder."""
+    here = _pending.pop("here", None)
+    if here is None:
+        return
+    from raytrace.cast.precompile import main
+    main(*here)
+    wait("builder")
+
+
+def wait(query):
+    """Wait for the second process, if one compiles ``query``'s kernel, and
+    adopt what it compiled.  A query of another kind goes on meanwhile
+    (RayScene.signed_distance: the point query compiles here while the
+    count's kernel compiles there)."""
+    if _pending.get("query") == query:
+        del _pending["query"]
+        ahead.wait(_KEY)
 
 
 def cancel():
     """Stop the second process, if one runs (the build failed)."""
+    _pending.clear()
     ahead.stop(_KEY)

@@ -80,24 +80,29 @@ class RayScene:
         self._prepared = None
         return len(self._objects) - 1
 
-    def _built(self, query=None, n_rays=0):
+    def _built(self, query=None, n_rays=0, wait=True):
         """The prepared scene, built at the first query after a change.
-        For a first closest or any-hit query (``query``, of ``n_rays``
-        rays), its kernel may compile in a second process meanwhile
-        (cast/ahead.py), and is adopted before the call."""
+        For a first query (``query``, of ``n_rays`` rays: one of
+        cast/ahead.py's names), its kernel may compile in a second process
+        meanwhile (cast/ahead.py), and is adopted before the call (with
+        ``wait``, before this returns; else at the query's next call)."""
+        if query is None:
+            if self._prepared is None:
+                self._prepared = _Prepared(self._objects, self.accel)
+            return self._prepared
+        from raytrace.cast import ahead
         if self._prepared is None:
-            ahead = None
-            if query is not None:
-                from raytrace.cast import ahead
-                ahead.start(self.accel, query, n_rays)
+            from raytrace.renderer.firstrun import expect, query_seconds
+            expect(f"ray queries with {self.accel}", query_seconds(self.accel, query, n_rays))
+            ahead.start(self.accel, query, n_rays)
             try:
+                ahead.before_build()
                 self._prepared = _Prepared(self._objects, self.accel)
             except BaseException:
-                if ahead is not None:
-                    ahead.cancel()
+                ahead.cancel()
                 raise
-            if ahead is not None:
-                ahead.wait()
+        if wait:
+            ahead.wait(query)
         return self._prepared
 
     def cast_rays(self, origins, directions=None, t_min=0.0, t_max=np.inf):
@@ -136,7 +141,7 @@ class RayScene:
         counting and copies the triangles in its leaf order (about 95 bytes
         a triangle, kept with the scene)."""
         rays, shape, _ = _rays(origins, directions, t_min, t_max)
-        p = self._built()
+        p = self._built("count", len(rays[0]))
         return _shaped(np.minimum(_counts(p, rays, self._check), _max_hits(max_hits, p)), shape)
 
     def list_intersections(self, origins, directions=None, t_min=0.0, t_max=np.inf,
@@ -149,7 +154,7 @@ class RayScene:
         writing its hits into rows taken as they come (LISTING_GUESS rows a
         ray reserved in all); a second only for rays that find them spent."""
         rays, _, given = _rays(origins, directions, t_min, t_max)
-        p = self._built()
+        p = self._built("list", len(rays[0]))
         limit = _max_hits(max_hits, p)
         splits, (t, prim, u, v), cnt = _listing(p, rays, self._check)
         counts = np.diff(splits)
@@ -178,7 +183,7 @@ class RayScene:
 
     def _contains(self, q, votes):
         odd = np.zeros(len(q), np.int64)
-        for d in _exit_directions(q, self._built().bounds(), votes):
+        for d in _exit_directions(q, self._built("count", len(q) * votes).bounds(), votes):
             odd += self.count_intersections(q, d) & 1
         return 2 * odd > votes
 
@@ -189,10 +194,10 @@ class RayScene:
         primitives at one distance go to the smaller id.  Point queries use
         a BVH whatever ``accel`` is, so every RayScene answers alike."""
         q, order = _query_points(points)
-        return ClosestPoints(*self._closest_points(q), self._built(), order)
+        return ClosestPoints(*self._closest_points(q), self._built("points"), order)
 
     def _closest_points(self, q, order=None):
-        p = self._built()
+        p = self._built("points", len(q))
         from raytrace.accel.bvh.points import CHUNK, closest_points
         n = len(q)
         point, prim, u, v, d2 = fresh_columns(n, ((np.float64, 3), (np.int64, 1), (np.float64, 1),
@@ -210,6 +215,9 @@ class RayScene:
         with its ``votes``)."""
         votes = _votes(votes)
         q, order = _query_points(points)
+        # A first call: the count's kernel, the longer to compile, in a
+        # second process while this one compiles the closest points'.
+        self._built("count", len(q) * votes, wait=False)
         d = np.sqrt(self._closest_points(q)[1])
         return _unsorted(np.where(self._contains(q, votes), -d, d), order)
 

@@ -35,8 +35,18 @@ PATH_S = 10
 # unless the file is small: then they run as Python (kernels/uncompiled.py).
 MESH_S = 3
 SMALL_MESH_BYTES = UNCOMPILED_MAX * BYTES_PER_ROW
-# The first cast_rays (its structure's builder and the closest-hit kernel).
-QUERY_S = {"none": 3, "bvol": 3, "bvh": 3, "grid": 4, "kdtree": 4}
+# A RayScene's first query: its structure's builder and the query's
+# kernel, in a fresh process (docs/benchmarks.md, "First queries of every
+# kind").  Closest or any hit of fewer than PACKET_MIN rays (no packets):
+QUERY_S = {"none": 4, "bvol": 4, "bvh": 4, "grid": 5, "kdtree": 5}
+# The BVH's larger kernels: closest or any hit of PACKET_MIN rays or more
+# (packets), counting and listing every hit (their own tree and loops).
+BVH_QUERY_S = {"packets": 6, "count": 7, "list": 5}
+# Counting or listing on another structure adds COUNT_S to QUERY_S; the
+# point queries walk a BVH, built first where the structure is another.
+COUNT_S = 1
+POINTS_S = {"bvh": 4}
+POINTS_OTHER_S = 5
 
 _lock = threading.Lock()
 _state = {"shown": False, "quiet": False, "listening": False, "fallback": None}
@@ -116,6 +126,20 @@ def expecting(what, seconds=None, load=True):
         yield
     finally:
         _active.line = None
+
+
+def query_seconds(accel, query, n_rays):
+    """The estimate of a RayScene's first ``query`` (cast/ahead.py's
+    names) of ``n_rays`` rays on structure ``accel``."""
+    if query == "points":
+        return POINTS_S.get(accel, POINTS_OTHER_S)
+    base = QUERY_S.get(accel)
+    if accel != "bvh":
+        return base + COUNT_S if base and query in ("count", "list") else base
+    if query in ("count", "list"):
+        return BVH_QUERY_S[query]
+    from raytrace.kernels.cast import PACKET_MIN
+    return BVH_QUERY_S["packets"] if n_rays >= PACKET_MIN else base
 
 
 def expect(what, seconds=None):

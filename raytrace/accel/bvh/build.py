@@ -113,6 +113,11 @@ def empty():
                leaf_tris=np.full((9, 3), np.nan))
 
 
+def empty_counting():
+    """for_counting's layout of no primitives (cast/precompile.py)."""
+    return counting_copy(empty())
+
+
 def for_counting(bvh, geo):
     """The CountingBVH of the scene whose tracing tree is ``bvh``: a tree of
     its own over the same primitives, built for counting (leaves of up to
