@@ -11,6 +11,7 @@ import numpy as np
 from numba import njit
 from numba.extending import overload
 
+from raytrace.kernels import buffers
 from raytrace.kernels.counters import PRIM_HITS, PRIM_TESTS
 from raytrace.kernels.intersect import (
     ray_plane,
@@ -22,11 +23,9 @@ from raytrace.kernels.intersect import (
 from raytrace.kernels.jit import JIT, OVERLOAD
 from raytrace.kernels.ray import CrossingRay, Hit, ListingRay, closer, no_hit
 
-
-@njit(**JIT)
-def n_bounded(geo):
-    """Primitives with a box (triangles, then spheres): the ones structures hold."""
-    return geo.tri_v0.shape[0] + geo.sph_center.shape[0]
+# buffers.n_bounded compiled: the primitives with a box (triangles, then
+# spheres), the ones structures hold.
+n_bounded = njit(**JIT)(buffers.n_bounded)
 
 
 def test_prim(geo, ray, p, t_max):
