@@ -77,10 +77,12 @@ ROULETTE_MAX = 0.95
 # the emitter itself is no occluder.
 EMITTER_GAP = 2.0 ** -20
 # The third key of a path's random numbers (its camera sample's are 0x5EED).
-_PATH_SALT = 0x9A7
+# int64s, as every constant passed to a compiled helper: a Python int would
+# be a literal, and the helper compiled again for it.
+_PATH_SALT = np.int64(0x9A7)
 # The Sobol sampler's per-pixel key, and its pair for the film point.
-_SOBOL_SALT = 0x50B01
-_FILM_PAIR = 0x7FFFFFFF
+_SOBOL_SALT = np.int64(0x50B01)
+_FILM_PAIR = np.int64(0x7FFFFFFF)
 _INV_PI = 1.0 / np.pi
 
 # A generation of paths: rays as cast.py takes them, their hits, the
@@ -114,7 +116,7 @@ def path_pair(paths, rng, i):
     2-D Sobol point number ``sample`` of pair i."""
     if paths.sampler == SOBOL:
         return sobol_pair01(rng[1], rng[2], i)
-    return rand01(rng[0], i, 0), rand01(rng[0], i, 1)
+    return rand01(rng[0], i, np.int64(0)), rand01(rng[0], i, np.int64(1))    # not literals
 
 
 @njit(**JIT)
@@ -157,7 +159,7 @@ def emitter_numbers(paths, rng, dim):
     u, v = path_pair(paths, rng, dim + 1)
     j = pick_emitter(paths, u)
     if paths.sampler != SOBOL:
-        return j, v, path_rand(paths, rng, dim, 1)
+        return j, v, path_rand(paths, rng, dim, np.int64(1))
     lo = paths.emit_cdf[j - 1] if j > 0 else 0.0
     share = paths.emit_cdf[j] - lo
     r = min(max((u - lo) / share, 0.0), 1.0 - 2.0 ** -53) if share > 0.0 else 0.5
@@ -359,7 +361,8 @@ def path_key(shading, paths, wave, k):
     (Sobol's; the hash key again when unused) and its index in the pixel."""
     pixel = wave.y[k] * shading.width + wave.x[k]
     key = hash_key(shading.seed, pixel, wave.sample[k], _PATH_SALT)
-    pkey = hash_key(shading.seed, pixel, 0, _SOBOL_SALT) if paths.sampler == SOBOL else key
+    pkey = (hash_key(shading.seed, pixel, np.int64(0), _SOBOL_SALT) if paths.sampler == SOBOL
+            else key)
     return key, pkey, wave.sample[k]
 
 
@@ -387,7 +390,7 @@ def scatter(shading, paths, fh, alb, path, outs, counters):
     if kt > 0.0:
         eta = 1.0 / par[MAT_IOR] if f.front else par[MAT_IOR]
     own, w_refl, w_refr = bounce_weights(par[MAT_REFLECT], kt, -(dx * nx + dy * ny + dz * nz), eta)
-    u = path_rand(paths, rng, base, 0)
+    u = path_rand(paths, rng, base, np.int64(0))
     # The event, chosen with its share: its weight over its probability
     # leaves the colour (Whitted's tint, or the lobe's albedo) as the
     # throughput's factor.
@@ -438,7 +441,7 @@ def scatter(shading, paths, fh, alb, path, outs, counters):
     thr = (thr[0] * alb[0], thr[1] * alb[1], thr[2] * alb[2])
     if depth + 1 >= paths.roulette_depth:
         keep = min(ROULETTE_MAX, max(thr[0], thr[1], thr[2]))
-        if path_rand(paths, rng, base + 3 + n_lights, 0) >= keep:
+        if path_rand(paths, rng, base + 3 + n_lights, np.int64(0)) >= keep:
             counters[row, ROULETTE_ENDED] += 1
             return q, m
         thr = (thr[0] / keep, thr[1] / keep, thr[2] / keep)

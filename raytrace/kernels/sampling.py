@@ -94,6 +94,9 @@ def square_sample(pattern, s, cell, side, key, hashes):
                 (cell[1] + rand01_hashed(key, hashes[2 * s + 1])) / side)
     # Halton with a per-pixel toroidal shift, so pixels do not share one
     # point set (which would show as structured artefacts instead of noise).
-    u = radical_inverse(2, s + 1) + rand01(key, 0, 2)
-    v = radical_inverse(3, s + 1) + rand01(key, 0, 3)
+    # int64s, not literal ints: a call given a literal is compiled again
+    # for each one (rand01 four times in a first render).
+    zero, two, three = np.int64(0), np.int64(2), np.int64(3)
+    u = radical_inverse(two, s + 1) + rand01(key, zero, two)
+    v = radical_inverse(three, s + 1) + rand01(key, zero, three)
     return u - np.floor(u), v - np.floor(v)

@@ -119,6 +119,11 @@ def camera_wave(shading, wave, strip_top, y_end, cols, counters, row0, own_rows)
     return k
 
 
+# The film's hash salt, an int64: a Python int would be a literal, and
+# hash_key compiled again for it.
+_FILM_SALT = np.int64(0x5EED)
+
+
 @njit(**JIT)
 def _film_point(shading, x, y, s):
     """Film position (fx, fy) in [0,1]^2 of camera sample s of pixel (x,
@@ -128,8 +133,9 @@ def _film_point(shading, x, y, s):
     if shading.spp == 1:
         jx, jy = 0.5, 0.5
     else:
-        key = hash_key(shading.seed, y * width + x, s, 0x5EED)
-        jx, jy = rand01(key, 0, 0), rand01(key, 0, 1)
+        key = hash_key(shading.seed, y * width + x, s, _FILM_SALT)
+        zero = np.int64(0)     # not literal 0s and 1s (sampling.square_sample)
+        jx, jy = rand01(key, zero, zero), rand01(key, zero, np.int64(1))
     return (x + jx) / width, (y + jy) / shading.height
 
 
