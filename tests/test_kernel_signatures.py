@@ -44,6 +44,12 @@ kernels = dict(run_stage=run_stage, closest=cast._closest_single,
                occluded=cast._occluded_single, build_bvh_kernel=build_bvh_kernel,
                collapse_bvh4_kernel=collapse_bvh4_kernel,
                packets=cast._closest_block, occluded_packets=cast._occluded_block)
+out = {k: [str(s) for s in f.signatures] for k, f in kernels.items()}
+# Every structure's queries, for the literal check below.
+for accel in ("none", "bvol", "grid", "kdtree", "bvh"):
+    s = raytrace.RayScene((v, f), accel=accel)
+    assert s.cast_rays(o, d).hit.all() and s.count_intersections(o, d).tolist() == [1, 1]
+    assert len(s.list_intersections(o, d).t) == 2
 # Helpers compiled for a literal integer argument (a ``0`` where an int64
 # variable would do) are compiled twice, once for the literal.
 import gc
@@ -52,7 +58,6 @@ literal = sorted({f"{d.py_func.__module__}.{d.py_func.__qualname__}"
                   for d in gc.get_objects() if isinstance(d, CPUDispatcher)
                   and d.py_func.__module__.startswith("raytrace")
                   for s in d.signatures if "Literal[int]" in str(s)})
-out = {k: [str(s) for s in f.signatures] for k, f in kernels.items()}
 print(json.dumps(dict(out, literal=literal)))
 """
 

@@ -1,4 +1,5 @@
 """Brute force: every bounded primitive, every ray (the workshop's Step 1)."""
+import numpy as np
 from numba import njit
 
 from raytrace.accel.brute.build import Brute
@@ -15,7 +16,9 @@ def _scan(mode):
     def scan(geo, ray, t_max, cnt):
         n = n_bounded(geo)
         best = no_hit()
-        p = 0
+        # An int64, not a literal 0: typing the loop would compile
+        # test_and_keep, and every test below it, for the literal first.
+        p = np.int64(0)
         while p < n and not (mode == ANY_HIT and best.prim >= 0):
             best = test_and_keep(geo, ray, p, t_max, best, cnt, mode != ALL_HITS)
             p += 1

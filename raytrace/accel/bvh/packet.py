@@ -197,10 +197,8 @@ def _count_traversal(geo, acc, pk, nx, ny, nz, counts, cnt):
         return PACKED
     stack = frame_array(STACK_SIZE, np.int64)
     stack_mask = frame_array(STACK_SIZE, np.int64)
-    n_inner = 0
-    n_leaves = 0
-    n_tests = 0
-    n_hits = 0
+    # int64s, not literal 0s: tally was compiled for the literals too.
+    n_inner = n_leaves = n_tests = n_hits = np.int64(0)
     visits = 0
     stack[0] = 0
     stack_mask[0] = (1 << PACKET) - 1
@@ -342,10 +340,8 @@ def _packet_traversal(mode):
         stack_t = frame_array(STACK_SIZE, np.float64)
         n_tris = geo.tri_v0.shape[0]
         shared_axes = _shared_axes(axes)
-        n_inner = 0
-        n_leaves = 0
-        n_tests = 0
-        n_hits = 0
+        # int64s, not literal 0s: tally was compiled for the literals too.
+        n_inner = n_leaves = n_tests = n_hits = np.int64(0)
         visits = 0
         # int64s, not literal 0s: a call given a literal is compiled again
         # for it (as in traverse.py).

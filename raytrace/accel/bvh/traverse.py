@@ -238,10 +238,8 @@ def _traversal(mode):
         stack = frame_array(STACK_SIZE, np.int64)
         stack_t = frame_array(STACK_SIZE, np.float64)
         br = box_ray(acc, ray)
-        n_inner = 0
-        n_leaves = 0
-        n_tests = 0
-        n_hits = 0
+        # int64s, not literal 0s: tally was compiled for the literals too.
+        n_inner = n_leaves = n_tests = n_hits = np.int64(0)
         # int64s, not literal 0s: a call given a literal is compiled again
         # for it (_push_children and leaf_slots were, twice each).
         entry = np.int64(0)

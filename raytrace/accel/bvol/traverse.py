@@ -18,7 +18,7 @@ def _traversal(mode):
         lo, hi, start, count = acc.obj_lo, acc.obj_hi, acc.obj_start, acc.obj_count
         best = no_hit()
         n = start.shape[0]
-        j = 0
+        j = np.int64(0)     # not a literal 0 (brute/traverse.py)
         while j < n and not (mode == ANY_HIT and best.prim >= 0):
             cnt[BOX_TESTS] += 1
             if ray_aabb(ray, lo, hi, j, min(best.t, t_max)) < np.inf:

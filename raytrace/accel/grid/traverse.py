@@ -109,7 +109,7 @@ def _grid_enter(acc, ray, t_max, cnt):
     glo = acc.grid_lo
     ghi = acc.grid_hi
     cnt[BOX_TESTS] += 1
-    t0 = ray_aabb(ray, glo.reshape(1, 3), ghi.reshape(1, 3), 0, t_max)
+    t0 = ray_aabb(ray, glo.reshape(1, 3), ghi.reshape(1, 3), np.int64(0), t_max)   # not a literal
     if t0 == np.inf:
         return _MISS, 0, 0, 0, 0, 0, 0, 0.0, 0.0, 0.0
     mag = max(abs(ray.ox), abs(ray.oy), abs(ray.oz),
