@@ -129,7 +129,7 @@ def shade_generation(shading, textures, wave, gen, ij, nxt, p, shadow, light, c,
             i += 1
             continue
         ray = make_ray(gen.origins[i, 0], gen.origins[i, 1], gen.origins[i, 2],
-                       gen.dirs[i, 0], gen.dirs[i, 1], gen.dirs[i, 2])
+                       gen.dirs[i, 0], gen.dirs[i, 1], gen.dirs[i, 2], 0.0)
         hit = Hit(gen.hit_t[i], prim, gen.hit_u[i], gen.hit_v[i])
         f = hit_frame(geo, ray, hit)
         if camera:

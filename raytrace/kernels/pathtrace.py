@@ -331,7 +331,7 @@ def shade_paths(shading, textures, paths, wave, gen, ij, nxt, q, shadow, counter
             _add(wave, k, (thr[0] * sr, thr[1] * sg, thr[2] * sb))
             continue
         ray = make_ray(gen.origins[i - 1, 0], gen.origins[i - 1, 1], gen.origins[i - 1, 2],
-                       gen.dirs[i - 1, 0], gen.dirs[i - 1, 1], gen.dirs[i - 1, 2])
+                       gen.dirs[i - 1, 0], gen.dirs[i - 1, 1], gen.dirs[i - 1, 2], 0.0)
         hit = Hit(gen.hit_t[i - 1], prim, gen.hit_u[i - 1], gen.hit_v[i - 1])
         f = hit_frame(geo, ray, hit)
         if depth == 0:

@@ -149,6 +149,8 @@ def camera_ray(cam, fx, fy):
     dz = cam[5] + sxn * cam[8] + syn * cam[11]
     ln = np.sqrt(dx * dx + dy * dy + dz * dz)
     dx, dy, dz = dx / ln, dy / ln, dz / ln
-    return make_ray(cam[0], cam[1], cam[2], dx, dy, dz), sxn, syn
+    # t_min given, as the ray kernels give it: an omitted one compiles
+    # make_ray again.
+    return make_ray(cam[0], cam[1], cam[2], dx, dy, dz, 0.0), sxn, syn
 
 
