@@ -79,8 +79,8 @@ def before_build():
 def wait(query):
     """Wait for the second process, if one compiles ``query``'s kernel, and
     adopt what it compiled.  A query of another kind goes on meanwhile
-    (RayScene.signed_distance: the point query compiles here while the
-    count's kernel compiles there)."""
+    (RayScene.signed_distance on a structure other than the BVH: the
+    point query compiles here while the count's kernel compiles there)."""
     if _pending.get("query") == query:
         del _pending["query"]
         ahead.wait(_KEY)

@@ -83,9 +83,10 @@ class RayScene:
     def _built(self, query=None, n_rays=0, wait=True):
         """The prepared scene, built at the first query after a change.
         For a first query (``query``, of ``n_rays`` rays: one of
-        cast/ahead.py's names), its kernel may compile in a second process
-        meanwhile (cast/ahead.py), and is adopted before the call (with
-        ``wait``, before this returns; else at the query's next call)."""
+        cast/ahead.py's names), the query's kernel and the structure's
+        builder compile in two processes at once (cast/ahead.py); what the
+        second one compiled is adopted before the call (with ``wait``,
+        before this returns; else at the query's next call)."""
         if query is None:
             if self._prepared is None:
                 self._prepared = _Prepared(self._objects, self.accel)
@@ -215,8 +216,9 @@ class RayScene:
         with its ``votes``)."""
         votes = _votes(votes)
         q, order = _query_points(points)
-        # A first call: the count's kernel, the longer to compile, in a
-        # second process while this one compiles the closest points'.
+        # A first call: the count's compiles split first (cast/ahead.py),
+        # the longer ones; where its kernel goes to the second process,
+        # the point query's compiles here meanwhile.
         self._built("count", len(q) * votes, wait=False)
         d = np.sqrt(self._closest_points(q)[1])
         return _unsorted(np.where(self._contains(q, votes), -d, d), order)
