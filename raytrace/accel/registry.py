@@ -33,6 +33,11 @@ class Structure:
     # each here; `--accel kdtree` after a BVH teapot 4.2 -> 3.4 s, the grid's
     # 3.0 -> 3.7, docs/benchmarks.md).
     rays_ahead: bool = False
+    # Whether its packet, counting and listing kernels compile longer than
+    # its builder (the BVH's: 4, 5 and 3 s against 2), so a RayScene's
+    # first such query compiles the kernel in this process and sends the
+    # builder to the second (cast/ahead.py).
+    long_query_kernels: bool = False
 
     def package(self):
         """The structure's build module, ``raytrace/accel/<module>/build.py``,
@@ -111,7 +116,7 @@ STRUCTURES = {s.name: s for s in (
     Structure("none", "brute force: every primitive for every ray", "brute"),
     Structure("bvol", "a bounding box per object, then its primitives", "bvol"),
     Structure("bvh", "4-wide bounding volume hierarchy, binned SAH build", "bvh",
-              "nodes_per_ray", ("bvh_build", "leaf_size")),
+              "nodes_per_ray", ("bvh_build", "leaf_size"), long_query_kernels=True),
     Structure("grid", "uniform grid walked by 3D-DDA", "grid", "cells_per_ray", ("grid_density",)),
     Structure("kdtree", "kd-tree, binned SAH build, front-to-back traversal", "kdtree",
               "nodes_per_ray", rays_ahead=True),

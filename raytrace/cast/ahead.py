@@ -34,7 +34,7 @@ _pending = {}
 def start(accel, query, n_rays):
     """Start the second process for a first ``query`` (a key of _INDEX) on
     ``accel`` of ``n_rays`` rays, unless its kernel is cached: compiling
-    the kernel, or, where the kernel is the longer compile (_kernel_here),
+    the kernel, or, where the kernel is the longer compile (_long_kernel),
     the structure's builder while this process compiles the kernel
     (before_build)."""
     if not ahead.worthwhile(_KEY):
@@ -45,7 +45,7 @@ def start(accel, query, n_rays):
         return
     from raytrace.kernels.cast import PACKET_MIN
     packets = int(n_rays >= PACKET_MIN)
-    here = _kernel_here(accel, query, packets)
+    here = get(accel).long_query_kernels and _long_kernel(query, packets)
     job = "builder" if here else query
     ahead.launch(_KEY, "raytrace.cast.precompile", [accel, job, packets])
     if ahead.pending(_KEY):
@@ -54,14 +54,13 @@ def start(accel, query, n_rays):
             _pending["here"] = (accel, query, packets == 1)
 
 
-def _kernel_here(accel, query, packets):
-    """Whether the query's kernel compiles longer than the structure's
-    builder (about 2 s, the BVH's): the BVH's counting and listing kernels
-    (5 and 3 s) and its packet kernels (4 s), not the one-ray kernels nor
-    the point queries' (docs/benchmarks.md, "First queries of every
-    kind")."""
-    return accel == "bvh" and (query in ("count", "list") or
-                               (packets and query in ("closest", "occluded")))
+def _long_kernel(query, packets):
+    """Whether the query's kernel is one that compiles longer than the
+    builder on a structure with ``long_query_kernels`` (the registry's):
+    counting, listing, and closest or any hit with packets; not the
+    one-ray kernels nor the point queries' (docs/benchmarks.md, "First
+    queries of every kind")."""
+    return query in ("count", "list") or bool(packets and query in ("closest", "occluded"))
 
 
 def before_build():
