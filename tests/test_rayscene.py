@@ -326,3 +326,50 @@ def test_a_trimesh_scene_is_its_meshes_where_its_nodes_place_them():
         RayScene(trimesh.Scene([trimesh.PointCloud(np.zeros((4, 3)))]))
     with pytest.raises(RaytraceError, match=r"trimesh.Scene or a raytrace Scene; got builtins.object"):
         RayScene(object())
+
+
+@pytest.mark.parametrize("accel", STRUCTURES)
+@pytest.mark.parametrize("n", [1, 40, 3000])
+def test_float32_rays_are_read_in_place_with_the_float64_answers(monkeypatch, accel, n):
+    """float32 origins and directions, (n, 3) or Open3D's (n, 6) rows, go
+    to the closest and any-hit kernels as they are (kernels/cast.py
+    _widen), not copied to float64 first: the answers are those of the
+    same rays in float64, bit for bit, one ray alone, in packets
+    (PACKET_MIN rays or more) and over three chunks; no kernel compiles
+    again for them."""
+    from raytrace.cast import rays
+    from raytrace.kernels import cast
+    rng = np.random.default_rng(n)
+    v, f = rng.normal(size=(90, 3)), rng.integers(0, 90, size=(60, 3))
+    o32 = (rng.normal(size=(n, 3)) * 3).astype(np.float32)
+    d32 = rng.normal(size=(n, 3)).astype(np.float32)
+    t_max = rng.uniform(1, 6, n)
+    s = RayScene((v, f), accel=accel)
+    o64, d64 = o32.astype(np.float64), d32.astype(np.float64)
+    ref = s.cast_rays(o64, d64, t_max=t_max)
+    ref_any = s.occluded(o64, d64, t_max=t_max)
+    kernels = (cast._closest_block, cast._closest_single, cast._occluded_block,
+               cast._occluded_single)
+    compiled = [len(k.signatures) for k in kernels]
+    copied = []
+    monkeypatch.setattr(rays, "_kernel_rows", lambda a, slot: copied.append(slot))
+    for args in ((o32, d32), (np.concatenate([o32, d32], axis=1), None)):
+        h = s.cast_rays(*args, t_max=t_max)
+        for k in ("t", "prim_id", "u", "v"):
+            assert np.array_equal(h[k].view(np.int64), ref[k].view(np.int64)), k
+        assert np.array_equal(s.occluded(*args, t_max=t_max), ref_any)
+    assert copied == [] and [len(k.signatures) for k in kernels] == compiled
+    assert ref.hit.any() and not ref.hit.all() or n == 1
+
+
+def test_a_bad_float32_ray_is_named():
+    """A bad ray among float32 rows read in place is named as a float64
+    one is: the direction's NaN by its row, not the origin's."""
+    rows = np.tile(np.array([0.5, 0.5, 1.0, 0.0, 0.0, -1.0], np.float32), (3000, 1))
+    rows[1700, 4] = np.nan
+    with pytest.raises(RaytraceError, match=r"directions\[1700\]: NaN or infinite value"):
+        two_squares().cast_rays(rows)
+    rows[1700, 4] = 0.0
+    rows[5, 1] = np.inf
+    with pytest.raises(RaytraceError, match=r"origins\[5\]: NaN or infinite value"):
+        two_squares().occluded(rows, t_max=5.0)

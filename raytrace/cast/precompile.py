@@ -50,7 +50,7 @@ def main(accel, query, packets):
     else:
         block = cast.occluded_block(acc, n_rays)
         out = np.zeros(0, np.bool_)
-    block(geo, acc, rows, rows, ends, ends, out, cnt, index, clock)
+    cast.run_blocks(block, (geo, acc, *cast.kernel_rays(rows, rows, ends, ends), out), cnt, clock)
 
 
 if __name__ == "__main__":

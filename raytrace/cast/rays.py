@@ -1,7 +1,6 @@
 """Rays and points from the caller to the kernels: shapes, dtypes and
 values checked (a bad one named by argument and row), query points put in
 Morton order, and the batch kernels called over counter rows."""
-import threading
 
 import numpy as np
 
@@ -106,15 +105,20 @@ def _filled(n, value):
     return a
 
 
-def _rays(origins, directions, t_min, t_max):
+def _rays(origins, directions, t_min, t_max, narrow=False):
     """Validated kernel arrays (origins, directions, t_min, t_max), the
     rays' leading shape (None for rows), and the origins and directions as
     given, (n, 3) in their own dtype, for answers read after the call
     (RayHits): the kernel arrays may be this thread's buffers (_kernel_rows).
-    ``directions`` None: ``origins`` holds (origin, direction) rows of 6."""
+    ``directions`` None: ``origins`` holds (origin, direction) rows of 6.
+    ``narrow``: float32 origins and directions stay float32 where the
+    kernels read them in place (the closest and any-hit kernels,
+    kernels/cast.py kernel_rays): both C-contiguous (n, 3) arrays, or
+    (n, 6) rows, passed as both."""
     if directions is None:
         rows, shape = _ray_rows("rays", origins, 6)
         o, d = rows[:, :3], rows[:, 3:]
+        kept = (rows, rows) if narrow and _kernel_ready(rows, np.float32) else None
     else:
         o, o_shape = _ray_rows("origins", origins)
         d, d_shape = _ray_rows("directions", directions)
@@ -128,37 +132,27 @@ def _rays(origins, directions, t_min, t_max):
             d = np.broadcast_to(d, o.shape)
         if len(o) != len(d):
             raise RaytraceError(f"origins and directions differ in length ({len(o)} and {len(d)})")
+        kept = ((o, d) if narrow and _kernel_ready(o, np.float32) and _kernel_ready(d, np.float32)
+                else None)
     n = len(d)
     tmin = _interval_end("t_min", t_min, n, shape)
     tmax = _interval_end("t_max", t_max, n, shape)
-    return (_kernel_rows(o, 0), _kernel_rows(d, 1), tmin, tmax), shape, (o, d)
+    if kept is None:
+        kept = _kernel_rows(o, 0), _kernel_rows(d, 1)
+    return (*kept, tmin, tmax), shape, (o, d)
 
 
-# Rays that are not C float64 arrays already (float32, Open3D's (..., 6)
-# rows, one origin for all) are copied for the kernels into buffers each
-# thread keeps for its next call, up to this size each: a fresh array
-# faults its pages in as the copy writes it, which cost float32 rays more
-# than the copy itself (docs/benchmarks.md, "Ray queries").
-_SCRATCH_MAX_BYTES = 8 << 20
-_scratch = threading.local()
-
-
+# Rays that are not C float64 arrays already (float32 for the queries that
+# do not read them in place, Open3D's (..., 6) float64 rows, one origin for
+# all) are copied for the kernels into scratch rows each thread keeps
+# (kernels/cast.py scratch_rows).
 def _kernel_rows(a, slot):
     """(n, 3) rows ``a`` as a C float64 array: ``a`` itself when it is one,
-    else a copy, into this thread's buffer ``slot`` (0 origins, 1
-    directions) when it fits.  float32 and integers convert exactly."""
+    else a copy, into this thread's scratch ``slot`` (0 origins, 1
+    directions).  float32 and integers convert exactly."""
     if _kernel_ready(a, np.float64):
         return a
-    n = a.shape[0]
-    if n * 24 > _SCRATCH_MAX_BYTES:
-        return np.array(a, dtype=np.float64, order="C")
-    buffers = getattr(_scratch, "rows", None)
-    if buffers is None:
-        buffers = _scratch.rows = {}
-    buf = buffers.get(slot)
-    if buf is None or len(buf) < n:
-        buf = buffers[slot] = np.empty((n, 3))
-    out = buf[:n]
+    out = _kernels().scratch_rows(a.shape[0], slot)
     np.copyto(out, a, casting="unsafe")
     return out
 
@@ -229,7 +223,10 @@ def _check_coordinates(name, arr):
 
 
 def _name_the_problem(o, d, tmin, tmax):
-    """Raise RaytraceError naming the first bad ray and how many share it."""
+    """Raise RaytraceError naming the first bad ray and how many share it
+    (o and d may be the same (n, 6) rows: the origin first, the direction
+    last)."""
+    o, d = (np.asarray(a, np.float64) for a in (o[:, :3], d[:, -3:]))
     _check_coordinates("origins", o)
     _check_coordinates("directions", d)
     zero = (d[:, 0] == 0.0) & (d[:, 1] == 0.0) & (d[:, 2] == 0.0)

@@ -114,7 +114,7 @@ class RayScene:
         of (origin, direction) rows, as create_rays_pinhole and Open3D make
         them.  t_min, t_max: numbers or arrays over the rays, t_min < t_max
         (inf allowed); t_min < 0 counts hits at the origin (t = 0) too."""
-        rays, shape, given = _rays(origins, directions, t_min, t_max)
+        rays, shape, given = _rays(origins, directions, t_min, t_max, narrow=True)
         p = self._built("closest", len(rays[0]))
         (t, prim, u, v), cnt = _closest(p.geo, p.acc, *rays, self._check, p.entries)
         return RayHits(t, prim, u, v, *given, p, _counters(cnt, len(t)), shape)
@@ -123,7 +123,7 @@ class RayScene:
         """Whether anything is hit along each ray with t_min < t < t_max: a
         boolean array over the rays (rays as cast_rays takes them).  For a
         shadow ray, pass the unnormalised direction to the light and t_max = 1."""
-        rays, shape, _ = _rays(origins, directions, t_min, t_max)
+        rays, shape, _ = _rays(origins, directions, t_min, t_max, narrow=True)
         p = self._built("occluded", len(rays[0]))
         return _shaped(_any_hit(p.geo, p.acc, *rays, self._check, p.entries)[0], shape)
 

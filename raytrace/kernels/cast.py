@@ -35,6 +35,7 @@ a call.
 Each kernel is compiled once per structure (query.py), on first use.
 """
 import functools
+import threading
 
 import numpy as np
 from numba import njit
@@ -67,11 +68,29 @@ def _ray(origins, dirs, t_min, i):
                     dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i])
 
 
+@njit(**JIT)
+def _widen(narrow, origins, dirs, lo, end):
+    """Rays lo .. end - 1 of a call's float32 origins and directions
+    (``narrow``: (n, 3) arrays, or the same (n, 6) rows twice, the origin
+    first and the direction last) into the float64 arrays the kernel
+    reads, exactly: a chunk at a time, by the thread that traces it, so
+    they are read once and still in cache when traced."""
+    o32, d32 = narrow
+    col = d32.shape[1] - 3
+    for i in range(lo, end):
+        for a in range(3):
+            origins[i, a] = o32[i, a]
+            dirs[i, a] = d32[i, col + a]
+
+
 def _closest_kernel(packets):
     """A thread's share of cast_closest, tracing packets where the rays
-    can go as one (``packets``) or every ray alone."""
+    can go as one (``packets``) or every ray alone.  rays: (origins,
+    dirs, t_min, t_max); narrow: empty, or the call's float32 origins and
+    directions, widened into rays' a chunk at a time (_widen)."""
     @njit(**BLOCK)
-    def block(geo, acc, origins, dirs, t_min, t_max, outs, cnt, rows, clock):
+    def block(geo, acc, rays, narrow, outs, cnt, rows, clock):
+        origins, dirs, t_min, t_max = rays
         out_t, out_prim, out_u, out_v = outs
         n = origins.shape[0]
         per_ray = rows.shape[0] > 0
@@ -79,6 +98,8 @@ def _closest_kernel(packets):
         c = take_ticket(clock)
         while c < n_chunks:
             end = min(n, (c + 1) * CHUNK)
+            if narrow[0].shape[0] > 0:
+                _widen(narrow, origins, dirs, c * CHUNK, end)
             try_packets = not per_ray
             for i0 in range(c * CHUNK, end, PACKET):
                 m = min(PACKET, end - i0)
@@ -108,13 +129,16 @@ def _closest_kernel(packets):
 def _occluded_kernel(packets):
     """A thread's share of cast_occluded, as _closest_kernel's."""
     @njit(**BLOCK)
-    def block(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt, rows, clock):
+    def block(geo, acc, rays, narrow, out_hit, cnt, rows, clock):
+        origins, dirs, t_min, t_max = rays
         n = origins.shape[0]
         per_ray = rows.shape[0] > 0
         n_chunks = (n + CHUNK - 1) // CHUNK
         c = take_ticket(clock)
         while c < n_chunks:
             end = min(n, (c + 1) * CHUNK)
+            if narrow[0].shape[0] > 0:
+                _widen(narrow, origins, dirs, c * CHUNK, end)
             try_packets = not per_ray
             for i0 in range(c * CHUNK, end, PACKET):
                 m = min(PACKET, end - i0)
@@ -161,7 +185,7 @@ def occluded_block(acc, n_rays):
     return _occluded_block if n_rays >= PACKET_MIN and has_packets(acc) else _occluded_single
 
 
-def _run_blocks(block, args, cnt_rows, clock):
+def run_blocks(block, args, cnt_rows, clock):
     """run_rows for the closest and any-hit blocks: a thread's rays all
     count into its row of cnt_rows (no per-ray rows)."""
     if cnt_rows.shape[0] == 1:      # one thread's: called at once, as a call of a ray is
@@ -172,49 +196,84 @@ def _run_blocks(block, args, cnt_rows, clock):
 
 
 _ONE_ROW = np.empty(0, np.int64)
+_NO_NARROW = np.empty((0, 3), np.float32)
+FLOAT64_RAYS = (_NO_NARROW, _NO_NARROW)     # a call's ``narrow``: its rays are float64
+
+
+def kernel_rays(origins, dirs, t_min, t_max):
+    """(rays, narrow) as the closest and any-hit blocks take them.
+    origins, dirs: C-contiguous, aligned and writeable (n, 3) float64
+    arrays, or float32 ones (or the same (n, 6) float32 rows twice), which
+    the kernel widens into scratch rows a chunk at a time (_widen)."""
+    if origins.dtype != np.float32:
+        return (origins, dirs, t_min, t_max), FLOAT64_RAYS
+    n = origins.shape[0]
+    return (scratch_rows(n, 0), scratch_rows(n, 1), t_min, t_max), (origins, dirs)
+
+
+# Scratch (n, 3) float64 rows each thread keeps for its next call, up to
+# this size each: a fresh array faults its pages in as it is written,
+# which cost float32 rays more than their conversion (docs/benchmarks.md,
+# "Ray queries").
+_SCRATCH_MAX_BYTES = 8 << 20
+_scratch = threading.local()
+
+
+def scratch_rows(n, slot):
+    """n uninitialised (n, 3) float64 rows, this thread's buffer ``slot``
+    (0 origins, 1 directions) when they fit: valid until its next call."""
+    if n * 24 > _SCRATCH_MAX_BYTES:
+        return np.empty((n, 3))
+    buffers = getattr(_scratch, "rows", None)
+    if buffers is None:
+        buffers = _scratch.rows = {}
+    buf = buffers.get(slot)
+    if buf is None or len(buf) < n:
+        buf = buffers[slot] = np.empty((n, 3))
+    return buf[:n]
 
 
 def _call_entry(block, args, entries):
     """block(*args) in the calling thread through its compiled entry point
     (entry.py's Entry), kept in ``entries``.  So
     ``entries`` must serve arguments of one set of types only: one
-    prepared scene's, with the rays as closest_alone takes them, or one
+    prepared scene's, with the rays as kernel_rays makes them, or one
     render thread's buffers (a wrong entry would read the arrays as
     another type)."""
-    key = (block, args[2].dtype)
-    entry = entries.get(key)
+    entry = entries.get(block)
     if entry is None:
-        entry = entries[key] = Entry(block)
+        entry = entries[block] = Entry(block)
     entry(*args)
 
 
 def closest_alone(geo, acc, rays, outs, cnt, clock, entries):
     """cast_closest of a call of one counter row ``cnt`` (1, COLUMNS), in
     the calling thread, through _call_entry: rays (origins, dirs, t_min,
-    t_max) C-contiguous, aligned and writeable float64 arrays, and outs (t,
-    prim, u, v) as cast/rays.py allocates them."""
-    _call_entry(closest_block(acc, rays[0].shape[0]), (geo, acc, *rays, outs, cnt, _ONE_ROW, clock),
-                entries)
+    t_max) as kernel_rays takes them, and outs (t, prim, u, v) as
+    cast/rays.py allocates them."""
+    _call_entry(closest_block(acc, rays[0].shape[0]),
+                (geo, acc, *kernel_rays(*rays), outs, cnt, _ONE_ROW, clock), entries)
 
 
 def occluded_alone(geo, acc, rays, out_hit, cnt, clock, entries):
     """cast_occluded as closest_alone is cast_closest."""
     _call_entry(occluded_block(acc, rays[0].shape[0]),
-                (geo, acc, *rays, out_hit, cnt, _ONE_ROW, clock), entries)
+                (geo, acc, *kernel_rays(*rays), out_hit, cnt, _ONE_ROW, clock), entries)
 
 
 def cast_closest(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v,
                  cnt_rows, clock):
-    """Closest hit of ray i = (origins[i], dirs[i]) with t_min[i] < t < t_max[i]."""
+    """Closest hit of ray i = (origins[i], dirs[i]) with t_min[i] < t < t_max[i]
+    (rays as kernel_rays takes them)."""
     outs = (out_t, out_prim, out_u, out_v)
-    _run_blocks(closest_block(acc, origins.shape[0]),
-                (geo, acc, origins, dirs, t_min, t_max, outs), cnt_rows, clock)
+    run_blocks(closest_block(acc, origins.shape[0]),
+               (geo, acc, *kernel_rays(origins, dirs, t_min, t_max), outs), cnt_rows, clock)
 
 
 def cast_occluded(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows, clock):
     """Whether anything is hit with t_min[i] < t < t_max[i] (stops at the first)."""
-    _run_blocks(occluded_block(acc, origins.shape[0]),
-                (geo, acc, origins, dirs, t_min, t_max, out_hit), cnt_rows, clock)
+    run_blocks(occluded_block(acc, origins.shape[0]),
+               (geo, acc, *kernel_rays(origins, dirs, t_min, t_max), out_hit), cnt_rows, clock)
 
 
 # The renderer's calls (kernels/waves.py, path_waves.py): one thread's
@@ -252,14 +311,14 @@ def _render_call(packet_block, single_block, acc, args, cnt, rows, entries, tall
 def closest_rays(geo, acc, rays, outs, cnt, rows, entries, tally=None):
     """Closest hits of rays = (origins, dirs, t_min, t_max) into outs =
     (t, prim, u, v), in the calling thread."""
-    _render_call(_closest_block, _closest_single, acc, (geo, acc, *rays, outs), cnt, rows,
-                 entries, tally)
+    _render_call(_closest_block, _closest_single, acc, (geo, acc, rays, FLOAT64_RAYS, outs), cnt,
+                 rows, entries, tally)
 
 
 def occluded_rays(geo, acc, rays, out_hit, cnt, rows, entries, tally=None):
     """cast_occluded of rays = (origins, dirs, t_min, t_max), as closest_rays."""
-    _render_call(_occluded_block, _occluded_single, acc, (geo, acc, *rays, out_hit), cnt, rows,
-                 entries, tally)
+    _render_call(_occluded_block, _occluded_single, acc, (geo, acc, rays, FLOAT64_RAYS, out_hit),
+                 cnt, rows, entries, tally)
 
 
 def _settle(tally, cnt, rows):
