@@ -332,8 +332,8 @@ def test_a_trimesh_scene_is_its_meshes_where_its_nodes_place_them():
 @pytest.mark.parametrize("n", [1, 40, 3000])
 def test_float32_rays_are_read_in_place_with_the_float64_answers(monkeypatch, accel, n):
     """float32 origins and directions, (n, 3) or Open3D's (n, 6) rows, go
-    to the closest and any-hit kernels as they are (kernels/cast.py
-    _widen), not copied to float64 first: the answers are those of the
+    to the closest, any-hit and counting kernels as they are
+    (kernels/ray.py widen_rays), not copied to float64 first: the answers are those of the
     same rays in float64, bit for bit, one ray alone, in packets
     (PACKET_MIN rays or more) and over three chunks; no kernel compiles
     again for them."""
@@ -348,8 +348,9 @@ def test_float32_rays_are_read_in_place_with_the_float64_answers(monkeypatch, ac
     o64, d64 = o32.astype(np.float64), d32.astype(np.float64)
     ref = s.cast_rays(o64, d64, t_max=t_max)
     ref_any = s.occluded(o64, d64, t_max=t_max)
+    ref_count = s.count_intersections(o64, d64, t_max=t_max)
     kernels = (cast._closest_block, cast._closest_single, cast._occluded_block,
-               cast._occluded_single)
+               cast._occluded_single, cast._counts_block)
     compiled = [len(k.signatures) for k in kernels]
     copied = []
     monkeypatch.setattr(rays, "_kernel_rows", lambda a, slot: copied.append(slot))
@@ -358,6 +359,7 @@ def test_float32_rays_are_read_in_place_with_the_float64_answers(monkeypatch, ac
         for k in ("t", "prim_id", "u", "v"):
             assert np.array_equal(h[k].view(np.int64), ref[k].view(np.int64)), k
         assert np.array_equal(s.occluded(*args, t_max=t_max), ref_any)
+        assert np.array_equal(s.count_intersections(*args, t_max=t_max), ref_count)
     assert copied == [] and [len(k.signatures) for k in kernels] == compiled
     assert ref.hit.any() and not ref.hit.all() or n == 1
 

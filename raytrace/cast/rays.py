@@ -112,7 +112,7 @@ def _rays(origins, directions, t_min, t_max, narrow=False):
     (RayHits): the kernel arrays may be this thread's buffers (_kernel_rows).
     ``directions`` None: ``origins`` holds (origin, direction) rows of 6.
     ``narrow``: float32 origins and directions stay float32 where the
-    kernels read them in place (the closest and any-hit kernels,
+    kernels read them in place (the closest, any-hit and counting kernels,
     kernels/cast.py kernel_rays): both C-contiguous (n, 3) arrays, or
     (n, 6) rows, passed as both."""
     if directions is None:

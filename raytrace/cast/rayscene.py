@@ -141,7 +141,7 @@ class RayScene:
         a BVH the first count or listing builds a tree of its own for
         counting and copies the triangles in its leaf order (about 95 bytes
         a triangle, kept with the scene)."""
-        rays, shape, _ = _rays(origins, directions, t_min, t_max)
+        rays, shape, _ = _rays(origins, directions, t_min, t_max, narrow=True)
         p = self._built("count", len(rays[0]))
         return _shaped(np.minimum(_counts(p, rays, self._check), _max_hits(max_hits, p)), shape)
 

@@ -55,7 +55,7 @@ from raytrace.kernels.query import (
     occluded,
     occluded_packet,
 )
-from raytrace.kernels.ray import make_listing_ray, make_ray, no_hit, ray_ok
+from raytrace.kernels.ray import make_listing_ray, make_ray, no_hit, ray_ok, widen_rays
 from raytrace.kernels.threads import run_on_threads, run_rows
 
 CHUNK = 1024
@@ -68,26 +68,11 @@ def _ray(origins, dirs, t_min, i):
                     dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i])
 
 
-@njit(**JIT)
-def _widen(narrow, origins, dirs, lo, end):
-    """Rays lo .. end - 1 of a call's float32 origins and directions
-    (``narrow``: (n, 3) arrays, or the same (n, 6) rows twice, the origin
-    first and the direction last) into the float64 arrays the kernel
-    reads, exactly: a chunk at a time, by the thread that traces it, so
-    they are read once and still in cache when traced."""
-    o32, d32 = narrow
-    col = d32.shape[1] - 3
-    for i in range(lo, end):
-        for a in range(3):
-            origins[i, a] = o32[i, a]
-            dirs[i, a] = d32[i, col + a]
-
-
 def _closest_kernel(packets):
     """A thread's share of cast_closest, tracing packets where the rays
     can go as one (``packets``) or every ray alone.  rays: (origins,
     dirs, t_min, t_max); narrow: empty, or the call's float32 origins and
-    directions, widened into rays' a chunk at a time (_widen)."""
+    directions, widened into rays' a chunk at a time (ray.widen_rays)."""
     @njit(**BLOCK)
     def block(geo, acc, rays, narrow, outs, cnt, rows, clock):
         origins, dirs, t_min, t_max = rays
@@ -99,7 +84,7 @@ def _closest_kernel(packets):
         while c < n_chunks:
             end = min(n, (c + 1) * CHUNK)
             if narrow[0].shape[0] > 0:
-                _widen(narrow, origins, dirs, c * CHUNK, end)
+                widen_rays(narrow, origins, dirs, c * CHUNK, end)
             try_packets = not per_ray
             for i0 in range(c * CHUNK, end, PACKET):
                 m = min(PACKET, end - i0)
@@ -138,7 +123,7 @@ def _occluded_kernel(packets):
         while c < n_chunks:
             end = min(n, (c + 1) * CHUNK)
             if narrow[0].shape[0] > 0:
-                _widen(narrow, origins, dirs, c * CHUNK, end)
+                widen_rays(narrow, origins, dirs, c * CHUNK, end)
             try_packets = not per_ray
             for i0 in range(c * CHUNK, end, PACKET):
                 m = min(PACKET, end - i0)
@@ -204,7 +189,7 @@ def kernel_rays(origins, dirs, t_min, t_max):
     """(rays, narrow) as the closest and any-hit blocks take them.
     origins, dirs: C-contiguous, aligned and writeable (n, 3) float64
     arrays, or float32 ones (or the same (n, 6) float32 rows twice), which
-    the kernel widens into scratch rows a chunk at a time (_widen)."""
+    the kernel widens into scratch rows a chunk at a time (ray.widen_rays)."""
     if origins.dtype != np.float32:
         return (origins, dirs, t_min, t_max), FLOAT64_RAYS
     n = origins.shape[0]
@@ -424,14 +409,15 @@ def cast_listing(geo, acc, rays, start, fixed, slab, outs, found, cnt_rows, cloc
 
 
 @njit(**BLOCK)
-def _counts_block(geo, acc, origins, dirs, t_min, t_max, out_count, cnt, clock):
-    count_rays(geo, acc, origins, dirs, t_min, t_max, out_count, cnt, clock, CHUNK)
+def _counts_block(geo, acc, rays, narrow, out_count, cnt, clock):
+    origins, dirs, t_min, t_max = rays
+    count_rays(geo, acc, origins, dirs, t_min, t_max, narrow, out_count, cnt, clock, CHUNK)
 
 
 def counts_alone(geo, acc, rays, out_count, cnt, clock, entries):
     """cast_counts of a call of one counter row ``cnt`` (1, COLUMNS) through
     _call_entry, as closest_alone; ``acc`` the scene's counting layout."""
-    _call_entry(_counts_block, (geo, acc, *rays, out_count, cnt[0], clock), entries)
+    _call_entry(_counts_block, (geo, acc, *kernel_rays(*rays), out_count, cnt[0], clock), entries)
 
 
 def cast_counts(geo, acc, origins, dirs, t_min, t_max, out_count, cnt_rows, clock):
@@ -440,4 +426,5 @@ def cast_counts(geo, acc, origins, dirs, t_min, t_max, out_count, cnt_rows, cloc
     narrows the interval, with the crossing triangle test (CrossingRay), a
     chunk of rays at a time (query.count_rays: the BVH keeps two rays in
     flight)."""
-    run_rows(_counts_block, (geo, acc, origins, dirs, t_min, t_max, out_count), cnt_rows, clock)
+    run_rows(_counts_block, (geo, acc, *kernel_rays(origins, dirs, t_min, t_max), out_count),
+             cnt_rows, clock)

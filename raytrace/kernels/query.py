@@ -21,7 +21,7 @@ from raytrace.kernels.prims import (
     planes_occluded,
     record_unbounded_hits,
 )
-from raytrace.kernels.ray import make_crossing_ray, ray_ok
+from raytrace.kernels.ray import make_crossing_ray, ray_ok, widen_rays
 
 # What a traversal is made for, a compile-time constant of each structure's
 # one traversal loop: the closest hit; any hit (stop at the first); every
@@ -146,10 +146,11 @@ def _count_hits(geo, acc, ray, t_max, cnt):
     return impl
 
 
-def count_rays(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
+def count_rays(geo, acc, origins, dirs, t_min, t_max, narrow, out, cnt, clock, chunk):
     """out[i] = count_hits of ray i as a CrossingRay, for the rays in the
     chunks of ``chunk`` rays this thread takes by ticket from clock
-    (kernels/cast.py); a bad ray (ray_ok) gets 0 and is counted in
+    (kernels/cast.py; ``narrow``: float32 rays each chunk is widened from
+    first, ray.widen_rays); a bad ray (ray_ok) gets 0 and is counted in
     cnt[BAD_RAYS].  Through the layout's count stream if it has one
     (register_count_stream), else one ray at a time.  Compiled code only."""
     raise NotImplementedError("compiled code only")
@@ -169,16 +170,18 @@ def register_count_stream(layout, stream):
 
 # Not inlined: a stream is large, and its thread's block calls it once.
 @overload(count_rays, jit_options=dict(OVERLOAD, forceinline=False))
-def _count_rays(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
+def _count_rays(geo, acc, origins, dirs, t_min, t_max, narrow, out, cnt, clock, chunk):
     _traversal(acc, ALL_HITS)
     stream = _COUNT_STREAMS.get(acc.instance_class)
     if stream is not None:
         return stream
 
-    def impl(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
+    def impl(geo, acc, origins, dirs, t_min, t_max, narrow, out, cnt, clock, chunk):
         n = origins.shape[0]
         c = take_ticket(clock)
         while c * chunk < n:
+            if narrow[0].shape[0] > 0:
+                widen_rays(narrow, origins, dirs, c * chunk, min(n, (c + 1) * chunk))
             for i in range(c * chunk, min(n, (c + 1) * chunk)):
                 if not ray_ok(origins, dirs, t_min, t_max, i):
                     cnt[BAD_RAYS] += 1

@@ -97,6 +97,21 @@ def closer(t, p, best):
 
 
 @njit(**JIT)
+def widen_rays(narrow, origins, dirs, lo, end):
+    """Rays lo .. end - 1 of a call's float32 origins and directions
+    (``narrow``: (n, 3) arrays, or the same (n, 6) rows twice, the origin
+    first and the direction last) into the float64 arrays the kernel
+    reads, exactly: a chunk at a time, by the thread that traces it, so
+    they are read once and still in cache when traced."""
+    o32, d32 = narrow
+    col = d32.shape[1] - 3
+    for i in range(lo, end):
+        for a in range(3):
+            origins[i, a] = o32[i, a]
+            dirs[i, a] = d32[i, col + a]
+
+
+@njit(**JIT)
 def ray_ok(origins, dirs, t_min, t_max, i):
     """Whether ray i's origin and direction components are finite and within
     MAX_COORD, its direction is not zero, and FROM_ORIGIN <= t_min < t_max

@@ -29,7 +29,7 @@ from raytrace.kernels.jit import JIT, STAGE
 from raytrace.kernels.lowlevel import PACKET, frame_array, take_ticket
 from raytrace.kernels.prims import count_unbounded_hits
 from raytrace.kernels.query import NOT_PACKED, SPARSE, register_count_stream
-from raytrace.kernels.ray import make_crossing_ray, ray_ok
+from raytrace.kernels.ray import make_crossing_ray, ray_ok, widen_rays
 
 
 @njit(**JIT)
@@ -122,7 +122,7 @@ def _count_slot(job, span, i, ray, tm, br, s, t, stack, queue, after):
     return i, ray, tm, br, s, t, after
 
 
-def count_stream(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
+def count_stream(geo, acc, origins, dirs, t_min, t_max, narrow, out, cnt, clock, chunk):
     """query.count_rays on a CountingBVH.  Rays come a chunk at a time by
     ticket, as in kernels/cast.py.  A chunk's rays go as packets where
     they can (_count_packets); the rest two in flight, a round of one and
@@ -145,6 +145,8 @@ def count_stream(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk):
     c = take_ticket(clock)
     while c * chunk < n:
         start, end = c * chunk, min(n, (c + 1) * chunk)
+        if narrow[0].shape[0] > 0:
+            widen_rays(narrow, origins, dirs, start, end)
         packed = _count_packets(job, start, end, cnt)
         span = Span(start, end, packed)
         # A slot past the chunk's end still holds a ray (the last one's),
