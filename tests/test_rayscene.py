@@ -332,11 +332,10 @@ def test_a_trimesh_scene_is_its_meshes_where_its_nodes_place_them():
 @pytest.mark.parametrize("n", [1, 40, 3000])
 def test_float32_rays_are_read_in_place_with_the_float64_answers(monkeypatch, accel, n):
     """float32 origins and directions, (n, 3) or Open3D's (n, 6) rows, go
-    to the closest, any-hit and counting kernels as they are
-    (kernels/ray.py widen_rays), not copied to float64 first: the answers are those of the
-    same rays in float64, bit for bit, one ray alone, in packets
-    (PACKET_MIN rays or more) and over three chunks; no kernel compiles
-    again for them."""
+    to the ray queries' kernels as they are (kernels/ray.py widen_rays),
+    not copied to float64 first: the answers are those of the same rays in
+    float64, bit for bit, one ray alone, in packets (PACKET_MIN rays or
+    more) and over three chunks; no kernel compiles again for them."""
     from raytrace.cast import rays
     from raytrace.kernels import cast
     rng = np.random.default_rng(n)
@@ -349,8 +348,9 @@ def test_float32_rays_are_read_in_place_with_the_float64_answers(monkeypatch, ac
     ref = s.cast_rays(o64, d64, t_max=t_max)
     ref_any = s.occluded(o64, d64, t_max=t_max)
     ref_count = s.count_intersections(o64, d64, t_max=t_max)
+    ref_list = s.list_intersections(o64, d64, t_max=t_max)
     kernels = (cast._closest_block, cast._closest_single, cast._occluded_block,
-               cast._occluded_single, cast._counts_block)
+               cast._occluded_single, cast._counts_block, cast._listing_block)
     compiled = [len(k.signatures) for k in kernels]
     copied = []
     monkeypatch.setattr(rays, "_kernel_rows", lambda a, slot: copied.append(slot))
@@ -360,6 +360,9 @@ def test_float32_rays_are_read_in_place_with_the_float64_answers(monkeypatch, ac
             assert np.array_equal(h[k].view(np.int64), ref[k].view(np.int64)), k
         assert np.array_equal(s.occluded(*args, t_max=t_max), ref_any)
         assert np.array_equal(s.count_intersections(*args, t_max=t_max), ref_count)
+        listed = s.list_intersections(*args, t_max=t_max)
+        for k in ("ray_splits", "t", "prim_id", "u", "v"):
+            assert np.array_equal(listed[k], ref_list[k]), k
     assert copied == [] and [len(k.signatures) for k in kernels] == compiled
     assert ref.hit.any() and not ref.hit.all() or n == 1
 

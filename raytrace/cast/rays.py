@@ -112,8 +112,8 @@ def _rays(origins, directions, t_min, t_max, narrow=False):
     (RayHits): the kernel arrays may be this thread's buffers (_kernel_rows).
     ``directions`` None: ``origins`` holds (origin, direction) rows of 6.
     ``narrow``: float32 origins and directions stay float32 where the
-    kernels read them in place (the closest, any-hit and counting kernels,
-    kernels/cast.py kernel_rays): both C-contiguous (n, 3) arrays, or
+    kernels read them in place (every ray query's, kernels/cast.py
+    kernel_rays): both C-contiguous (n, 3) arrays, or
     (n, 6) rows, passed as both."""
     if directions is None:
         rows, shape = _ray_rows("rays", origins, 6)

@@ -154,7 +154,7 @@ class RayScene:
         order (rays as cast_rays takes them).  One traversal a ray,
         writing its hits into rows taken as they come (LISTING_GUESS rows a
         ray reserved in all); a second only for rays that find them spent."""
-        rays, _, given = _rays(origins, directions, t_min, t_max)
+        rays, _, given = _rays(origins, directions, t_min, t_max, narrow=True)
         p = self._built("list", len(rays[0]))
         limit = _max_hits(max_hits, p)
         splits, (t, prim, u, v), cnt = _listing(p, rays, self._check)

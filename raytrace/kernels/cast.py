@@ -341,7 +341,7 @@ SLAB = 4096
 
 
 @njit(**BLOCK)
-def _listing_block(geo, acc, rays, start, fixed, slab, outs, found, cnt, clock):
+def _listing_block(geo, acc, rays, narrow, start, fixed, slab, outs, found, cnt, clock):
     origins, dirs, t_min, t_max = rays
     out_t, out_prim, out_u, out_v = outs
     n = origins.shape[0]
@@ -353,6 +353,8 @@ def _listing_block(geo, acc, rays, start, fixed, slab, outs, found, cnt, clock):
     slab_end = 0    # no slab yet: the first ray with a hit takes one
     c = take_ticket(clock)
     while c < n_chunks:
+        if narrow[0].shape[0] > 0:
+            widen_rays(narrow, origins, dirs, c * CHUNK, min(n, (c + 1) * CHUNK))
         for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             found[i] = 0
             if not fixed:
@@ -394,7 +396,7 @@ def _listing_block(geo, acc, rays, start, fixed, slab, outs, found, cnt, clock):
 
 def cast_listing(geo, acc, rays, start, fixed, slab, outs, found, cnt_rows, clock):
     """Every hit of ray i = (origins[i], dirs[i]) of rays = (origins, dirs,
-    t_min, t_max) with t_min[i] < t < t_max[i], each crossing of a closed
+    t_min, t_max) (as kernel_rays takes them) with t_min[i] < t < t_max[i], each crossing of a closed
     surface once, in order of (t, primitive id), into rows of outs (its t,
     prim, u and v arrays):
     one traversal that never narrows the interval, as cast_counts's.
@@ -405,7 +407,8 @@ def cast_listing(geo, acc, rays, start, fixed, slab, outs, found, cnt_rows, cloc
     in slabs of at least ``slab`` (clock[1], 0 at the call, counts the rows
     taken) and start[i] gets ray i's first row, or -1 where the rows ran
     out before its hits were written."""
-    run_rows(_listing_block, (geo, acc, rays, start, fixed, slab, outs, found), cnt_rows, clock)
+    run_rows(_listing_block, (geo, acc, *kernel_rays(*rays), start, fixed, slab, outs, found),
+             cnt_rows, clock)
 
 
 @njit(**BLOCK)
