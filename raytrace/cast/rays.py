@@ -9,6 +9,8 @@ from raytrace.kernels.counters import BAD_RAYS
 from raytrace.kernels.limits import FROM_ORIGIN
 from raytrace.scene.formats.mesh import MAX_COORD, bad_coordinate_rows
 
+_FLOAT64, _FLOAT32 = np.dtype(np.float64), np.dtype(np.float32)   # compared faster than types
+
 
 def _as_rows(name, a):
     """(n, 3) float64 array, or (3,) as one row; values are checked later."""
@@ -105,20 +107,19 @@ def _filled(n, value):
     return a
 
 
-def _rays(origins, directions, t_min, t_max, narrow=False):
+def _rays(origins, directions, t_min, t_max):
     """Validated kernel arrays (origins, directions, t_min, t_max), the
     rays' leading shape (None for rows), and the origins and directions as
     given, (n, 3) in their own dtype, for answers read after the call
     (RayHits): the kernel arrays may be this thread's buffers (_kernel_rows).
     ``directions`` None: ``origins`` holds (origin, direction) rows of 6.
-    ``narrow``: float32 origins and directions stay float32 where the
-    kernels read them in place (every ray query's, kernels/cast.py
-    kernel_rays): both C-contiguous (n, 3) arrays, or
-    (n, 6) rows, passed as both."""
+    float32 origins and directions stay float32, read in place by the
+    kernels (kernels/cast.py kernel_rays): both C-contiguous (n, 3) arrays,
+    or (n, 6) rows, passed as both."""
     if directions is None:
         rows, shape = _ray_rows("rays", origins, 6)
         o, d = rows[:, :3], rows[:, 3:]
-        kept = (rows, rows) if narrow and _kernel_ready(rows, np.float32) else None
+        kept = (rows, rows) if _kernel_ready(rows, _FLOAT32) else None
     else:
         o, o_shape = _ray_rows("origins", origins)
         d, d_shape = _ray_rows("directions", directions)
@@ -132,8 +133,8 @@ def _rays(origins, directions, t_min, t_max, narrow=False):
             d = np.broadcast_to(d, o.shape)
         if len(o) != len(d):
             raise RaytraceError(f"origins and directions differ in length ({len(o)} and {len(d)})")
-        kept = ((o, d) if narrow and _kernel_ready(o, np.float32) and _kernel_ready(d, np.float32)
-                else None)
+        kept = ((o, d) if (_kernel_ready(o, _FLOAT64) and _kernel_ready(d, _FLOAT64))
+                or (_kernel_ready(o, _FLOAT32) and _kernel_ready(d, _FLOAT32)) else None)
     n = len(d)
     tmin = _interval_end("t_min", t_min, n, shape)
     tmax = _interval_end("t_max", t_max, n, shape)
@@ -150,7 +151,7 @@ def _kernel_rows(a, slot):
     """(n, 3) rows ``a`` as a C float64 array: ``a`` itself when it is one,
     else a copy, into this thread's scratch ``slot`` (0 origins, 1
     directions).  float32 and integers convert exactly."""
-    if _kernel_ready(a, np.float64):
+    if _kernel_ready(a, _FLOAT64):
         return a
     out = _kernels().scratch_rows(a.shape[0], slot)
     np.copyto(out, a, casting="unsafe")

@@ -114,7 +114,7 @@ class RayScene:
         of (origin, direction) rows, as create_rays_pinhole and Open3D make
         them.  t_min, t_max: numbers or arrays over the rays, t_min < t_max
         (inf allowed); t_min < 0 counts hits at the origin (t = 0) too."""
-        rays, shape, given = _rays(origins, directions, t_min, t_max, narrow=True)
+        rays, shape, given = _rays(origins, directions, t_min, t_max)
         p = self._built("closest", len(rays[0]))
         (t, prim, u, v), cnt = _closest(p.geo, p.acc, *rays, self._check, p.entries)
         return RayHits(t, prim, u, v, *given, p, _counters(cnt, len(t)), shape)
@@ -123,7 +123,7 @@ class RayScene:
         """Whether anything is hit along each ray with t_min < t < t_max: a
         boolean array over the rays (rays as cast_rays takes them).  For a
         shadow ray, pass the unnormalised direction to the light and t_max = 1."""
-        rays, shape, _ = _rays(origins, directions, t_min, t_max, narrow=True)
+        rays, shape, _ = _rays(origins, directions, t_min, t_max)
         p = self._built("occluded", len(rays[0]))
         return _shaped(_any_hit(p.geo, p.acc, *rays, self._check, p.entries)[0], shape)
 
@@ -141,7 +141,7 @@ class RayScene:
         a BVH the first count or listing builds a tree of its own for
         counting and copies the triangles in its leaf order (about 95 bytes
         a triangle, kept with the scene)."""
-        rays, shape, _ = _rays(origins, directions, t_min, t_max, narrow=True)
+        rays, shape, _ = _rays(origins, directions, t_min, t_max)
         p = self._built("count", len(rays[0]))
         return _shaped(np.minimum(_counts(p, rays, self._check), _max_hits(max_hits, p)), shape)
 
@@ -154,7 +154,7 @@ class RayScene:
         order (rays as cast_rays takes them).  One traversal a ray,
         writing its hits into rows taken as they come (LISTING_GUESS rows a
         ray reserved in all); a second only for rays that find them spent."""
-        rays, _, given = _rays(origins, directions, t_min, t_max, narrow=True)
+        rays, _, given = _rays(origins, directions, t_min, t_max)
         p = self._built("list", len(rays[0]))
         limit = _max_hits(max_hits, p)
         splits, (t, prim, u, v), cnt = _listing(p, rays, self._check)
