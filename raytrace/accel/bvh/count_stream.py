@@ -80,10 +80,12 @@ def _count_packets(job, start, end, cnt):
 
 
 @njit(**JIT)
-def _crossing_ray(origins, dirs, t_min, t_max, i):
-    """Ray i as a CrossingRay and its t_max; past the last ray (a slot with
-    no ray left still holds one, never traced), the last one's."""
-    i = min(i, origins.shape[0] - 1)
+def _crossing_ray(origins, dirs, t_min, t_max, i, last):
+    """Ray i as a CrossingRay and its t_max; past ``last``, the chunk's
+    last ray (a slot with no ray left still holds one, never traced), the
+    last one's: not a ray of another chunk, which another thread may be
+    widening (ray.widen_rays)."""
+    i = min(i, last)
     ray = make_crossing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
                             dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i])
     return ray, t_max[i]
@@ -116,7 +118,7 @@ def _count_slot(job, span, i, ray, tm, br, s, t, stack, queue, after):
         job.out[i] = s.hits + (count_unbounded_hits(geo, ray, tm, cnt) if job.unbounded else 0)
         i = _next_good_ray(job, after, span.start, span.end, span.packed, cnt)
         after = i + 1
-        ray, tm = _crossing_ray(origins, dirs, t_min, t_max, i)
+        ray, tm = _crossing_ray(origins, dirs, t_min, t_max, i, span.end - 1)
         br = box_ray(acc, ray)
         s = _count_start(acc, i < span.end)
     return i, ray, tm, br, s, t, after
@@ -154,8 +156,8 @@ def count_stream(geo, acc, origins, dirs, t_min, t_max, narrow, out, cnt, clock,
         ia = _next_good_ray(job, start, start, end, packed, cnt)
         ib = _next_good_ray(job, ia + 1, start, end, packed, cnt)
         after = ib + 1
-        ray_a, tm_a = _crossing_ray(origins, dirs, t_min, t_max, ia)
-        ray_b, tm_b = _crossing_ray(origins, dirs, t_min, t_max, ib)
+        ray_a, tm_a = _crossing_ray(origins, dirs, t_min, t_max, ia, end - 1)
+        ray_b, tm_b = _crossing_ray(origins, dirs, t_min, t_max, ib, end - 1)
         br_a = box_ray(acc, ray_a)
         br_b = box_ray(acc, ray_b)
         sa = _count_start(acc, ia < end)
