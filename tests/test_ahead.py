@@ -5,6 +5,7 @@ import numba
 import pytest
 
 from raytrace.kernels import ahead as core
+from raytrace.kernels import kernel_cache
 from raytrace.renderer import ahead
 
 
@@ -48,6 +49,36 @@ def test_what_the_second_process_compiled_is_adopted_data_first_where_missing(tm
                    "kernels_x/ray.make_ray-40.py311.1.nbc": "our code"}
     for stem in ("wavefront.run_stage-347.py311", "shade.surface-28.py311"):
         assert copied.index(f"{stem}.1.nbc") < copied.index(f"{stem}.nbi")
+
+
+def test_the_second_process_starts_from_this_processs_entries_as_links(tmp_path, monkeypatch):
+    """The second process's cache starts as hard links to this process's
+    entries (kernels/ahead.py _seed), beside it: what is cached here loads
+    there.  A file either process saves again replaces its own link, so the
+    other cache keeps its file; and adopting skips what it did not save."""
+    ours = tmp_path / "cache" / "numba-abc"
+    _files(ours, {"kernels_x/shade.surface-28.py311.nbi": "surface index",
+                  "kernels_x/shade.surface-28.py311.1.nbc": "surface code",
+                  "kernels_x/shade.surface-28.py311.nbi.lock": ""})
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(ours))
+    cache = core._cache_beside(ours)
+    theirs = core.Path(cache) / "numba-abc"
+    core._seed(theirs, ours)
+    assert core.Path(cache).parent == ours.parent
+    seeded = sorted(p.relative_to(theirs).as_posix() for p in theirs.rglob("*"))
+    assert seeded == ["kernels_x", "kernels_x/shade.surface-28.py311.1.nbc",
+                      "kernels_x/shade.surface-28.py311.nbi"]
+    index = theirs / "kernels_x/shade.surface-28.py311.nbi"
+    assert index.stat().st_ino == (ours / "kernels_x/shade.surface-28.py311.nbi").stat().st_ino
+    merged = []
+    monkeypatch.setattr(kernel_cache, "merge_index", lambda a, b: merged.append(a.name))
+    core._adopt(core.Path(cache))
+    assert merged == []                   # linked, not saved again: skipped
+    (theirs / "kernels_x/new.nbi.tmp").write_text("their index")     # saved as Numba saves
+    core.os.replace(theirs / "kernels_x/new.nbi.tmp", index)
+    assert (ours / "kernels_x/shade.surface-28.py311.nbi").read_text() == "surface index"
+    core._adopt(core.Path(cache))
+    assert merged == ["shade.surface-28.py311.nbi"]      # saved there: merged here
 
 
 class _Finished:

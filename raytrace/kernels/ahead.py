@@ -38,10 +38,14 @@ def worthwhile(key):
 
 def launch(key, module, args):
     """Start ``python -m module *args`` compiling into a cache of its own
-    (the caller checked ``worthwhile``)."""
+    (the caller checked ``worthwhile``), which starts as a copy of this
+    process's (_seed)."""
+    import numba
+    ours = Path(numba.config.CACHE_DIR)
     cache = None
     try:
-        cache = tempfile.mkdtemp(prefix="raytrace-ahead-")
+        cache = _cache_beside(ours)
+        _seed(Path(cache) / ours.name, ours)
         process = subprocess.Popen([sys.executable, "-m", module, *map(str, args)],
                                    stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                    stderr=subprocess.DEVNULL, **child_setting(cache))
@@ -51,6 +55,34 @@ def launch(key, module, args):
         return
     _runs[key] = {"process": process, "cache": cache}
     atexit.register(stop, key)
+
+
+def _cache_beside(ours):
+    """A new folder for the second process's cache: beside this process's
+    cache ``ours``, so on its file system (_seed links), or where the
+    system keeps temporary files."""
+    try:
+        return tempfile.mkdtemp(prefix="raytrace-ahead-", dir=ours.parent)
+    except OSError:
+        return tempfile.mkdtemp(prefix="raytrace-ahead-")
+
+
+def _seed(theirs, ours):
+    """Give the second process's cache ``theirs`` this process's entries,
+    as hard links (instant; both caches replace a file by a rename, never
+    write into one, so neither changes the other's): what is cached here
+    (the teapot's shading helpers, say, before a first path-traced render)
+    loads there instead of compiling again.  Where a link cannot be made
+    (another file system, no links), it starts empty, as before: a path
+    tracer's shading entry after the teapot compiled in 6.7 s so, against
+    4.8 s in one process (docs/benchmarks.md, "A second process's cache")."""
+    try:
+        for path in ours.glob("*/*.nb[ic]"):
+            target = theirs / path.relative_to(ours)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            os.link(path, target)
+    except OSError:
+        shutil.rmtree(theirs, ignore_errors=True)
 
 
 def child_setting(cache):
@@ -104,6 +136,8 @@ def _adopt(cache):
     theirs = cache / ours.name
     for index in theirs.glob("*/*.nbi"):
         target = ours / index.parent.relative_to(theirs)
+        if _same_file(index, target / index.name):    # seeded (_seed), and not saved again
+            continue
         target.mkdir(parents=True, exist_ok=True)
         # Under the lock other processes save entries under: one saving this
         # function meanwhile would otherwise lose its entry to the copy.
@@ -116,6 +150,13 @@ def _adopt(cache):
                 tmp = target / f".{path.name}.tmp"
                 shutil.copyfile(path, tmp)
                 os.replace(tmp, target / path.name)
+
+
+def _same_file(a, b):
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
 
 
 def stop(key):
