@@ -187,7 +187,7 @@ _FLOAT32 = np.dtype(np.float32)     # compared faster than the type
 
 
 def kernel_rays(origins, dirs, t_min, t_max):
-    """(rays, narrow) as the closest and any-hit blocks take them.
+    """(rays, narrow) as the ray queries' blocks take them.
     origins, dirs: C-contiguous, aligned and writeable (n, 3) float64
     arrays, or float32 ones (or the same (n, 6) float32 rows twice), which
     the kernel widens into scratch rows a chunk at a time (ray.widen_rays)."""
@@ -397,9 +397,9 @@ def _listing_block(geo, acc, rays, narrow, start, fixed, slab, outs, found, cnt,
 
 def cast_listing(geo, acc, rays, start, fixed, slab, outs, found, cnt_rows, clock):
     """Every hit of ray i = (origins[i], dirs[i]) of rays = (origins, dirs,
-    t_min, t_max) (as kernel_rays takes them) with t_min[i] < t < t_max[i], each crossing of a closed
-    surface once, in order of (t, primitive id), into rows of outs (its t,
-    prim, u and v arrays):
+    t_min, t_max) (as kernel_rays takes them) with t_min[i] < t <
+    t_max[i], each crossing of a closed surface once, in order of (t,
+    primitive id), into rows of outs (its t, prim, u and v arrays):
     one traversal that never narrows the interval, as cast_counts's.
     found[i] gets the number of hits found, which is that count.
 
