@@ -81,6 +81,21 @@ def test_the_second_process_starts_from_this_processs_entries_as_links(tmp_path,
     assert merged == ["shade.surface-28.py311.nbi"]      # saved there: merged here
 
 
+def test_a_second_process_cache_left_a_day_ago_is_removed_at_the_next_launch(tmp_path):
+    """A folder beside the cache from a process killed outright (no stop
+    ran) goes when a later launch makes its own; a recent one, maybe a
+    running process's, stays."""
+    ours = tmp_path / "cache" / "numba-abc"
+    ours.mkdir(parents=True)
+    old, recent = ours.parent / "raytrace-ahead-old", ours.parent / "raytrace-ahead-recent"
+    _files(old, {"numba-abc/kernels_x/a.nbi": "index"})
+    recent.mkdir()
+    day_ago = core.time.time() - core._STALE_S - 60
+    core.os.utime(old, (day_ago, day_ago))
+    made = core.Path(core._cache_beside(ours))
+    assert not old.exists() and recent.exists() and made.parent == ours.parent
+
+
 class _Finished:
     def poll(self):
         return 0

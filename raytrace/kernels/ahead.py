@@ -20,6 +20,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 # key -> {"process": Popen, or False once it is done, "cache": its directory}
@@ -57,10 +58,22 @@ def launch(key, module, args):
     atexit.register(stop, key)
 
 
+# A second process's cache folder left by a process killed outright (stop
+# never ran) is removed by a later launch once it is this old.
+_STALE_S = 24 * 3600
+
+
 def _cache_beside(ours):
     """A new folder for the second process's cache: beside this process's
     cache ``ours``, so on its file system (_seed links), or where the
-    system keeps temporary files."""
+    system keeps temporary files.  Such folders older than _STALE_S go."""
+    now = time.time()
+    for old in ours.parent.glob("raytrace-ahead-*"):
+        try:
+            if now - old.stat().st_mtime > _STALE_S:
+                shutil.rmtree(old, ignore_errors=True)
+        except OSError:
+            pass
     try:
         return tempfile.mkdtemp(prefix="raytrace-ahead-", dir=ours.parent)
     except OSError:
