@@ -83,8 +83,7 @@ def _closest_kernel(packets):
         c = take_ticket(clock)
         while c < n_chunks:
             end = min(n, (c + 1) * CHUNK)
-            if narrow[0].shape[0] > 0:
-                widen_rays(narrow, origins, dirs, c * CHUNK, end)
+            widen_rays(narrow, origins, dirs, c * CHUNK, end)
             try_packets = not per_ray
             for i0 in range(c * CHUNK, end, PACKET):
                 m = min(PACKET, end - i0)
@@ -122,8 +121,7 @@ def _occluded_kernel(packets):
         c = take_ticket(clock)
         while c < n_chunks:
             end = min(n, (c + 1) * CHUNK)
-            if narrow[0].shape[0] > 0:
-                widen_rays(narrow, origins, dirs, c * CHUNK, end)
+            widen_rays(narrow, origins, dirs, c * CHUNK, end)
             try_packets = not per_ray
             for i0 in range(c * CHUNK, end, PACKET):
                 m = min(PACKET, end - i0)
@@ -354,8 +352,7 @@ def _listing_block(geo, acc, rays, narrow, start, fixed, slab, outs, found, cnt,
     slab_end = 0    # no slab yet: the first ray with a hit takes one
     c = take_ticket(clock)
     while c < n_chunks:
-        if narrow[0].shape[0] > 0:
-            widen_rays(narrow, origins, dirs, c * CHUNK, min(n, (c + 1) * CHUNK))
+        widen_rays(narrow, origins, dirs, c * CHUNK, min(n, (c + 1) * CHUNK))
         for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             found[i] = 0
             if not fixed:

@@ -180,8 +180,7 @@ def _count_rays(geo, acc, origins, dirs, t_min, t_max, narrow, out, cnt, clock, 
         n = origins.shape[0]
         c = take_ticket(clock)
         while c * chunk < n:
-            if narrow[0].shape[0] > 0:
-                widen_rays(narrow, origins, dirs, c * chunk, min(n, (c + 1) * chunk))
+            widen_rays(narrow, origins, dirs, c * chunk, min(n, (c + 1) * chunk))
             for i in range(c * chunk, min(n, (c + 1) * chunk)):
                 if not ray_ok(origins, dirs, t_min, t_max, i):
                     cnt[BAD_RAYS] += 1

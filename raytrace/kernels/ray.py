@@ -102,8 +102,11 @@ def widen_rays(narrow, origins, dirs, lo, end):
     (``narrow``: (n, 3) arrays, or the same (n, 6) rows twice, the origin
     first and the direction last) into the float64 arrays the kernel
     reads, exactly: a chunk at a time, by the thread that traces it, so
-    they are read once and still in cache when traced."""
+    they are read once and still in cache when traced.  Nothing where
+    narrow is empty (the call's rays are float64 already)."""
     o32, d32 = narrow
+    if o32.shape[0] == 0:
+        return
     col = d32.shape[1] - 3
     for i in range(lo, end):
         for a in range(3):

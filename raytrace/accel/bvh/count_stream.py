@@ -147,8 +147,7 @@ def count_stream(geo, acc, origins, dirs, t_min, t_max, narrow, out, cnt, clock,
     c = take_ticket(clock)
     while c * chunk < n:
         start, end = c * chunk, min(n, (c + 1) * chunk)
-        if narrow[0].shape[0] > 0:
-            widen_rays(narrow, origins, dirs, start, end)
+        widen_rays(narrow, origins, dirs, start, end)
         packed = _count_packets(job, start, end, cnt)
         span = Span(start, end, packed)
         # A slot past the chunk's end still holds a ray (the last one's),
