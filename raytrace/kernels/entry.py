@@ -15,6 +15,8 @@ try:
 except ImportError:          # a Numba without it: every call through the dispatcher
     compute_fingerprint = None
 
+from raytrace.kernels.packed import Packed
+
 # Compiled versions found, by kernel and the arguments' fingerprints (the
 # key Numba's dispatcher maps to a type): typing the arguments in Python
 # to find one takes 0.7-2 ms, so it is done once a process per signature,
@@ -50,7 +52,9 @@ class Entry:
             # as it goes, and a Shading record's type hashes in 0.3 ms.
             return next(iter(dict.values(overloads))).entry_point
         try:
-            key = (self.kernel, tuple(compute_fingerprint(a) for a in args))
+            # Numba fingerprints no Packed: its record's type stands for it.
+            key = (self.kernel, tuple(a.numba_type if isinstance(a, Packed) else
+                                      compute_fingerprint(a) for a in args))
         except (TypeError, ValueError, NotImplementedError):
             return self.kernel         # an argument Numba fingerprints not
         call = _FOUND.get(key)
