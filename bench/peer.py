@@ -134,6 +134,7 @@ def run_case(detail, width, height, runs, peer_list):
     from raytrace.accel.registry import build_structure
     from raytrace.cast.rays import _any_hit, _closest
     from raytrace.cast.rayscene import RayScene
+    from raytrace.kernels.cast import ray_scene
     from raytrace.scene.flatten import flatten
     from raytrace.scene.model import Mesh, Scene
 
@@ -146,11 +147,21 @@ def run_case(detail, width, height, runs, peer_list):
             t_mins[n] = np.full(n, 0.0)
         return t_mins[n]
 
+    # Each (geo, acc)'s packed scene made once, as a RayScene keeps it (the
+    # Packed holds geo and acc, so their ids are not reused meanwhile).
+    scenes = {}
+
+    def packed(geo, acc):
+        key = (id(geo), id(acc))
+        if key not in scenes:
+            scenes[key] = ray_scene(geo, acc)
+        return scenes[key]
+
     def closest(geo, acc, o, d, t_max):
-        return _closest(geo, acc, o, d, t_min(len(o)), t_max)
+        return _closest(packed(geo, acc), o, d, t_min(len(o)), t_max)
 
     def any_hit(geo, acc, o, d, t_max):
-        return _any_hit(geo, acc, o, d, t_min(len(o)), t_max)
+        return _any_hit(packed(geo, acc), o, d, t_min(len(o)), t_max)
 
     v, f, (po, pd), (so, sd, stm) = make_rays(detail, width, height)
     ptm = np.full(len(po), np.inf)

@@ -18,7 +18,7 @@ from raytrace.accel.bvh.sah import build_bvh, build_bvh_kernel, build_bvh_parall
 from raytrace.accel.registry import build_structure as build_accel
 from raytrace.accel.registry import get as get_structure
 from raytrace.kernels.buffers import INDEX, prim_bounds
-from raytrace.kernels.cast import COLUMNS, cast_closest, cast_counts, cast_occluded
+from raytrace.kernels.cast import COLUMNS, cast_closest, cast_counts, cast_occluded, ray_scene
 from raytrace.kernels.counters import BAD_RAYS, BOX_TESTS, NODES_VISITED, PRIM_HITS, PRIM_TESTS
 from raytrace.scene.flatten import flatten
 from raytrace.scene.model import Camera, Mesh, Plane, Scene, Sphere
@@ -49,16 +49,21 @@ def run_kernel(kernel, geo, acc, o, d, t_max, *out):
     return cnt.sum(axis=0)
 
 
+def _on_scene(kernel):
+    """A closest or any-hit kernel, which takes the scene packed, on geo, acc."""
+    return lambda geo, acc, *rest: kernel(ray_scene(geo, acc), *rest)
+
+
 def closest(geo, acc, o, d, t_max=None):
     n = len(o)
     out = (np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n))
-    return out, run_kernel(cast_closest, geo, acc, o, d,
+    return out, run_kernel(_on_scene(cast_closest), geo, acc, o, d,
                            np.full(n, np.inf) if t_max is None else t_max, *out)
 
 
 def occluded(geo, acc, o, d, t_max):
     hit = np.empty(len(o), np.bool_)
-    return hit, run_kernel(cast_occluded, geo, acc, o, d, t_max, hit)
+    return hit, run_kernel(_on_scene(cast_occluded), geo, acc, o, d, t_max, hit)
 
 
 def counts(geo, acc, o, d, t_max):

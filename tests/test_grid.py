@@ -9,6 +9,7 @@ from numba import njit
 from raytrace.accel.grid.build import GRID_MAX_RES, Grid, _fill_cells, build_grid, grid_eps
 from raytrace.accel.registry import build_structure as build_accel
 from raytrace.cast.rays import _any_hit, _closest
+from raytrace.kernels.cast import ray_scene
 from raytrace.kernels.counters import BOX_TESTS, CELLS_VISITED, PRIM_TESTS
 from raytrace.kernels.query import closest_hit, occluded
 from raytrace.kernels.ray import make_ray
@@ -35,11 +36,11 @@ def _arrays(o, d, t_max):
 
 
 def cast(geo, acc, o, d, t_max):
-    return _closest(geo, acc, *_arrays(o, d, t_max))
+    return _closest(ray_scene(geo, acc), *_arrays(o, d, t_max))
 
 
 def occ(geo, acc, o, d, t_max):
-    return _any_hit(geo, acc, *_arrays(o, d, t_max))
+    return _any_hit(ray_scene(geo, acc), *_arrays(o, d, t_max))
 
 
 @njit(error_model="numpy")

@@ -161,6 +161,25 @@ def test_progress_bands_give_the_same_image_and_counts(spheres_scene):
     assert len(calls) > 1 and calls[-1] == (300, 300)
 
 
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_bands_of_mirrors_and_paths_give_the_same_image_and_counts(integrator):
+    """A render's threads keep their stages, buffers and packed records from
+    band to band (kernels/waves.py render_rows): mirror and glass
+    generations, whose buffers grow, and paths, whose generations take
+    turns, give the pixels and counters of one call."""
+    from pathlib import Path
+
+    from raytrace import load_scene
+    scene = load_scene(str(Path(__file__).resolve().parent.parent / "assets" / "whitted.toml"))
+    kw = dict(width=48, height=200, integrator=integrator, spp=2)
+    calls = []
+    banded = render(scene, progress=lambda done, total: calls.append(done), **kw)
+    whole = render(scene, **kw)
+    assert np.array_equal(banded.linear, whole.linear)
+    assert banded.stats["counters"] == whole.stats["counters"]
+    assert len(calls) > 1
+
+
 @pytest.mark.parametrize("specular, shininess", [(0.5, 20.0), (0.0, 1.0), (0.0, 48.0)])
 def test_blinn_phong_at_a_known_point(specular, shininess):
     """The centre pixel of a 3x3 render looks straight down -z at the top

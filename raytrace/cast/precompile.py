@@ -50,7 +50,8 @@ def main(accel, query, packets):
     else:
         block = cast.occluded_block(acc, n_rays)
         out = np.zeros(0, np.bool_)
-    cast.run_blocks(block, (geo, acc, *cast.kernel_rays(rows, rows, ends, ends), out), cnt, clock)
+    cast.run_blocks(block, (cast.ray_scene(geo, acc), *cast.kernel_rays(rows, rows, ends, ends), out),
+                    cnt, clock)
 
 
 if __name__ == "__main__":

@@ -30,6 +30,7 @@ class _Prepared:
         # The closest and any-hit kernels' compiled entry points for this
         # scene's types (kernels/cast.py closest_alone).
         self.entries = {}
+        self._scene = None
         self._counting = None
         self._bvh = None
         self._bounds = None
@@ -37,7 +38,15 @@ class _Prepared:
     def __getstate__(self):
         # Compiled entry points are this process's (and do not pickle): a
         # copy on a Dask worker finds its own at its first call.
-        return dict(self.__dict__, entries={})
+        return dict(self.__dict__, entries={}, _scene=None)
+
+    def scene(self):
+        """The geometry and the structure as the closest and any-hit
+        kernels take them (kernels/cast.py ray_scene), made once."""
+        if self._scene is None:
+            from raytrace.kernels.cast import ray_scene
+            self._scene = ray_scene(self.geo, self.acc)
+        return self._scene
 
     def bounds(self):
         """(lo, hi) of the bounded primitives (triangles, spheres); None if

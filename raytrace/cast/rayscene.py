@@ -116,7 +116,7 @@ class RayScene:
         (inf allowed); t_min < 0 counts hits at the origin (t = 0) too."""
         rays, shape, given = _rays(origins, directions, t_min, t_max)
         p = self._built("closest", len(rays[0]))
-        (t, prim, u, v), cnt = _closest(p.geo, p.acc, *rays, self._check, p.entries)
+        (t, prim, u, v), cnt = _closest(p.scene(), *rays, self._check, p.entries)
         return RayHits(t, prim, u, v, *given, p, _counters(cnt, len(t)), shape)
 
     def occluded(self, origins, directions=None, t_min=0.0, t_max=np.inf):
@@ -125,7 +125,7 @@ class RayScene:
         shadow ray, pass the unnormalised direction to the light and t_max = 1."""
         rays, shape, _ = _rays(origins, directions, t_min, t_max)
         p = self._built("occluded", len(rays[0]))
-        return _shaped(_any_hit(p.geo, p.acc, *rays, self._check, p.entries)[0], shape)
+        return _shaped(_any_hit(p.scene(), *rays, self._check, p.entries)[0], shape)
 
     def count_intersections(self, origins, directions=None, t_min=0.0, t_max=np.inf,
                             max_hits=None):

@@ -29,6 +29,7 @@ from raytrace.kernels.counters import (
 from raytrace.kernels.jit import BLOCK, JIT, STAGE
 from raytrace.kernels.limits import MAX_BOUNCES
 from raytrace.kernels.optics import bounce_weights, reflect, refract
+from raytrace.kernels.packed import Packed, unpack
 from raytrace.kernels.ray import Hit, make_ray
 from raytrace.kernels.render import camera_ray, hit_frame, point_albedo, sky, surface_albedo
 from raytrace.kernels.wavefront import light_entries, lit, room_for_hit
@@ -231,19 +232,22 @@ def gather(wave, n, light, c):
 
 
 @njit(**BLOCK)
-def run_bounce_stage(step, shading, textures, wave, bufs, counters, args):
+def run_bounce_stage(step, records, args):
     """One stage of a wave with mirror and glass rays (the Python side:
     waves._Generations), between wavefront.run_stage's CAMERA, which makes
     the wave's camera rays, and its FINISH over no rays, which stores the
     samples' colours: the steps both renders share are compiled once, in
-    run_stage.  bufs = (this generation, the next, shadow rays, light),
-    args five ints, the result four.  FIRST: the wave's args[0] camera
+    run_stage.  records: bounce_records' (shading, textures, wave, bufs,
+    counters), packed (packed.py: their ninety-odd arrays unboxed one by
+    one cost the wrapper 0.4 s more), bufs = (this generation, the next,
+    shadow rays, light); args five ints, the result four.  FIRST: the wave's args[0] camera
     rays as generation 0; returns (rays, ...).  SHADE: shade_generation of
     rays args[0] .. args[1] - 1, the next generation from row args[2],
     light from row args[3], max_depth args[4]; returns its four numbers.
     FINISH: finish_generation of rays args[0] .. args[1] - 1, light from
     row args[2]; returns (light's rows, ...).  GATHER: the colours of the
     wave's args[0] samples from args[1] rows of light."""
+    shading, textures, wave, bufs, counters = unpack(records)
     gen, nxt, shadow, light = bufs
     a, b, c, d, e = args
     if step == FIRST:
@@ -255,6 +259,11 @@ def run_bounce_stage(step, shading, textures, wave, bufs, counters, args):
         return finish_generation(shading, gen, (a, b), shadow, light, c, counters), 0, 0, 0
     gather(wave, a, light, b)
     return 0, 0, 0, 0
+
+
+def bounce_records(shading, textures, wave, bufs, counters):
+    """run_bounce_stage's records, packed."""
+    return Packed((shading, textures, wave, bufs, counters))
 
 
 def generation_buffers(rays):

@@ -32,7 +32,10 @@ rows, after the declared counters, so the Python layer names the problem
 after the call; a separate pass over the rays would be a sizeable share of
 a call.
 
-Each kernel is compiled once per structure (query.py), on first use.
+Each kernel is compiled once per structure (query.py), on first use.  The
+closest and any-hit blocks take the geometry and the structure packed
+(``ray_scene``, packed.py): their wrappers unbox one word for them, not
+some thirty arrays, which cost a cold compile 0.1-0.2 s a block.
 """
 import functools
 import threading
@@ -44,6 +47,7 @@ from raytrace.kernels.counters import BAD_RAYS, N_COUNTERS
 from raytrace.kernels.entry import Entry
 from raytrace.kernels.jit import BLOCK, JIT
 from raytrace.kernels.lowlevel import PACKET, frame_array, take_rows, take_ticket
+from raytrace.kernels.packed import Packed, unpack
 from raytrace.kernels.query import (
     NOT_PACKED,
     PACKED,
@@ -74,7 +78,8 @@ def _closest_kernel(packets):
     dirs, t_min, t_max); narrow: empty, or the call's float32 origins and
     directions, widened into rays' a chunk at a time (ray.widen_rays)."""
     @njit(**BLOCK)
-    def block(geo, acc, rays, narrow, outs, cnt, rows, clock):
+    def block(scene, rays, narrow, outs, cnt, rows, clock):
+        geo, acc = unpack(scene)
         origins, dirs, t_min, t_max = rays
         out_t, out_prim, out_u, out_v = outs
         n = origins.shape[0]
@@ -113,7 +118,8 @@ def _closest_kernel(packets):
 def _occluded_kernel(packets):
     """A thread's share of cast_occluded, as _closest_kernel's."""
     @njit(**BLOCK)
-    def block(geo, acc, rays, narrow, out_hit, cnt, rows, clock):
+    def block(scene, rays, narrow, out_hit, cnt, rows, clock):
+        geo, acc = unpack(scene)
         origins, dirs, t_min, t_max = rays
         n = origins.shape[0]
         per_ray = rows.shape[0] > 0
@@ -230,34 +236,40 @@ def _call_entry(block, args, entries):
     entry(*args)
 
 
-def closest_alone(geo, acc, rays, outs, cnt, clock, entries):
+def ray_scene(geo, acc):
+    """The closest and any-hit blocks' ``scene``: geometry and layout
+    packed (packed.py), made once for the calls on them."""
+    return Packed((geo, acc))
+
+
+def closest_alone(scene, rays, outs, cnt, clock, entries):
     """cast_closest of a call of one counter row ``cnt`` (1, COLUMNS), in
     the calling thread, through _call_entry: rays (origins, dirs, t_min,
     t_max) as kernel_rays takes them, and outs (t, prim, u, v) as
     cast/rays.py allocates them."""
-    _call_entry(closest_block(acc, rays[0].shape[0]),
-                (geo, acc, *kernel_rays(*rays), outs, cnt, _ONE_ROW, clock), entries)
+    _call_entry(closest_block(scene.record[1], rays[0].shape[0]),
+                (scene, *kernel_rays(*rays), outs, cnt, _ONE_ROW, clock), entries)
 
 
-def occluded_alone(geo, acc, rays, out_hit, cnt, clock, entries):
+def occluded_alone(scene, rays, out_hit, cnt, clock, entries):
     """cast_occluded as closest_alone is cast_closest."""
-    _call_entry(occluded_block(acc, rays[0].shape[0]),
-                (geo, acc, *kernel_rays(*rays), out_hit, cnt, _ONE_ROW, clock), entries)
+    _call_entry(occluded_block(scene.record[1], rays[0].shape[0]),
+                (scene, *kernel_rays(*rays), out_hit, cnt, _ONE_ROW, clock), entries)
 
 
-def cast_closest(geo, acc, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v,
+def cast_closest(scene, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v,
                  cnt_rows, clock):
     """Closest hit of ray i = (origins[i], dirs[i]) with t_min[i] < t < t_max[i]
-    (rays as kernel_rays takes them)."""
+    (rays as kernel_rays takes them) in ``scene`` (ray_scene's)."""
     outs = (out_t, out_prim, out_u, out_v)
-    run_blocks(closest_block(acc, origins.shape[0]),
-               (geo, acc, *kernel_rays(origins, dirs, t_min, t_max), outs), cnt_rows, clock)
+    run_blocks(closest_block(scene.record[1], origins.shape[0]),
+               (scene, *kernel_rays(origins, dirs, t_min, t_max), outs), cnt_rows, clock)
 
 
-def cast_occluded(geo, acc, origins, dirs, t_min, t_max, out_hit, cnt_rows, clock):
+def cast_occluded(scene, origins, dirs, t_min, t_max, out_hit, cnt_rows, clock):
     """Whether anything is hit with t_min[i] < t < t_max[i] (stops at the first)."""
-    run_blocks(occluded_block(acc, origins.shape[0]),
-               (geo, acc, *kernel_rays(origins, dirs, t_min, t_max), out_hit), cnt_rows, clock)
+    run_blocks(occluded_block(scene.record[1], origins.shape[0]),
+               (scene, *kernel_rays(origins, dirs, t_min, t_max), out_hit), cnt_rows, clock)
 
 
 # The renderer's calls (kernels/waves.py, path_waves.py): one thread's
@@ -280,11 +292,11 @@ def ray_tally(acc, per_ray):
     return None if per_ray or not has_packets(acc) else np.zeros((1, COLUMNS), np.int64)
 
 
-def _render_call(packet_block, single_block, acc, args, cnt, rows, entries, tally):
-    """A renderer's call of args' rays through the packet kernel (a
-    structure with packets) or the one-ray kernel, counting as
+def _render_call(packet_block, single_block, args, cnt, rows, entries, tally):
+    """A renderer's call of args' rays (the scene first) through the packet
+    kernel (a structure with packets) or the one-ray kernel, counting as
     ray_tally's comment says."""
-    block = packet_block if has_packets(acc) else single_block
+    block = packet_block if has_packets(args[0].record[1]) else single_block
     if tally is None:
         _call_entry(block, (*args, cnt, rows, np.zeros(1, np.int64)), entries)
         return
@@ -292,16 +304,16 @@ def _render_call(packet_block, single_block, acc, args, cnt, rows, entries, tall
     _settle(tally, cnt, rows)
 
 
-def closest_rays(geo, acc, rays, outs, cnt, rows, entries, tally=None):
+def closest_rays(scene, rays, outs, cnt, rows, entries, tally=None):
     """Closest hits of rays = (origins, dirs, t_min, t_max) into outs =
-    (t, prim, u, v), in the calling thread."""
-    _render_call(_closest_block, _closest_single, acc, (geo, acc, rays, FLOAT64_RAYS, outs), cnt,
+    (t, prim, u, v), in the calling thread; scene: ray_scene's."""
+    _render_call(_closest_block, _closest_single, (scene, rays, FLOAT64_RAYS, outs), cnt,
                  rows, entries, tally)
 
 
-def occluded_rays(geo, acc, rays, out_hit, cnt, rows, entries, tally=None):
+def occluded_rays(scene, rays, out_hit, cnt, rows, entries, tally=None):
     """cast_occluded of rays = (origins, dirs, t_min, t_max), as closest_rays."""
-    _render_call(_occluded_block, _occluded_single, acc, (geo, acc, rays, FLOAT64_RAYS, out_hit),
+    _render_call(_occluded_block, _occluded_single, (scene, rays, FLOAT64_RAYS, out_hit),
                  cnt, rows, entries, tally)
 
 

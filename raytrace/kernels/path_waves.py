@@ -5,7 +5,7 @@ waves._Generations runs mirrors and glass: the stages' compiled entries
 kernels (cast.py), in turn.  Imported only by a path-traced render (waves._stages), so
 nothing of it compiles for any other."""
 from raytrace.kernels import pathtrace
-from raytrace.kernels.cast import closest_rays, occluded_rays, ray_tally
+from raytrace.kernels.cast import closest_rays, occluded_rays, ray_scene, ray_tally
 from raytrace.kernels.entry import Entry
 from raytrace.kernels.wavefront import CAMERA, SHADOW_BATCH, TILE, wave_buffers, wave_squares
 
@@ -15,6 +15,7 @@ class PathStages:
 
     def __init__(self, shading, textures, acc, band, paths):
         self.shading, self.textures, self.acc, self.band = shading, textures, acc, band
+        self.scene = ray_scene(shading.geo, acc)
         self.paths = paths
         self.squares = wave_squares(shading.width, shading.spp)
         self.wave = wave_buffers(self.squares * TILE * TILE * shading.spp)
@@ -30,17 +31,25 @@ class PathStages:
         self.entries = {}       # as waves._Stages'
         self.run_path_stage = Entry(pathtrace.run_path_stage)
         self.run_path_shade = Entry(pathtrace.run_path_shade)
+        self.records = {}
 
     def stage(self, step, args):
         """pathtrace's entry for ``step`` (run_path_shade for SHADE, else
-        run_path_stage) with this thread's records."""
+        run_path_stage) with this thread's records: packed once for each
+        order of the generations (they take turns) and each entry."""
+        shade = step == pathtrace.SHADE
         gen, nxt = self.gens
-        bufs = (gen, nxt, self.shadow)
-        if step == pathtrace.SHADE:
-            return self.run_path_shade(self.shading, self.textures, self.paths, self.wave, bufs,
-                                       self.counters, args)
-        return self.run_path_stage(step, self.shading, self.textures, self.paths, self.wave,
-                                   bufs, self.counters, self.band, args)
+        key = shade, id(gen), id(nxt), id(self.wave), id(self.shadow)
+        records = self.records.get(key)
+        if records is None:
+            if len(self.records) >= 4:      # buffers replaced (load): the old ones go
+                self.records.clear()
+            records = self.records[key] = pathtrace.path_records(
+                self.shading, self.textures, self.paths, self.wave, (gen, nxt, self.shadow),
+                self.counters, None if shade else self.band)
+        if shade:
+            return self.run_path_shade(records, args)
+        return self.run_path_stage(step, records, args)
 
     def strip(self, top, y_end):
         """The strip of TILE rows from ``top``, a wave of squares at a time."""
@@ -52,17 +61,17 @@ class PathStages:
         own = int(self.counters is self.wave.cnt)
         n, _, _ = self.stage(CAMERA, (top, y_end, q0, q1, own))
         p = n
-        geo, acc, s = self.shading.geo, self.acc, self.shadow
+        scene, s = self.scene, self.shadow
         while p:
             gen = self.gens[0]
-            closest_rays(geo, acc, (gen.origins[:p], gen.dirs[:p], gen.t_min[:p], gen.t_max[:p]),
+            closest_rays(scene, (gen.origins[:p], gen.dirs[:p], gen.t_min[:p], gen.t_max[:p]),
                          (gen.hit_t[:p], gen.hit_prim[:p], gen.hit_u[:p], gen.hit_v[:p]),
                          self.counters, gen.row[:p], self.entries, self.tally)
             i = q = 0
             while i < p:
                 i, m, q = self.stage(pathtrace.SHADE, (i, p, q, 0, 0))
                 if m:
-                    occluded_rays(geo, acc, (s.origins[:m], s.dirs[:m], s.t_min[:m], s.t_max[:m]),
+                    occluded_rays(scene, (s.origins[:m], s.dirs[:m], s.t_min[:m], s.t_max[:m]),
                                   s.blocked[:m], self.counters, s.row[:m], self.entries,
                                   self.tally)
                     self.stage(pathtrace.FINISH, (m, 0, 0, 0, 0))

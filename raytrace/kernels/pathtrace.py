@@ -55,6 +55,7 @@ from raytrace.kernels.counters import (
 from raytrace.kernels.glossy import lobe_value, phong_direction
 from raytrace.kernels.jit import BLOCK, JIT, STAGE
 from raytrace.kernels.optics import bounce_weights, reflect, refract
+from raytrace.kernels.packed import Packed, unpack
 from raytrace.kernels.ray import Hit, make_ray
 from raytrace.kernels.render import camera_ray, hit_frame, point_albedo, sky, surface_albedo
 from raytrace.kernels.sampling import hash_key, rand01
@@ -487,13 +488,16 @@ def first_paths(shading, paths, wave, n, gen):
 
 
 @njit(**BLOCK)
-def run_path_stage(step, shading, textures, paths, wave, bufs, counters, band, args):
+def run_path_stage(step, records, args):
     """One stage of a wave of paths but its shading (run_path_shade; the
-    Python side: path_waves.py); bufs = (this generation, the next, shadow
-    rays), args five ints, the result three.  CAMERA: camera_wave (args as
+    Python side: path_waves.py); records: (shading, textures, paths, wave,
+    bufs, counters, band) packed (packed.py, as wavefront.run_stage's),
+    bufs = (this generation, the next, shadow rays); args five ints, the
+    result three.  CAMERA: camera_wave (args as
     wavefront.run_stage's) and generation 0; returns (rays, 0, 0).  FINISH:
     finish_paths of args[0] shadow rays.  STORE: store_wave of the wave's
     args[0] samples."""
+    shading, _, paths, wave, bufs, counters, band = unpack(records)
     gen, _, shadow = bufs
     a, b, c, d, e = args
     if step == CAMERA:
@@ -507,15 +511,23 @@ def run_path_stage(step, shading, textures, paths, wave, bufs, counters, band, a
 
 
 @njit(**BLOCK)
-def run_path_shade(shading, textures, paths, wave, bufs, counters, args):
+def run_path_shade(records, args):
     """SHADE: shade_paths of rays args[0] .. args[1] - 1, the next
-    generation from row args[2]; returns its three numbers.  An entry of
+    generation from row args[2]; returns its three numbers; records:
+    run_path_stage's but the band.  An entry of
     its own, most of the path tracer's compile: a first run compiles it in
     the second process (renderer/ahead.py) while this one compiles the
     structure's kernels and run_path_stage."""
+    shading, textures, paths, wave, bufs, counters = unpack(records)
     gen, nxt, shadow = bufs
     a, b, c, _, _ = args
     return shade_paths(shading, textures, paths, wave, gen, (a, b), nxt, c, shadow, counters)
+
+
+def path_records(shading, textures, paths, wave, bufs, counters, band=None):
+    """run_path_stage's records (run_path_shade's without ``band``), packed."""
+    record = (shading, textures, paths, wave, bufs, counters)
+    return Packed(record if band is None else record + (band,))
 
 
 def path_buffers(rays):

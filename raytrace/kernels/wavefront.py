@@ -39,6 +39,7 @@ from raytrace.kernels.counters import (
     SHADOW_RAYS,
 )
 from raytrace.kernels.jit import BLOCK, JIT, STAGE
+from raytrace.kernels.packed import Packed, unpack
 from raytrace.kernels.ray import Hit
 from raytrace.kernels.render import camera_ray, hit_frame, sky, surface_albedo
 from raytrace.kernels.sampling import hash_key, rand01, square_sample
@@ -362,16 +363,19 @@ CAMERA, SHADE, FINISH = 0, 1, 2
 
 
 @njit(**BLOCK)
-def run_stage(step, shading, textures, wave, rays, counters, band, args):
+def run_stage(step, records, args):
     """One shading stage, for _Stages: one compiled entry for all of them
-    (each entry's wrapper, unpacking these records, costs about a second
-    of a cold compile).  args: five ints.  CAMERA: camera_wave of the
+    (each entry's wrapper costs a share of a cold compile).  records:
+    stage_records' (shading, textures, wave, rays, counters, band), packed
+    (packed.py: their sixty-odd arrays unboxed one by one cost the
+    wrapper 0.25 s more).  args: five ints.  CAMERA: camera_wave of the
     strip from row args[0] (rows below args[1]), squares args[2] ..
     args[3] - 1, counting into own rows if args[4]; returns (rays, 0).
     SHADE: shade_wave of rays args[0] .. args[1] - 1; returns (first ray
     not shaded, shadow rays).  FINISH: light_wave of rays args[0] ..
     args[1] - 1 and, when args[1] == args[2], store_wave of the wave's
     args[2] rays; returns (0, 0)."""
+    shading, textures, wave, rays, counters, band = unpack(records)
     a, b, c, d, e = args
     if step == CAMERA:
         return camera_wave(shading, wave, a, b, (c, d), counters, band.row0, e != 0), 0
@@ -381,6 +385,11 @@ def run_stage(step, shading, textures, wave, rays, counters, band, args):
     if b == c:
         store_wave(shading, wave, c, band)
     return 0, 0
+
+
+def stage_records(shading, textures, wave, rays, counters, band):
+    """run_stage's records, packed: made once for a thread's calls."""
+    return Packed((shading, textures, wave, rays, counters, band))
 
 
 def wave_buffers(rays):

@@ -10,7 +10,7 @@ import threading
 import numpy as np
 
 from raytrace.kernels import bounces
-from raytrace.kernels.cast import closest_rays, occluded_rays, ray_tally
+from raytrace.kernels.cast import closest_rays, occluded_rays, ray_scene, ray_tally
 from raytrace.kernels.entry import Entry
 from raytrace.kernels.render import NoBounces, Paths, SoftShadows
 from raytrace.kernels.threads import run_on_threads
@@ -25,6 +25,7 @@ from raytrace.kernels.wavefront import (
     Shading,
     run_stage,
     shadow_buffers,
+    stage_records,
     wave_buffers,
     wave_squares,
 )
@@ -35,6 +36,7 @@ class _Stages:
 
     def __init__(self, shading, textures, acc, band):
         self.shading, self.textures, self.acc, self.band = shading, textures, acc, band
+        self.scene = ray_scene(shading.geo, acc)
         spp = shading.spp
         self.squares = wave_squares(shading.width, spp)
         self.wave = wave_buffers(self.squares * TILE * TILE * spp)
@@ -55,6 +57,8 @@ class _Stages:
         # compiled entry (entry.py), not the dispatcher, after the first call.
         self.entries = {}
         self.run_stage = Entry(run_stage)
+        self.records = stage_records(shading, textures, self.wave, self.shadow, self.counters,
+                                     band)
 
     def strip(self, top, y_end):
         """The strip of TILE rows from ``top``, a wave of squares at a time."""
@@ -65,34 +69,30 @@ class _Stages:
     def camera(self, top, y_end, q0, q1):
         """The wave's camera rays and their closest hits; returns how many."""
         wave = self.wave
-        n, _ = self.run_stage(CAMERA, self.shading, self.textures, wave, self.shadow,
-                              self.counters, self.band,
+        n, _ = self.run_stage(CAMERA, self.records,
                               (top, y_end, q0, q1, int(self.counters is wave.cnt)))
         if n not in self.views:
             self.views[n] = ((wave.origins[:n], wave.dirs[:n], wave.t_min[:n], wave.t_max[:n]),
                              (wave.hit_t[:n], wave.hit_prim[:n], wave.hit_u[:n], wave.hit_v[:n]),
                              wave.row[:n])
         rays, hits, rows = self.views[n]
-        closest_rays(self.shading.geo, self.acc, rays, hits, self.counters, rows, self.entries,
-                     self.tally)
+        closest_rays(self.scene, rays, hits, self.counters, rows, self.entries, self.tally)
         return n
 
     def occlude(self, m):
         """Trace the first m shadow rays."""
         s = self.shadow
-        occluded_rays(self.shading.geo, self.acc, (s.origins[:m], s.dirs[:m], s.t_min[:m],
-                                                   s.t_max[:m]), s.blocked[:m], self.counters,
-                      s.row[:m], self.entries, self.tally)
+        occluded_rays(self.scene, (s.origins[:m], s.dirs[:m], s.t_min[:m], s.t_max[:m]),
+                      s.blocked[:m], self.counters, s.row[:m], self.entries, self.tally)
 
     def trace(self, top, y_end, q0, q1):
-        args = self.shading, self.textures, self.wave, self.shadow, self.counters, self.band
         n = self.camera(top, y_end, q0, q1)
         k = 0
         while k < n:
-            k1, m = self.run_stage(SHADE, *args, (k, n, 0, 0, 0))
+            k1, m = self.run_stage(SHADE, self.records, (k, n, 0, 0, 0))
             if m:
                 self.occlude(m)
-            self.run_stage(FINISH, *args, (k, k1, n, 0, 0))
+            self.run_stage(FINISH, self.records, (k, k1, n, 0, 0))
             k = k1
 
 
@@ -107,17 +107,26 @@ class _Generations(_Stages):
         self.gens = [bounces.generation_buffers(size), bounces.generation_buffers(2 * size)]
         self.light = bounces.light_buffers(2 * size, size)
         self.run_bounce_stage = Entry(bounces.run_bounce_stage)
+        self.bounce_records = {}
 
     def stage(self, step, bufs, args):
-        """bounces.run_bounce_stage with this thread's records."""
-        return self.run_bounce_stage(step, self.shading, self.textures, self.wave, bufs,
-                                     self.counters, args)
+        """bounces.run_bounce_stage with this thread's records: packed once
+        for each pair of generations (they take turns), again for buffers
+        grown since."""
+        gen, nxt, _, light = bufs
+        key = id(gen), id(nxt), id(light)
+        records = self.bounce_records.get(key)
+        if records is None:
+            if len(self.bounce_records) >= 2:      # a buffer replaced: the old ones go
+                self.bounce_records.clear()
+            records = self.bounce_records[key] = bounces.bounce_records(
+                self.shading, self.textures, self.wave, bufs, self.counters)
+        return self.run_bounce_stage(step, records, args)
 
     def trace(self, top, y_end, q0, q1):
         gen, nxt = self.gens
-        stages = self.shading, self.textures, self.wave, self.shadow, self.counters, self.band
         own = int(self.counters is self.wave.cnt)
-        n, _ = self.run_stage(CAMERA, *stages, (top, y_end, q0, q1, own))
+        n, _ = self.run_stage(CAMERA, self.records, (top, y_end, q0, q1, own))
         self.stage(bounces.FIRST, (gen, nxt, self.shadow, self.light), (n, 0, 0, 0, 0))
         p, c = n, 0
         while p:
@@ -126,7 +135,7 @@ class _Generations(_Stages):
                 nxt = bounces.generation_buffers(2 * p)
             if len(self.light.key) < c + p:
                 self.light = _grown(self.light, 2 * (c + p))
-            closest_rays(self.shading.geo, self.acc,
+            closest_rays(self.scene,
                          (gen.origins[:p], gen.dirs[:p], gen.t_min[:p], gen.t_max[:p]),
                          (gen.hit_t[:p], gen.hit_prim[:p], gen.hit_u[:p], gen.hit_v[:p]),
                          self.counters, gen.row[:p], self.entries, self.tally)
@@ -141,7 +150,7 @@ class _Generations(_Stages):
             gen, nxt, p = nxt, gen, q
         self.gens = [gen, nxt]
         self.stage(bounces.GATHER, (gen, nxt, self.shadow, self.light), (n, c, 0, 0, 0))
-        self.run_stage(FINISH, *stages, (n, n, n, 0, 0))     # no rays to light: stores the wave
+        self.run_stage(FINISH, self.records, (n, n, n, 0, 0))   # no rays to light: stores the wave
 
 
 def _grown(light, rows):
@@ -172,11 +181,12 @@ def load_rays(render, band):
     wave, shadow = wave_buffers(0), shadow_buffers(0, 0)
     geo, acc = render.lighting.geo, render.lighting.acc
     tally = ray_tally(acc, len(band.aovs.cost) > 0)      # as _Stages chooses
-    closest_rays(geo, acc, (wave.origins, wave.dirs, wave.t_min, wave.t_max),
+    scene = ray_scene(geo, acc)
+    closest_rays(scene, (wave.origins, wave.dirs, wave.t_min, wave.t_max),
                  (wave.hit_t, wave.hit_prim, wave.hit_u, wave.hit_v), band.stats_rows, wave.row,
                  {}, tally)
     if casts_shadow_rays(render):
-        occluded_rays(geo, acc, (shadow.origins, shadow.dirs, shadow.t_min, shadow.t_max),
+        occluded_rays(scene, (shadow.origins, shadow.dirs, shadow.t_min, shadow.t_max),
                       shadow.blocked, band.stats_rows, shadow.row, {}, tally)
 
 
@@ -212,13 +222,14 @@ def load_shading(render, band):
         path_waves.load(stages, shade=True)
         return
     stages.wave, stages.shadow = wave_buffers(0), shadow_buffers(0, 0)
-    run_stage(CAMERA, stages.shading, stages.textures, stages.wave, stages.shadow,
-              stages.counters, band, (0, 0, 0, 0, 0))
+    run_stage(CAMERA, stage_records(stages.shading, stages.textures, stages.wave, stages.shadow,
+                                    stages.counters, band), (0, 0, 0, 0, 0))
     if isinstance(stages, _Generations):
         gen = bounces.generation_buffers(0)
-        bounces.run_bounce_stage(bounces.FIRST, stages.shading, stages.textures, stages.wave,
-                                 (gen, gen, stages.shadow, bounces.light_buffers(0, 0)),
-                                 stages.counters, (0, 0, 0, 0, 0))
+        bounces.run_bounce_stage(bounces.FIRST, bounces.bounce_records(
+            stages.shading, stages.textures, stages.wave,
+            (gen, gen, stages.shadow, bounces.light_buffers(0, 0)), stages.counters),
+            (0, 0, 0, 0, 0))
 
 
 def _stages(render, band):
@@ -240,16 +251,21 @@ def _stages(render, band):
                         int(render.bounces.max_depth))
 
 
-def render_rows(render, band, y0, y1, n_threads, clock):
+def render_rows(render, band, y0, y1, n_threads, clock, reuse=None):
     """Render rows y0 .. y1-1 of a Render (render.py's record) into a Band:
     image row y is band.image[y - band.row0] (row0 = 0 for a whole-image
     buffer; a tile's own buffer starts at its first row), likewise its
     counter rows and AOVs (load_rays and load_shading compile or load the
     kernels first).  clock: a one-element int64 array, 0 at the call: the
-    strips' tickets."""
+    strips' tickets.  reuse: a dict the caller keeps across calls of one
+    render into the same Band buffers (a progress bar's bands of rows),
+    holding the threads' stages, their buffers and packed records, so each
+    is made once a render, not once a band."""
     if y1 <= y0:
         return
     n_parts = max(1, min(n_threads, -(-(y1 - y0) // TILE)))
+    stages = [] if reuse is None else reuse.setdefault("stages", [])
+    while len(stages) < n_parts:
+        stages.append(_stages(render, band))
     lock = threading.Lock()
-    run_on_threads([functools.partial(_strips, _stages(render, band), y0, y1, clock, lock)
-                    for _ in range(n_parts)])
+    run_on_threads([functools.partial(_strips, s, y0, y1, clock, lock) for s in stages[:n_parts]])

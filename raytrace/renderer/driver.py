@@ -426,12 +426,14 @@ def prepare(scene, opts, drop_meshes=False):
 
 
 def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows=None, row0=None,
-                load=True):
+                load=True, reuse=None):
     """Rows y0 .. y1 of the frame seen from ``cam`` (camera_buffer), from a
     Setup's payload: (linear float32 rows, counter rows, compile_s,
     render_s).  Without buffers, the band gets its own (rows y0 .. y1 only:
     a tile of a poster costs its own rows, not the poster's).  ``load``:
-    first compile or load the kernel, timed apart (compile_s; 0 without)."""
+    first compile or load the kernel, timed apart (compile_s; 0 without).
+    ``reuse``: as waves.render_rows takes it, for bands of one render into
+    the same buffers."""
     from raytrace.kernels.counters import N_COUNTERS
     from raytrace.kernels.render import Band, Lighting, Render
     from raytrace.kernels.waves import load_own_stages, load_rays, load_shading, render_rows
@@ -472,7 +474,7 @@ def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows
         t_compile = time.perf_counter() - t0
     t0 = time.perf_counter()
     clock[0] = 0
-    render_rows(render, band, int(y0), int(y1), int(threads), clock)
+    render_rows(render, band, int(y0), int(y1), int(threads), clock, reuse)
     return image, stats_rows, t_compile, time.perf_counter() - t0
 
 
@@ -513,10 +515,11 @@ def _render(scene, opts, drop_meshes):
         from raytrace.kernels.wavefront import TILE
         band = max(4 * TILE * setup.threads, -(-height // (32 * TILE)) * TILE)
     t_compile = t_render = 0.0
+    reuse = {}      # the threads' stages, made at the first band (waves.render_rows)
     for y0 in range(0, height, band):
         y1 = min(height, y0 + band)
         _, _, tc, tr = render_band(payload, cam, y0, y1, setup.threads, aovs, image,
-                                   stats_rows, 0, load=y0 == 0)
+                                   stats_rows, 0, load=y0 == 0, reuse=reuse)
         t_compile += tc
         t_render += tr
         if opts.progress:
