@@ -50,7 +50,7 @@ def run_kernel(kernel, geo, acc, o, d, t_max, *out):
 
 
 def _on_scene(kernel):
-    """A closest or any-hit kernel, which takes the scene packed, on geo, acc."""
+    """A ray query's kernel, which takes the scene packed, on geo, acc."""
     return lambda geo, acc, *rest: kernel(ray_scene(geo, acc), *rest)
 
 
@@ -69,7 +69,7 @@ def occluded(geo, acc, o, d, t_max):
 def counts(geo, acc, o, d, t_max):
     """Every crossing along each ray (count_intersections' kernel)."""
     out = np.empty(len(o), np.int64)
-    return out, run_kernel(cast_counts, geo, acc, o, d, t_max, out)
+    return out, run_kernel(_on_scene(cast_counts), geo, acc, o, d, t_max, out)
 
 
 def assert_same_as_brute(geo, ranges, o, d, t_max_occ, name="bvh", **build_opts):

@@ -34,11 +34,12 @@ def main(accel, query, packets):
                        ends, 1, clock)
         return
     if query == "count":
-        cast.cast_counts(geo, get(accel).empty_counting_layout(), rows, rows, ends, ends, index,
-                         cnt, clock)
+        cast.cast_counts(cast.ray_scene(geo, get(accel).empty_counting_layout()), rows, rows, ends,
+                         ends, index, cnt, clock)
         return
     if query == "list":
-        cast.cast_listing(geo, get(accel).empty_counting_layout(), (rows, rows, ends, ends),
+        cast.cast_listing(cast.ray_scene(geo, get(accel).empty_counting_layout()),
+                          (rows, rows, ends, ends),
                           np.zeros(1, np.int64), False, 1, (ends, index, ends, ends), index, cnt,
                           np.zeros(2, np.int64))
         return

@@ -30,7 +30,7 @@ class _Prepared:
         # The closest and any-hit kernels' compiled entry points for this
         # scene's types (kernels/cast.py closest_alone).
         self.entries = {}
-        self._scene = None
+        self._scenes = {}
         self._counting = None
         self._bvh = None
         self._bounds = None
@@ -38,15 +38,18 @@ class _Prepared:
     def __getstate__(self):
         # Compiled entry points are this process's (and do not pickle): a
         # copy on a Dask worker finds its own at its first call.
-        return dict(self.__dict__, entries={}, _scene=None)
+        return dict(self.__dict__, entries={}, _scenes={})
 
-    def scene(self):
-        """The geometry and the structure as the closest and any-hit
-        kernels take them (kernels/cast.py ray_scene), made once."""
-        if self._scene is None:
+    def scene(self, counting=False):
+        """The geometry and the structure (or, ``counting``, the layout that
+        counts and lists every hit) as the ray queries' kernels take them
+        (kernels/cast.py ray_scene), made once."""
+        scene = self._scenes.get(counting)
+        if scene is None:
             from raytrace.kernels.cast import ray_scene
-            self._scene = ray_scene(self.geo, self.acc)
-        return self._scene
+            scene = self._scenes[counting] = ray_scene(
+                self.geo, self.counting() if counting else self.acc)
+        return scene
 
     def bounds(self):
         """(lo, hi) of the bounded primitives (triangles, spheres); None if

@@ -302,10 +302,9 @@ def _counts(prepared, rays, check=True):
     counts = np.empty(len(rays[0]), np.int64)
     cnt = _counter_rows(len(counts))
     if len(cnt) == 1:     # a small call: its kernel's entry point (kernels/cast.py)
-        counts_alone(prepared.geo, prepared.counting(), rays, counts, cnt, _clock(),
-                     prepared.entries)
+        counts_alone(prepared.scene(counting=True), rays, counts, cnt, _clock(), prepared.entries)
     else:
-        cast_counts(prepared.geo, prepared.counting(), *rays, counts, cnt, _clock())
+        cast_counts(prepared.scene(counting=True), *rays, counts, cnt, _clock())
     if check:
         _check_rays(cnt, rays)
     return counts
@@ -358,7 +357,7 @@ def _run_listing(prepared, rays, rows, start=None, check=True):
     # Slabs of at most a quarter of a thread's share, so that no thread's
     # first slab leaves the others without rows.
     slab = max(1, min(SLAB, rows // (4 * len(cnt))))
-    cast_listing(prepared.geo, prepared.counting(), tuple(rays), start, fixed, slab, out, found,
+    cast_listing(prepared.scene(counting=True), tuple(rays), start, fixed, slab, out, found,
                  cnt, np.zeros(2, np.int64))
     if check:
         _check_rays(cnt, rays)

@@ -33,9 +33,10 @@ after the call; a separate pass over the rays would be a sizeable share of
 a call.
 
 Each kernel is compiled once per structure (query.py), on first use.  The
-closest and any-hit blocks take the geometry and the structure packed
-(``ray_scene``, packed.py): their wrappers unbox one word for them, not
-some thirty arrays, which cost a cold compile 0.1-0.2 s a block.
+ray queries' blocks take the geometry and the structure (or its counting
+layout) packed (``ray_scene``, packed.py): their wrappers unbox one word
+for them, not some thirty arrays, which cost a cold compile 0.1-0.2 s a
+block.
 """
 import functools
 import threading
@@ -237,8 +238,8 @@ def _call_entry(block, args, entries):
 
 
 def ray_scene(geo, acc):
-    """The closest and any-hit blocks' ``scene``: geometry and layout
-    packed (packed.py), made once for the calls on them."""
+    """The ray queries' blocks' ``scene``: geometry and layout packed
+    (packed.py), made once for the calls on them."""
     return Packed((geo, acc))
 
 
@@ -352,7 +353,8 @@ SLAB = 4096
 
 
 @njit(**BLOCK)
-def _listing_block(geo, acc, rays, narrow, start, fixed, slab, outs, found, cnt, clock):
+def _listing_block(scene, rays, narrow, start, fixed, slab, outs, found, cnt, clock):
+    geo, acc = unpack(scene)
     origins, dirs, t_min, t_max = rays
     out_t, out_prim, out_u, out_v = outs
     n = origins.shape[0]
@@ -404,7 +406,7 @@ def _listing_block(geo, acc, rays, narrow, start, fixed, slab, outs, found, cnt,
         c = take_ticket(clock)
 
 
-def cast_listing(geo, acc, rays, start, fixed, slab, outs, found, cnt_rows, clock):
+def cast_listing(scene, rays, start, fixed, slab, outs, found, cnt_rows, clock):
     """Every hit of ray i = (origins[i], dirs[i]) of rays = (origins, dirs,
     t_min, t_max) (as kernel_rays takes them) with t_min[i] < t <
     t_max[i], each crossing of a closed surface once, in order of (t,
@@ -416,28 +418,30 @@ def cast_listing(geo, acc, rays, start, fixed, slab, outs, found, cnt_rows, cloc
     past them are counted, not written).  Otherwise each thread takes rows
     in slabs of at least ``slab`` (clock[1], 0 at the call, counts the rows
     taken) and start[i] gets ray i's first row, or -1 where the rows ran
-    out before its hits were written."""
-    run_rows(_listing_block, (geo, acc, *kernel_rays(*rays), start, fixed, slab, outs, found),
+    out before its hits were written.  scene: ray_scene's, of the
+    counting layout."""
+    run_rows(_listing_block, (scene, *kernel_rays(*rays), start, fixed, slab, outs, found),
              cnt_rows, clock)
 
 
 @njit(**BLOCK)
-def _counts_block(geo, acc, rays, narrow, out_count, cnt, clock):
+def _counts_block(scene, rays, narrow, out_count, cnt, clock):
+    geo, acc = unpack(scene)
     origins, dirs, t_min, t_max = rays
     count_rays(geo, acc, origins, dirs, t_min, t_max, narrow, out_count, cnt, clock, CHUNK)
 
 
-def counts_alone(geo, acc, rays, out_count, cnt, clock, entries):
+def counts_alone(scene, rays, out_count, cnt, clock, entries):
     """cast_counts of a call of one counter row ``cnt`` (1, COLUMNS) through
-    _call_entry, as closest_alone; ``acc`` the scene's counting layout."""
-    _call_entry(_counts_block, (geo, acc, *kernel_rays(*rays), out_count, cnt[0], clock), entries)
+    _call_entry, as closest_alone; ``scene`` of the counting layout."""
+    _call_entry(_counts_block, (scene, *kernel_rays(*rays), out_count, cnt[0], clock), entries)
 
 
-def cast_counts(geo, acc, origins, dirs, t_min, t_max, out_count, cnt_rows, clock):
+def cast_counts(scene, origins, dirs, t_min, t_max, out_count, cnt_rows, clock):
     """How many times ray i meets the surfaces with t_min[i] < t < t_max[i],
     each crossing of a closed surface once: one traversal that never
     narrows the interval, with the crossing triangle test (CrossingRay), a
     chunk of rays at a time (query.count_rays: the BVH keeps two rays in
-    flight)."""
-    run_rows(_counts_block, (geo, acc, *kernel_rays(origins, dirs, t_min, t_max), out_count),
+    flight); scene: ray_scene's, of the counting layout."""
+    run_rows(_counts_block, (scene, *kernel_rays(origins, dirs, t_min, t_max), out_count),
              cnt_rows, clock)
