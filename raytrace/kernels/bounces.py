@@ -240,8 +240,8 @@ def run_bounce_stage(step, records, args):
     run_stage.  records: bounce_records' (shading, textures, wave, bufs,
     counters), packed (packed.py: their ninety-odd arrays unboxed one by
     one cost the wrapper 0.4 s more), bufs = (this generation, the next,
-    shadow rays, light); args five ints, the result four.  FIRST: the wave's args[0] camera
-    rays as generation 0; returns (rays, ...).  SHADE: shade_generation of
+    shadow rays, light); args five ints, the result four.  FIRST: the
+    wave's args[0] camera rays as generation 0; returns (rays, ...).  SHADE: shade_generation of
     rays args[0] .. args[1] - 1, the next generation from row args[2],
     light from row args[3], max_depth args[4]; returns its four numbers.
     FINISH: finish_generation of rays args[0] .. args[1] - 1, light from

@@ -493,10 +493,9 @@ def run_path_stage(step, records, args):
     Python side: path_waves.py); records: (shading, textures, paths, wave,
     bufs, counters, band) packed (packed.py, as wavefront.run_stage's),
     bufs = (this generation, the next, shadow rays); args five ints, the
-    result three.  CAMERA: camera_wave (args as
-    wavefront.run_stage's) and generation 0; returns (rays, 0, 0).  FINISH:
-    finish_paths of args[0] shadow rays.  STORE: store_wave of the wave's
-    args[0] samples."""
+    result three.  CAMERA: camera_wave (args as wavefront.run_stage's) and
+    generation 0; returns (rays, 0, 0).  FINISH: finish_paths of args[0]
+    shadow rays.  STORE: store_wave of the wave's args[0] samples."""
     shading, _, paths, wave, bufs, counters, band = unpack(records)
     gen, _, shadow = bufs
     a, b, c, d, e = args
@@ -514,10 +513,10 @@ def run_path_stage(step, records, args):
 def run_path_shade(records, args):
     """SHADE: shade_paths of rays args[0] .. args[1] - 1, the next
     generation from row args[2]; returns its three numbers; records:
-    run_path_stage's but the band.  An entry of
-    its own, most of the path tracer's compile: a first run compiles it in
-    the second process (renderer/ahead.py) while this one compiles the
-    structure's kernels and run_path_stage."""
+    run_path_stage's but the band.  An entry of its own, most of the path
+    tracer's compile: a first run compiles it in the second process
+    (renderer/ahead.py) while this one compiles the structure's kernels
+    and run_path_stage."""
     shading, textures, paths, wave, bufs, counters = unpack(records)
     gen, nxt, shadow = bufs
     a, b, c, _, _ = args
