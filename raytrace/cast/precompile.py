@@ -30,8 +30,8 @@ def main(accel, query, packets):
         return
     if query == "points":                  # a BVH's walk, whatever the structure
         from raytrace.accel.bvh.points import closest_points
-        closest_points(geo, get("bvh").empty_layout(), rows, np.zeros((0, 3)), index, ends, ends,
-                       ends, 1, clock)
+        closest_points(cast.ray_scene(geo, get("bvh").empty_layout()), rows, np.zeros((0, 3)),
+                       index, ends, ends, ends, 1, clock)
         return
     if query == "count":
         cast.cast_counts(cast.ray_scene(geo, get(accel).empty_counting_layout()), rows, rows, ends,

@@ -40,15 +40,16 @@ class _Prepared:
         # copy on a Dask worker finds its own at its first call.
         return dict(self.__dict__, entries={}, _scenes={})
 
-    def scene(self, counting=False):
-        """The geometry and the structure (or, ``counting``, the layout that
-        counts and lists every hit) as the ray queries' kernels take them
-        (kernels/cast.py ray_scene), made once."""
-        scene = self._scenes.get(counting)
+    def scene(self, layout):
+        """The geometry and a layout as the queries' kernels take them
+        (kernels/cast.py ray_scene), made once: ``layout`` "rays" the
+        structure, "counting" the layout that counts and lists every hit,
+        "points" the BVH the point queries walk."""
+        scene = self._scenes.get(layout)
         if scene is None:
             from raytrace.kernels.cast import ray_scene
-            scene = self._scenes[counting] = ray_scene(
-                self.geo, self.counting() if counting else self.acc)
+            made = {"rays": lambda: self.acc, "counting": self.counting, "points": self.bvh}
+            scene = self._scenes[layout] = ray_scene(self.geo, made[layout]())
         return scene
 
     def bounds(self):

@@ -116,7 +116,7 @@ class RayScene:
         (inf allowed); t_min < 0 counts hits at the origin (t = 0) too."""
         rays, shape, given = _rays(origins, directions, t_min, t_max)
         p = self._built("closest", len(rays[0]))
-        (t, prim, u, v), cnt = _closest(p.scene(), *rays, self._check, p.entries)
+        (t, prim, u, v), cnt = _closest(p.scene("rays"), *rays, self._check, p.entries)
         return RayHits(t, prim, u, v, *given, p, _counters(cnt, len(t)), shape)
 
     def occluded(self, origins, directions=None, t_min=0.0, t_max=np.inf):
@@ -125,7 +125,7 @@ class RayScene:
         shadow ray, pass the unnormalised direction to the light and t_max = 1."""
         rays, shape, _ = _rays(origins, directions, t_min, t_max)
         p = self._built("occluded", len(rays[0]))
-        return _shaped(_any_hit(p.scene(), *rays, self._check, p.entries)[0], shape)
+        return _shaped(_any_hit(p.scene("rays"), *rays, self._check, p.entries)[0], shape)
 
     def count_intersections(self, origins, directions=None, t_min=0.0, t_max=np.inf,
                             max_hits=None):
@@ -203,7 +203,7 @@ class RayScene:
         n = len(q)
         point, prim, u, v, d2 = fresh_columns(n, ((np.float64, 3), (np.int64, 1), (np.float64, 1),
                                                   (np.float64, 1), (np.float64, 1)))
-        closest_points(p.geo, p.bvh(), q, point, prim, u, v, d2, _blocks(n, CHUNK), _clock())
+        closest_points(p.scene("points"), q, point, prim, u, v, d2, _blocks(n, CHUNK), _clock())
         return point, d2, prim, u, v
 
     def distance(self, points):
@@ -302,9 +302,9 @@ def _counts(prepared, rays, check=True):
     counts = np.empty(len(rays[0]), np.int64)
     cnt = _counter_rows(len(counts))
     if len(cnt) == 1:     # a small call: its kernel's entry point (kernels/cast.py)
-        counts_alone(prepared.scene(counting=True), rays, counts, cnt, _clock(), prepared.entries)
+        counts_alone(prepared.scene("counting"), rays, counts, cnt, _clock(), prepared.entries)
     else:
-        cast_counts(prepared.scene(counting=True), *rays, counts, cnt, _clock())
+        cast_counts(prepared.scene("counting"), *rays, counts, cnt, _clock())
     if check:
         _check_rays(cnt, rays)
     return counts
@@ -357,7 +357,7 @@ def _run_listing(prepared, rays, rows, start=None, check=True):
     # Slabs of at most a quarter of a thread's share, so that no thread's
     # first slab leaves the others without rows.
     slab = max(1, min(SLAB, rows // (4 * len(cnt))))
-    cast_listing(prepared.scene(counting=True), tuple(rays), start, fixed, slab, out, found,
+    cast_listing(prepared.scene("counting"), tuple(rays), start, fixed, slab, out, found,
                  cnt, np.zeros(2, np.int64))
     if check:
         _check_rays(cnt, rays)

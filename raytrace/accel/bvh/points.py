@@ -15,6 +15,7 @@ from numba import njit
 from raytrace.accel.bvh.layout import MAX_DEPTH, WIDTH
 from raytrace.kernels.jit import BLOCK, JIT
 from raytrace.kernels.lowlevel import frame_array, take_ticket
+from raytrace.kernels.packed import unpack
 from raytrace.kernels.threads import run_on_threads
 
 STACK_SIZE = 3 * MAX_DEPTH + 4
@@ -151,7 +152,8 @@ def closest_point(geo, bvh, qx, qy, qz):
 
 
 @njit(**BLOCK)
-def _points_block(geo, bvh, points, out_point, out_prim, out_u, out_v, out_d2, clock):
+def _points_block(scene, points, out_point, out_prim, out_u, out_v, out_d2, clock):
+    geo, bvh = unpack(scene)
     n = points.shape[0]
     n_chunks = (n + CHUNK - 1) // CHUNK
     c = take_ticket(clock)     # the next chunk nobody has taken, as in kernels/cast.py
@@ -169,9 +171,10 @@ def _points_block(geo, bvh, points, out_point, out_prim, out_u, out_v, out_d2, c
         c = take_ticket(clock)
 
 
-def closest_points(geo, bvh, points, out_point, out_prim, out_u, out_v, out_d2, n_blocks, clock):
+def closest_points(scene, points, out_point, out_prim, out_u, out_v, out_d2, n_blocks, clock):
     """The surfaces' closest point to each query point, its primitive, its
     barycentric weights (triangles) and the squared distance; n_blocks
-    threads take chunks of points by ticket from clock (0 at the call)."""
-    run_on_threads([functools.partial(_points_block, geo, bvh, points, out_point, out_prim, out_u,
+    threads take chunks of points by ticket from clock (0 at the call).
+    scene: the geometry and a BVH packed (kernels/cast.py ray_scene)."""
+    run_on_threads([functools.partial(_points_block, scene, points, out_point, out_prim, out_u,
                                       out_v, out_d2, clock)] * n_blocks)
