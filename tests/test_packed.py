@@ -8,7 +8,8 @@ from numba import njit, typeof
 from raytrace.kernels.packed import Packed, PackedType, unpack
 
 Inner = namedtuple("Inner", ["rows", "flag", "scale"])
-Record = namedtuple("Record", ["a", "inner", "count", "big", "half", "none", "strided", "fixed"])
+Record = namedtuple("Record", ["a", "inner", "count", "big", "half", "none", "strided", "fixed",
+                               "scalar"])
 
 
 def _record():
@@ -17,7 +18,7 @@ def _record():
     return Record(a=np.arange(5, dtype=np.int64),
                   inner=Inner(rows=np.arange(12.0).reshape(4, 3), flag=True, scale=0.1),
                   count=-7, big=np.uint64(2 ** 64 - 3), half=np.float32(1.5), none=None,
-                  strided=np.arange(20.0)[::3], fixed=fixed)
+                  strided=np.arange(20.0)[::3], fixed=fixed, scalar=np.array(2.5))
 
 
 @njit
@@ -25,7 +26,7 @@ def _echo(p):
     r = unpack(p)
     r.a[1] = 42          # written through: the record's own memory
     return (r.a.sum(), r.inner.rows[3, 2], r.inner.flag, r.inner.scale, r.count, r.big,
-            r.half, r.strided[2], r.strided.shape[0], r.fixed[1, 0])
+            r.half, r.strided[2], r.strided.shape[0], r.fixed[1, 0], r.scalar[()])
 
 
 @njit
@@ -38,7 +39,7 @@ def test_unpack_gives_the_records_arrays_and_values_exactly():
     record = _record()
     got = _echo(Packed(record))
     assert record.a[1] == 42
-    assert got == (record.a.sum(), 11.0, True, 0.1, -7, 2 ** 64 - 3, 1.5, 6.0, 7, 3.0)
+    assert got == (record.a.sum(), 11.0, True, 0.1, -7, 2 ** 64 - 3, 1.5, 6.0, 7, 3.0, 2.5)
 
 
 def test_the_unpacked_record_has_the_records_own_numba_type():

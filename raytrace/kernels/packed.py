@@ -141,8 +141,9 @@ def _rebuild(context, builder, ty, table, pos):
         array = context.make_array(ty)(context, builder)
         itemsize = context.get_constant(
             types.intp, context.get_abi_sizeof(context.get_data_type(ty.dtype)))
-        populate_array(array, data=data, shape=cgutils.pack_array(builder, shape),
-                       strides=cgutils.pack_array(builder, strides), itemsize=itemsize,
+        intp = context.get_value_type(types.intp)     # typed: a 0-d array has no shape
+        populate_array(array, data=data, shape=cgutils.pack_array(builder, shape, intp),
+                       strides=cgutils.pack_array(builder, strides, intp), itemsize=itemsize,
                        meminfo=None)
         return array._getvalue()
     if isinstance(ty, types.BaseTuple):
