@@ -263,9 +263,9 @@ def test_rays_in_strided_arrays_go_one_by_one_with_the_same_answers():
         out = np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n)
         hit = np.empty(n, np.bool_)
         t_min, t_max = np.zeros(n), np.full(n, np.inf)
-        cast_closest(prepared.scene(), o, d, t_min, t_max, *out,
+        cast_closest(prepared.scene("rays"), o, d, t_min, t_max, *out,
                      np.zeros((1, COLUMNS), np.int64), np.zeros(1, np.int64))
-        cast_occluded(prepared.scene(), o, d, t_min, t_max, hit,
+        cast_occluded(prepared.scene("rays"), o, d, t_min, t_max, hit,
                       np.zeros((1, COLUMNS), np.int64), np.zeros(1, np.int64))
         answers.append(out + (hit,))
     assert (answers[0][1] >= 0).sum() > n // 4
