@@ -18,8 +18,10 @@
   per-ray function is only ever called from compiled code, and Numba
   otherwise builds and compiles two wrappers for each, a sizeable share of
   a cold compile (docs/benchmarks.md, "Kernels").  A thread's share of a
-  batch kernel, called from Python (``BLOCK``), keeps its wrapper; a test
-  calling a per-ray function directly uses ``python_callable``.
+  batch kernel, called from Python (``BLOCK``), keeps its wrapper, and
+  takes its records of arrays packed (packed.py), which that wrapper
+  unboxes as one word; a test calling a per-ray function directly uses
+  ``python_callable``.
 - No ``parallel=True``: threads.py runs a kernel's shares on Python
   threads, where a ``prange`` loop would compile a parallel wrapper of its
   own for every type of its arguments.
