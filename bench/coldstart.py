@@ -2,6 +2,7 @@
 runs, with an empty Numba cache, in a fresh process.
 
     python bench/coldstart.py [--json FILE] [--quick]
+    python bench/coldstart.py --versus OTHER_CHECKOUT [--rounds 3]
 
 Every row is a subprocess of its own with a new, empty cache directory
 (XDG_CACHE_HOME and NUMBA_CACHE_DIR), so nothing compiled by an earlier row
@@ -14,6 +15,12 @@ builder rows, the first build, its compile included.
 A second table adds options one at a time to ONE cache, as a user meets
 them: the first ``raytrace teapot``, then ``--accel grid``, ``--shadows
 soft``, ... each row's compile is what that option adds the first time.
+
+``--versus``: the second table only, for this checkout and another,
+alternated round by round (each tree on PYTHONPATH, a fresh cache each
+round): a host that drifts by more than a change between two runs of
+the whole bench cannot hide it so.  Each cell lists the rounds' compile
+seconds.
 
 Markdown on stdout, progress on stderr.
 """
@@ -68,24 +75,29 @@ def _example(name):
     return str(assets_dir() / name)
 
 
-def _env(cache):
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _env(cache, tree=None):
     env = dict(os.environ, XDG_CACHE_HOME=str(cache), NUMBA_CACHE_DIR=str(Path(cache) / "numba"))
+    if tree is not None:        # that checkout's raytrace, whatever is installed
+        env["PYTHONPATH"] = str(tree)
     return env
 
 
-def _run(cmd, cache, cwd):
+def _run(cmd, cache, cwd, tree=None):
     t0 = time.perf_counter()
-    p = subprocess.run(cmd, env=_env(cache), cwd=cwd, capture_output=True, text=True)
+    p = subprocess.run(cmd, env=_env(cache, tree), cwd=cwd, capture_output=True, text=True)
     wall = time.perf_counter() - t0
     if p.returncode != 0:
         raise click.ClickException(f"{' '.join(cmd)} failed ({p.returncode}): {p.stderr.strip()[-500:]}")
     return wall, p.stdout
 
 
-def cli_render(args, cache, cwd):
-    """(wall, compile, build) of one `raytrace ...` render."""
+def cli_render(args, cache, cwd, tree=None):
+    """(wall, compile, build) of one `raytrace ...` render (``tree``'s)."""
     wall, out = _run([sys.executable, "-m", "raytrace", *args, *SIZE, "--json", "-o", "cold.png"],
-                     cache, cwd)
+                     cache, cwd, tree)
     t = json.loads(out)["time"]
     return wall, t["compile_s"], t["build_s"]
 
@@ -130,21 +142,46 @@ def measure(quick):
 
         if not quick:
             cache = fresh()
-            steps = [("raytrace teapot", ["teapot"])]
-            steps += [(f"then --accel {a}", ["teapot", "--accel", a])
-                      for a in STRUCTURES if a != "bvh"]
-            steps += [("then --shadows soft", ["teapot", "--shadows", "soft", "--light-samples", "4"]),
-                      ("then --shadows none", ["teapot", "--shadows", "none"]),
-                      ("then --aov depth", ["teapot", "--aov", "depth"]),
-                      ("then --spp 4", ["teapot", "--spp", "4"]),
-                      ("then assets/whitted.toml (mirrors, glass)", [_example("whitted.toml")]),
-                      ("then assets/textured.toml (vertex colours, a texture)",
-                       [_example("textured.toml")])]
-            for label, args in steps:
+            for label, args in chain_steps():
                 log(f"coldstart: {label} (one cache)")
                 wall, comp, build = cli_render(args, cache, tmp)
                 chain.append((label, wall, comp, build))
     return rows, chain
+
+
+def chain_steps():
+    """(label, args) of the one-cache table: the options as a user meets them."""
+    from raytrace.accel.registry import STRUCTURES
+    steps = [("raytrace teapot", ["teapot"])]
+    steps += [(f"then --accel {a}", ["teapot", "--accel", a]) for a in STRUCTURES if a != "bvh"]
+    return steps + [
+        ("then --shadows soft", ["teapot", "--shadows", "soft", "--light-samples", "4"]),
+        ("then --shadows none", ["teapot", "--shadows", "none"]),
+        ("then --aov depth", ["teapot", "--aov", "depth"]),
+        ("then --spp 4", ["teapot", "--spp", "4"]),
+        ("then assets/whitted.toml (mirrors, glass)", [_example("whitted.toml")]),
+        ("then assets/textured.toml (vertex colours, a texture)", [_example("textured.toml")])]
+
+
+def versus(other, rounds):
+    """The one-cache table's compile seconds for ``other`` (a checkout) and
+    this one, a round of each in turn."""
+    from common import markdown_table
+    trees = (("other", Path(other).resolve()), ("this", ROOT))
+    steps = chain_steps()
+    seconds = {(label, name): [] for label, _ in steps for name, _ in trees}
+    with tempfile.TemporaryDirectory(prefix="raytrace-cold-") as tmp:
+        tmp = Path(tmp)
+        for r in range(rounds):
+            for name, tree in trees:
+                log(f"coldstart: round {r + 1}, {name} ({tree})")
+                cache = tmp / f"{name}{r}"
+                for label, args in steps:
+                    seconds[label, name].append(cli_render(args, cache, tmp, tree)[1])
+    body = [[label] + [", ".join(f"{x:.2f}" for x in seconds[label, name]) for name, _ in trees]
+            for label, _ in steps]
+    return ("### Cold start, one cache, alternated: compile s of each round\n\n"
+            + markdown_table(["Entry point", f"other ({other})", "this"], body, align="lll"))
 
 
 def _f(x):
@@ -169,9 +206,17 @@ def markdown(rows, chain):
 @click.command()
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), default=None)
 @click.option("--quick", is_flag=True, help="Only the BVH with hard shadows, cast_rays and the builders.")
-def main(json_path, quick):
+@click.option("--versus", "other", type=click.Path(exists=True, file_okay=False), default=None,
+              help="Another checkout: the one-cache table for both, alternated.")
+@click.option("--rounds", type=click.IntRange(1), default=3, show_default=True,
+              help="With --versus: rounds of each tree.")
+def main(json_path, quick, other, rounds):
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     t0 = time.perf_counter()
+    if other:
+        print(versus(other, rounds))
+        print(f"\n({time.perf_counter() - t0:.0f} s, {os.cpu_count()} cores)")
+        return
     rows, chain = measure(quick)
     print(markdown(rows, chain))
     print(f"\n({time.perf_counter() - t0:.0f} s, {os.cpu_count()} cores)")
