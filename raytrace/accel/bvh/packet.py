@@ -57,6 +57,7 @@ from raytrace.accel.bvh.traverse import (
     NEAR_LIMIT,
     STACK_SIZE,
     _count_chunks,
+    _unsigned,
     leaf_slots,
     tally,
     test_leaf,
@@ -477,9 +478,12 @@ def _packet(origins, dirs, t_min, t_max, i0, m):
         if (_negative(dirs[i, 0]) != sx) | (_negative(dirs[i, 1]) != sy) \
                 | (_negative(dirs[i, 2]) != sz):
             return False
+    # Unsigned indices: with Numba's wraparound of a negative index, LLVM
+    # vectorised this loop with gathers (24 in the closest-hit block, 48 in
+    # the any-hit one); without it, with loads and shuffles.
     ok = True
-    for i in range(i0, i0 + m):
-        ok &= ray_ok(origins, dirs, t_min, t_max, i)
+    for r in range(PACKET):
+        ok &= ray_ok(origins, dirs, t_min, t_max, _unsigned(i0 + r))
     return ok
 
 
