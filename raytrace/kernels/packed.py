@@ -89,6 +89,20 @@ def _walk(value, out, shape):
         raise TypeError(f"Packed: a record of arrays, numbers, None and tuples, not {type(value)}")
 
 
+def packed_once(made, key, make, most):
+    """made[key], or make() (a Packed) kept there: a thread's records, keyed
+    by the identities of the buffers they hold (the Packed keeps those
+    alive, so no other takes their ids).  Past ``most`` entries every one
+    goes first: a buffer was replaced, and the records holding it are
+    dead weight."""
+    packed = made.get(key)
+    if packed is None:
+        if len(made) >= most:
+            made.clear()
+        packed = made[key] = make()
+    return packed
+
+
 # Numba types of the records packed so far, by their shape (Packed.__init__).
 _TYPES = {}
 

@@ -7,6 +7,7 @@ nothing of it compiles for any other."""
 from raytrace.kernels import pathtrace
 from raytrace.kernels.cast import closest_rays, occluded_rays, ray_scene, ray_tally
 from raytrace.kernels.entry import Entry
+from raytrace.kernels.packed import packed_once
 from raytrace.kernels.wavefront import CAMERA, SHADOW_BATCH, TILE, wave_buffers, wave_squares
 
 
@@ -39,14 +40,11 @@ class PathStages:
         order of the generations (they take turns) and each entry."""
         shade = step == pathtrace.SHADE
         gen, nxt = self.gens
-        key = shade, id(gen), id(nxt), id(self.wave), id(self.shadow)
-        records = self.records.get(key)
-        if records is None:
-            if len(self.records) >= 4:      # buffers replaced (load): the old ones go
-                self.records.clear()
-            records = self.records[key] = pathtrace.path_records(
-                self.shading, self.textures, self.paths, self.wave, (gen, nxt, self.shadow),
-                self.counters, None if shade else self.band)
+        records = packed_once(
+            self.records, (shade, id(gen), id(nxt), id(self.wave), id(self.shadow)),
+            lambda: pathtrace.path_records(self.shading, self.textures, self.paths, self.wave,
+                                           (gen, nxt, self.shadow), self.counters,
+                                           None if shade else self.band), 4)
         if shade:
             return self.run_path_shade(records, args)
         return self.run_path_stage(step, records, args)

@@ -12,6 +12,7 @@ import numpy as np
 from raytrace.kernels import bounces
 from raytrace.kernels.cast import closest_rays, occluded_rays, ray_scene, ray_tally
 from raytrace.kernels.entry import Entry
+from raytrace.kernels.packed import packed_once
 from raytrace.kernels.render import NoBounces, Paths, SoftShadows
 from raytrace.kernels.threads import run_on_threads
 from raytrace.kernels.wavefront import (
@@ -114,13 +115,9 @@ class _Generations(_Stages):
         for each pair of generations (they take turns), again for buffers
         grown since."""
         gen, nxt, _, light = bufs
-        key = id(gen), id(nxt), id(light)
-        records = self.bounce_records.get(key)
-        if records is None:
-            if len(self.bounce_records) >= 2:      # a buffer replaced: the old ones go
-                self.bounce_records.clear()
-            records = self.bounce_records[key] = bounces.bounce_records(
-                self.shading, self.textures, self.wave, bufs, self.counters)
+        records = packed_once(self.bounce_records, (id(gen), id(nxt), id(light)),
+                              lambda: bounces.bounce_records(self.shading, self.textures,
+                                                             self.wave, bufs, self.counters), 2)
         return self.run_bounce_stage(step, records, args)
 
     def trace(self, top, y_end, q0, q1):
