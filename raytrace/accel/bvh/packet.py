@@ -379,7 +379,7 @@ def _packet_traversal(mode):
                         # All the rays at once; the scalar test only for
                         # the hits' distances.
                         n_tests += popcount(rays)
-                        hits = rays & packet_triangle(geo.tri_v0, geo.tri_v1, geo.tri_v2, p,
+                        hits = rays & packet_triangle(acc.leaf_tris, k,
                                                       axes[0], axes[PACKET], axes[2 * PACKET],
                                                       fields, far)
                         n_hits += popcount(hits)

@@ -105,47 +105,51 @@ _F64_ROW = types.Array(types.float64, 1, "C")
 
 
 @intrinsic
-def packet_triangle(typingctx, v0, v1, v2, p, kx, ky, kz, fields, far):
+def packet_triangle(typingctx, leaf_tris, k, kx, ky, kz, fields, far):
     """The watertight triangle test (intersect._triangle, not the crossing
-    variant) of triangle p against a packet's PACKET rays at once, in
-    <PACKET x double>, where the rays share their axes kx, ky, kz: each lane's
-    arithmetic is the scalar test's, operation for operation (no fused
-    multiply-adds), so a lane hits exactly where the scalar test hits.
+    variant) of the triangle in slot k of the tree's ``leaf_tris`` (its
+    corners, row 3 * corner + axis: accel/bvh/layout.py) against a
+    packet's PACKET rays at once, in <PACKET x double>, where the rays
+    share their axes kx, ky, kz: each lane's arithmetic is the scalar
+    test's, operation for operation (no fused multiply-adds), so a lane
+    hits exactly where the scalar test hits.  Read from the slot, not
+    through prim_ids from the geometry's vertices: the corners' loads do
+    not wait on the id's.
 
     ``fields``: the packet's rows (accel/bvh/packet.py), of which rows 9-15
     are each ray's sx, sy, sz, okx, oky, okz and t_min; ``far``: each ray's
     t_max.  Returns the mask of the rays that hit; the scalar test gives a
     hit's distance and barycentrics.
     """
-    ints = (p, kx, ky, kz)
-    if any(a != VERTICES for a in (v0, v1, v2)) \
-            or not all(isinstance(a, types.Integer) for a in ints) \
+    ints = (k, kx, ky, kz)
+    if leaf_tris != VERTICES or not all(isinstance(a, types.Integer) for a in ints) \
             or fields != _F64_ROW or far != _F64_ROW:
         return None
-    sig = types.int64(v0, v1, v2, p, kx, ky, kz, fields, far)
+    sig = types.int64(leaf_tris, k, kx, ky, kz, fields, far)
 
     def codegen(context, builder, sig, llargs):
         i64 = ir.IntType(64)
         f64 = ir.DoubleType()
         vec = ir.VectorType(f64, PACKET)
-        data = [context.make_array(sig.args[k])(context, builder, value=llargs[k]).data
-                for k in range(3)]
-        p, kx, ky, kz = [context.cast(builder, llargs[3 + j], sig.args[3 + j], types.int64)
+        corners_ary = context.make_array(sig.args[0])(context, builder, value=llargs[0])
+        data = corners_ary.data
+        stride = builder.extract_value(corners_ary.shape, 1)
+        k, kx, ky, kz = [context.cast(builder, llargs[1 + j], sig.args[1 + j], types.int64)
                          for j in range(4)]
-        rows = context.make_array(sig.args[7])(context, builder, value=llargs[7]).data
-        far_data = context.make_array(sig.args[8])(context, builder, value=llargs[8]).data
+        rows = context.make_array(sig.args[5])(context, builder, value=llargs[5]).data
+        far_data = context.make_array(sig.args[6])(context, builder, value=llargs[6]).data
 
-        sx, sy, sz, okx, oky, okz, t_min = [_packet_row(builder, rows, k, vec)
-                                            for k in range(9, 16)]
+        sx, sy, sz, okx, oky, okz, t_min = [_packet_row(builder, rows, j, vec)
+                                            for j in range(9, 16)]
         t_max = _packet_row(builder, far_data, 0, vec)
-        base = builder.mul(p, ir.Constant(i64, 3))
 
-        def coordinate(vertices, axis, origin):
-            x = builder.load(builder.gep(vertices, [builder.add(base, axis)]))
+        def coordinate(corner, axis, origin):
+            row = builder.add(ir.Constant(i64, 3 * corner), axis)
+            x = builder.load(builder.gep(data, [builder.add(builder.mul(row, stride), k)]))
             return builder.fsub(broadcast(builder, vec, x), origin)
 
-        corners = [(coordinate(vertices, kx, okx), coordinate(vertices, ky, oky),
-                    coordinate(vertices, kz, okz)) for vertices in data]
+        corners = [(coordinate(c, kx, okx), coordinate(c, ky, oky), coordinate(c, kz, okz))
+                   for c in range(3)]
         edges, mixed = edge_functions(builder, corners, sx, sy)
         keep = builder.and_(builder.not_(mixed),
                             within_interval(builder, edges, corners, sz, t_min, t_max)[0])
