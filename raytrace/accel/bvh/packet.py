@@ -62,6 +62,7 @@ from raytrace.accel.bvh.traverse import (
     tally,
     test_leaf,
 )
+from raytrace.kernels.intersect import slot_triangle
 from raytrace.kernels.jit import JIT, STAGE
 from raytrace.kernels.lowlevel import PACKET, frame_array, popcount
 from raytrace.kernels.prims import (
@@ -395,7 +396,10 @@ def _packet_traversal(mode):
                         r = trailing_zeros(todo)
                         todo &= todo - 1
                         n_tests += 1
-                        t, u, v = test_prim(geo, _ray(pk, r), p, far[r])
+                        if p < n_tris:      # the corners just loaded, not the geometry's
+                            t, u, v = slot_triangle(_ray(pk, r), acc.leaf_tris, k, far[r])
+                        else:
+                            t, u, v = test_prim(geo, _ray(pk, r), p, far[r])
                         if t < np.inf:
                             n_hits += 1
                             if mode == ANY_HIT:
