@@ -155,22 +155,23 @@ def _push_children(lane_entry, node, masks, near, active, stack, stack_mask, sta
                    ordered):
     """Push node's children that some ray of ``active`` enters (masks,
     near: packet_aabb4's), each with its rays and nearest entry; with
-    ``ordered`` (a compile-time constant) the nearest on top."""
+    ``ordered`` (a compile-time constant) the nearest on top.  Indices
+    unsigned (traverse._unsigned): sp never goes below 0."""
     base = sp
     for lane in range(WIDTH):
         rays = masks[lane] & active
         if rays:
-            entry = lane_entry[node, lane]
+            entry = lane_entry[_unsigned(node), lane]
             dl = near[lane] if ordered else 0.0
             k = sp
-            while ordered and k > base and stack_t[k - 1] < dl:
-                stack[k] = stack[k - 1]
-                stack_mask[k] = stack_mask[k - 1]
-                stack_t[k] = stack_t[k - 1]
+            while ordered and k > base and stack_t[_unsigned(k - 1)] < dl:
+                stack[_unsigned(k)] = stack[_unsigned(k - 1)]
+                stack_mask[_unsigned(k)] = stack_mask[_unsigned(k - 1)]
+                stack_t[_unsigned(k)] = stack_t[_unsigned(k - 1)]
                 k -= 1
-            stack[k] = entry
-            stack_mask[k] = rays
-            stack_t[k] = dl
+            stack[_unsigned(k)] = entry
+            stack_mask[_unsigned(k)] = rays
+            stack_t[_unsigned(k)] = dl
             sp += 1
     return sp
 
@@ -207,8 +208,8 @@ def _count_traversal(geo, acc, pk, nx, ny, nz, counts, cnt):
     sp = np.int64(1)
     while sp > 0:
         sp -= 1
-        node = stack[sp]
-        rays = stack_mask[sp]
+        node = stack[_unsigned(sp)]
+        rays = stack_mask[_unsigned(sp)]
         n_inner += popcount(rays)
         visits += 1
         masks, _ = packet_aabb4(node_box, node, nx, ny, nz, consts, t_far)
@@ -219,8 +220,8 @@ def _count_traversal(geo, acc, pk, nx, ny, nz, counts, cnt):
             word = lanes[node * WIDTH + lane]
             start, size = word >> 32, word & 0xFFFFFFFF
             if size == 0:
-                stack[sp] = start
-                stack_mask[sp] = entered
+                stack[_unsigned(sp)] = start
+                stack_mask[_unsigned(sp)] = entered
                 sp += 1
                 continue
             n_leaves += popcount(entered)
@@ -360,8 +361,8 @@ def _packet_traversal(mode):
                                     stack_t, sp, mode == CLOSEST)
                 if sp > base:
                     sp -= 1
-                    entry = stack[sp]
-                    rays = stack_mask[sp]
+                    entry = stack[_unsigned(sp)]
+                    rays = stack_mask[_unsigned(sp)]
                     if mode == ANY_HIT:
                         rays &= alive
                     continue
@@ -374,7 +375,7 @@ def _packet_traversal(mode):
                 n_leaves += popcount(rays)
                 k, end = leaf_slots(entry)
                 while k < end and rays != 0:
-                    p = prim_ids[k]
+                    p = prim_ids[_unsigned(k)]
                     todo = rays
                     if p < n_tris and shared_axes:
                         # All the rays at once; the scalar test only for
@@ -416,13 +417,13 @@ def _packet_traversal(mode):
             entry = _DONE
             while sp > 0 and entry == _DONE:
                 sp -= 1
-                rays = stack_mask[sp]
+                rays = stack_mask[_unsigned(sp)]
                 if mode == ANY_HIT:
                     rays &= alive
                 else:
-                    rays &= _within(stack_t[sp], best_t, rays)
+                    rays &= _within(stack_t[_unsigned(sp)], best_t, rays)
                 if rays:
-                    entry = stack[sp]
+                    entry = stack[_unsigned(sp)]
         tally(cnt, n_inner, n_leaves, n_tests, n_hits)
         return alive, _verdict(n_inner, visits)
     return traverse
