@@ -3,7 +3,6 @@ structure, the counting layout and the BVH the point queries walk, built
 on first use, and the surface (ids, normals, points) at hits."""
 import numpy as np
 
-from raytrace.cast.rays import fresh_columns
 from raytrace.errors import RaytraceError
 from raytrace.scene.model import Scene
 
@@ -34,11 +33,12 @@ class _Prepared:
         self._counting = None
         self._bvh = None
         self._bounds = None
+        self._tables = None
 
     def __getstate__(self):
         # Compiled entry points are this process's (and do not pickle): a
         # copy on a Dask worker finds its own at its first call.
-        return dict(self.__dict__, entries={}, _scenes={})
+        return dict(self.__dict__, entries={}, _scenes={}, _tables=None)
 
     def scene(self, layout):
         """The geometry and a layout as the queries' kernels take them
@@ -85,16 +85,24 @@ class _Prepared:
 
     def ids(self, prim):
         """(geometry id, face) of each unified primitive id, -1 for a miss."""
-        if not len(self.prim_object):
-            return np.full(len(prim), -1), np.full(len(prim), -1)
-        gid, face = fresh_columns(len(prim), ((np.int64, 1), (np.int64, 1)))  # flatten's dtypes
-        gid[:] = -1
-        face[:] = -1
-        for s in _blocks(len(prim)):
-            hit = np.flatnonzero(prim[s] >= 0)
-            gid[s][hit] = self.prim_object[prim[s][hit]]
-            face[s][hit] = self.prim_face[prim[s][hit]]
-        return gid, face
+        return self.geometry_ids(prim), self.faces(prim)
+
+    def geometry_ids(self, prim):
+        """The geometry id of each unified primitive id, -1 for a miss."""
+        return self._id_tables()[0][prim]
+
+    def faces(self, prim):
+        """The face of each unified primitive id, -1 for a miss."""
+        return self._id_tables()[1][prim]
+
+    def _id_tables(self):
+        """prim_object and prim_face with -1 appended: a miss's id, -1,
+        reads that last row, so each map is one gather (a third of the time
+        of gathering the hits' rows alone, docs/benchmarks.md)."""
+        if self._tables is None:
+            self._tables = tuple(np.append(a, -1).astype(np.int64)
+                                 for a in (self.prim_object, self.prim_face))
+        return self._tables
 
     def hit_fields(self, prim, t, u, v):
         """(t, geometry_id, prim_id, uv (n, 2), normal (n, 3)) of closest

@@ -87,13 +87,13 @@ class RayHits(_Fields):
 
     @property
     def geometry_id(self):
-        return self._get("ids", lambda: self._prepared.ids(self._prim))[0]
+        return self._get("geometry_id", lambda: self._prepared.geometry_ids(self._prim))
 
     object_id = geometry_id
 
     @property
     def prim_id(self):
-        return self._get("ids", lambda: self._prepared.ids(self._prim))[1]
+        return self._get("prim_id", lambda: self._prepared.faces(self._prim))
 
     def _uv(self):
         tri = (self._prim >= 0) & (self._prim < self._prepared.n_tris)
