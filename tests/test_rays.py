@@ -280,10 +280,11 @@ def test_fresh_columns_are_separate_arrays_of_one_block():
 
 
 def test_a_calls_answers_share_one_allocation():
-    """t, the primitive ids and the barycentrics (and the face ids made
-    from them) come from one block each, which malloc keeps for the next
-    call (rays.fresh_columns)."""
-    h = cast_rays((V, F), [[0.2, 0.3, -1.0]] * 3, [[0, 0, 1.0]] * 3, accel="bvh")
+    """t, the primitive ids and the barycentrics come from one block, which
+    malloc keeps for the next call (rays.fresh_columns); the face and
+    geometry ids are each one gather from a table whose last row, -1, a
+    miss's id reads (prepared._id_tables)."""
+    h = cast_rays((V, F), [[0.2, 0.3, -1.0], [5.0, 5.0, -1.0], [0.2, 0.3, -1.0]],
+                  [[0, 0, 1.0]] * 3, accel="bvh")
     assert _root(h.t) is _root(h._prim) is _root(h._raw_uv[0]) is _root(h._raw_uv[1])
-    assert _root(h.prim_id) is _root(h.geometry_id)
-    assert h.prim_id.tolist() == [1, 1, 1] and h.geometry_id.tolist() == [0, 0, 0]
+    assert h.prim_id.tolist() == [1, -1, 1] and h.geometry_id.tolist() == [0, -1, 0]
