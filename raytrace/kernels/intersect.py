@@ -95,40 +95,17 @@ def _triangle(ray, v0, v1, v2, i, t_max, crossing):
     or neither triangle owns the edge, so the parity is kept.
     """
     kx, ky, kz = ray.kx, ray.ky, ray.kz
-    return _corners_test(ray, (v0[i, kx], v0[i, ky], v0[i, kz]), (v1[i, kx], v1[i, ky], v1[i, kz]),
-                         (v2[i, kx], v2[i, ky], v2[i, kz]), t_max, crossing)
-
-
-@njit(**JIT)
-def slot_triangle(ray, leaf_tris, k, t_max):
-    """_triangle (not the crossing variant) of the triangle whose corners
-    are column k of a BVH's leaf_tris (row 3 * corner + axis: the tree's
-    copy of the geometry's vertices, accel/bvh/layout.py): the same values,
-    so the same bits.  For a test whose caller has just loaded that column
-    (accel/bvh/packet.py), where the geometry's rows would be loaded again
-    through the primitive's id."""
-    kx, ky, kz = ray.kx, ray.ky, ray.kz
-    return _corners_test(ray, (leaf_tris[kx, k], leaf_tris[ky, k], leaf_tris[kz, k]),
-                         (leaf_tris[3 + kx, k], leaf_tris[3 + ky, k], leaf_tris[3 + kz, k]),
-                         (leaf_tris[6 + kx, k], leaf_tris[6 + ky, k], leaf_tris[6 + kz, k]),
-                         t_max, False)
-
-
-@njit(**JIT)
-def _corners_test(ray, a, b, c, t_max, crossing):
-    """_triangle's test of the corners a, b, c, each (x, y, z) on the
-    ray's axes kx, ky, kz."""
     sx, sy, sz = ray.sx, ray.sy, ray.sz
     okx, oky, okz = ray.okx, ray.oky, ray.okz
-    ax = a[0] - okx
-    ay = a[1] - oky
-    az = a[2] - okz
-    bx = b[0] - okx
-    by = b[1] - oky
-    bz = b[2] - okz
-    cx = c[0] - okx
-    cy = c[1] - oky
-    cz = c[2] - okz
+    ax = v0[i, kx] - okx
+    ay = v0[i, ky] - oky
+    az = v0[i, kz] - okz
+    bx = v1[i, kx] - okx
+    by = v1[i, ky] - oky
+    bz = v1[i, kz] - okz
+    cx = v2[i, kx] - okx
+    cy = v2[i, ky] - oky
+    cz = v2[i, kz] - okz
     # Shear so the ray runs along +z through the origin.
     ax -= sx * az
     ay -= sy * az

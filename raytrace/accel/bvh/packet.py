@@ -48,6 +48,7 @@ from numba import njit
 from numba.cpython.unsafe.numbers import trailing_zeros
 
 from raytrace.accel.bvh.layout import BVH, WIDTH
+from raytrace.accel.bvh.simd import LEAF_LANES, leaf_hits
 from raytrace.accel.bvh.simd_packets import packet_aabb4, packet_rays, packet_triangle
 from raytrace.accel.bvh.traverse import (
     _DONE,
@@ -62,7 +63,6 @@ from raytrace.accel.bvh.traverse import (
     tally,
     test_leaf,
 )
-from raytrace.kernels.intersect import slot_triangle
 from raytrace.kernels.jit import JIT, STAGE
 from raytrace.kernels.lowlevel import PACKET, frame_array, popcount
 from raytrace.kernels.prims import (
@@ -323,7 +323,35 @@ def _rays_alone(geo, acc, pk, rays, alive, entry, first):
     return alive, n_tests, n_hits
 
 
+# One caller, inlined by Numba: no library of its own (kernels/jit.py).
+@njit(**STAGE)
+def _slot_hit(geo, acc, ray, k, p, t_max):
+    """The scalar test's (t, b1, b2) for slot k (primitive p), from the
+    one-ray leaf test's first lane (simd.leaf_hits: each lane the scalar
+    test's operations) on the leaf's columns, which the packet test has
+    just loaded, not from the geometry's rows through the id; a lane it
+    cannot decide (an edge function exactly 0, a sphere) takes the scalar
+    test, as traverse._test_slots does.  For closest hits only, whose
+    hits come here: an any-hit packet's rays stop at a hit, only rays
+    whose axes differ take a scalar test there, and this second copy of
+    the leaf test cost the any-hit kernel's first compile 0.2 s."""
+    m, ts, us, vs = leaf_hits(acc.leaf_tris, k, ray, t_max)
+    if m & 1:
+        return ts[0], us[0], vs[0]
+    if (m >> LEAF_LANES) & 1:
+        return test_prim(geo, ray, p, t_max)
+    return np.inf, 0.0, 0.0
+
+
+@njit(**STAGE)
+def _prim_hit(geo, acc, ray, k, p, t_max):
+    """_slot_hit's answer from the scalar test on the geometry (test_prim),
+    for any-hit packets."""
+    return test_prim(geo, ray, p, t_max)
+
+
 def _packet_traversal(mode):
+    hit_test = _slot_hit if mode == CLOSEST else _prim_hit
     # One caller, its query: inlined by Numba, so it has no library of its
     # own, optimised and emitted before the query's optimises it again
     # (0.2-0.3 s of each packet kernel's cold compile; kernels/jit.py).
@@ -397,10 +425,7 @@ def _packet_traversal(mode):
                         r = trailing_zeros(todo)
                         todo &= todo - 1
                         n_tests += 1
-                        if p < n_tris:      # the corners just loaded, not the geometry's
-                            t, u, v = slot_triangle(_ray(pk, r), acc.leaf_tris, k, far[r])
-                        else:
-                            t, u, v = test_prim(geo, _ray(pk, r), p, far[r])
+                        t, u, v = hit_test(geo, acc, _ray(pk, r), k, p, far[r])
                         if t < np.inf:
                             n_hits += 1
                             if mode == ANY_HIT:
