@@ -330,7 +330,7 @@ def _slot_hit(geo, acc, ray, k, p, t_max):
     one-ray leaf test's first lane (simd.leaf_hits: each lane the scalar
     test's operations) on the leaf's columns, which the packet test has
     just loaded, not from the geometry's rows through the id; a lane it
-    cannot decide (an edge function exactly 0, a sphere) takes the scalar
+    cannot decide (a NaN determinant: a sphere's slot) takes the scalar
     test, as traverse._test_slots does.  For closest hits only, whose
     hits come here: an any-hit packet's rays stop at a hit, only rays
     whose axes differ take a scalar test there, and this second copy of
