@@ -57,3 +57,5 @@ def main(accel, query, packets):
 
 if __name__ == "__main__":
     main(sys.argv[1], sys.argv[2], sys.argv[3] == "1")
+    from raytrace.kernels.ahead import finish
+    finish()

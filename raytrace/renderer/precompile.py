@@ -69,3 +69,5 @@ def main(textures, mirrors, path=False, accel=None, shadows="hard"):
 if __name__ == "__main__":
     main(*(bool(int(a)) for a in sys.argv[1:4]), None if sys.argv[4] == "-" else sys.argv[4],
          sys.argv[5])
+    from raytrace.kernels.ahead import finish
+    finish()
