@@ -170,17 +170,20 @@ def machine_line(info):
 
 # `raytrace ARGS` as the console script runs it, then this process's peak
 # resident memory on stderr: VmHWM, its own (getrusage's ru_maxrss would
-# add the parent's at the fork); "-" where /proc/self/status has none.
+# add the parent's at the fork); "-" where /proc/self/status has none.  An
+# exit handler: the command ends its process itself, after the handlers
+# (raytrace/cli/command.py _end).
 _CLI_WITH_PEAK = (
-    "import runpy, sys\n"
-    "sys.argv = ['raytrace'] + sys.argv[1:]\n"
-    "try:\n    runpy.run_module('raytrace', run_name='__main__')\n"
-    "finally:\n"
+    "import atexit, runpy, sys\n"
+    "def peak():\n"
     "    try:\n"
     "        hwm = [ln.split()[1] for ln in open('/proc/self/status') if ln.startswith('VmHWM:')]\n"
     "    except OSError:\n"
     "        hwm = []\n"
-    "    sys.stderr.write(f\"peak {hwm[0] if hwm else '-'}\\n\")\n")
+    "    sys.stderr.write(f\"peak {hwm[0] if hwm else '-'}\\n\")\n"
+    "atexit.register(peak)\n"
+    "sys.argv = ['raytrace'] + sys.argv[1:]\n"
+    "runpy.run_module('raytrace', run_name='__main__')\n")
 
 
 def run_cli(args, env=None, cwd=None):

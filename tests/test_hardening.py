@@ -236,6 +236,48 @@ def _command(tmp_path, prelude):
     return p.returncode, p.stderr
 
 
+def _ended(tmp_path, prelude, args):
+    """Run raytrace.cli.command.main with ``args`` after ``prelude``, then a
+    line the process should never reach: (exit code, stdout, stderr)."""
+    code = (prelude + "\nimport sys\nfrom raytrace.cli import command\n"
+            f"sys.argv = ['raytrace', *{args!r}]\ncommand.main()\n"
+            "sys.stderr.write('after main\\n')\n")
+    p = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=120)
+    return p.returncode, p.stdout, p.stderr
+
+
+HANDLER = "import atexit, sys\natexit.register(lambda: sys.stderr.write('handler ran\\n'))"
+
+
+def test_the_command_ends_with_its_code_after_the_exit_handlers(tmp_path):
+    """The command ends its process itself (cli/command.py _end, skipping
+    Python's teardown): exit handlers still run, the output is all there
+    (the JSON parses) and the exit code is the command's."""
+    import json
+    rc, out, err = _ended(tmp_path, HANDLER, ["spheres", "--width", "8", "--height", "6",
+                                              "-o", "x.png", "--json", "-q"])
+    assert rc == 0, err
+    assert json.loads(out)["triangles"] >= 0
+    assert "handler ran" in err and "after main" not in err
+    assert (tmp_path / "x.png").stat().st_size > 0
+    rc, out, err = _ended(tmp_path, HANDLER, ["no_such_scene"])
+    assert rc == 2
+    assert "handler ran" in err and "after main" not in err
+    assert err.splitlines()[0].startswith("Error: unknown scene 'no_such_scene'")
+
+
+def test_the_command_waits_for_a_thread_that_is_not_a_daemon(tmp_path):
+    """A thread the caller started and did not make a daemon still finishes:
+    the command then exits as Python does, after it."""
+    rc, _, err = _ended(tmp_path, "import sys, threading, time\n"
+                                  "threading.Thread(target=lambda: (time.sleep(0.5), "
+                                  "sys.stderr.write('thread done\\n'))).start()",
+                        ["spheres", "--width", "8", "--height", "6", "-o", "x.png", "-q"])
+    assert rc == 0, err
+    assert "thread done" in err
+
+
 def test_16_ctrl_c_inside_exec_code_is_still_130(tmp_path):
     """A Ctrl-C that lands in exec()'d code (a namedtuple or dataclass being
     made while a module loads) makes CPython 3.11 kill itself with SIGINT at
