@@ -26,7 +26,7 @@ def _end(code):
     clusters, logging), the output is flushed, and the process ends
     without Python's teardown, which frees every compiled kernel's module
     one by one: 0.35-0.46 s after a first render, 0.10-0.13 s after a
-    warm one of 0.5 s (docs/benchmarks.md, "A command ends at once").
+    warm one of 0.5 s (docs/benchmarks.md, "A process ends at once").
     Where a thread that is not a daemon still runs, the usual exit, which
     waits for it."""
     import atexit

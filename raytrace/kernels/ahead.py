@@ -41,8 +41,8 @@ def finish():
     """End a second process whose kernels are compiled, at once: Numba
     wrote each to the cache as it was compiled, and Python's teardown of
     the compiled modules (0.37-0.39 s after a first render's ray kernels)
-    lay on a first run's critical path (docs/benchmarks.md, "A second
-    process ends at once")."""
+    lay on a first run's critical path (docs/benchmarks.md, "A process
+    ends at once")."""
     os._exit(0)
 
 
