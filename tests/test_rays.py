@@ -265,13 +265,17 @@ def _root(a):
     return a
 
 
-def test_fresh_columns_are_separate_arrays_of_one_block():
-    from raytrace.cast.rays import fresh_columns
-    point, prim, d2 = fresh_columns(5, ((np.float64, 3), (np.int64, 1), (np.float64, 1)))
-    assert (point.shape, prim.shape, d2.shape) == ((5, 3), (5,), (5,))
+@pytest.mark.parametrize("n", [5, 4096])
+def test_fresh_columns_are_separate_arrays_of_one_block(n):
+    """Columns of SHARED_MIN_ROWS rows or more are views of one block;
+    fewer, arrays of their own (cheaper to make, and malloc keeps them)."""
+    from raytrace.cast.rays import SHARED_MIN_ROWS, fresh_columns
+    point, prim, d2 = fresh_columns(n, ((np.float64, 3), (np.int64, 1), (np.float64, 1)))
+    assert (point.shape, prim.shape, d2.shape) == ((n, 3), (n,), (n,))
     assert (point.dtype, prim.dtype, d2.dtype) == (np.float64, np.int64, np.float64)
     assert all(a.flags.c_contiguous and a.flags.writeable for a in (point, prim, d2))
-    assert _root(point) is _root(prim) is _root(d2)
+    shared = _root(point) is _root(prim) is _root(d2)
+    assert shared == (n >= SHARED_MIN_ROWS)
     point[:] = 1.5
     prim[:] = -7
     d2[:] = 2.5
@@ -280,11 +284,13 @@ def test_fresh_columns_are_separate_arrays_of_one_block():
 
 
 def test_a_calls_answers_share_one_allocation():
-    """t, the primitive ids and the barycentrics come from one block, which
-    malloc keeps for the next call (rays.fresh_columns); the face and
+    """t, the primitive ids and the barycentrics of a call of
+    SHARED_MIN_ROWS rays or more come from one block, which malloc keeps
+    for the next call (rays.fresh_columns); the face and
     geometry ids are each one gather from a table whose last row, -1, a
     miss's id reads (prepared._id_tables)."""
-    h = cast_rays((V, F), [[0.2, 0.3, -1.0], [5.0, 5.0, -1.0], [0.2, 0.3, -1.0]],
-                  [[0, 0, 1.0]] * 3, accel="bvh")
+    from raytrace.cast.rays import SHARED_MIN_ROWS
+    o = np.tile([[0.2, 0.3, -1.0], [5.0, 5.0, -1.0], [0.2, 0.3, -1.0]], (SHARED_MIN_ROWS, 1))
+    h = cast_rays((V, F), o, [[0, 0, 1.0]], accel="bvh")
     assert _root(h.t) is _root(h._prim) is _root(h._raw_uv[0]) is _root(h._raw_uv[1])
-    assert h.prim_id.tolist() == [1, -1, 1] and h.geometry_id.tolist() == [0, -1, 0]
+    assert h.prim_id[:3].tolist() == [1, -1, 1] and h.geometry_id[:3].tolist() == [0, -1, 0]
