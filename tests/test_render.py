@@ -244,3 +244,18 @@ def test_a_lights_sample_hashes_are_rand01s_own():
         for s in (0, 1, 17, 80, 299):
             for dim in (0, 1):
                 assert looked_up(key, hashes[2 * s + dim]) == whole(key, s, dim)
+
+
+@pytest.mark.parametrize("rows", [1, 7, 480, 1001])
+def test_srgb_encoding_is_the_same_on_any_number_of_threads(rows):
+    """to_srgb8 spreads its bands over threads: every pixel is encoded once,
+    with the same arithmetic as the whole image at once."""
+    from raytrace.renderer.driver import to_srgb8
+    rng = np.random.default_rng(rows)
+    linear = (rng.random((rows, 333, 3), dtype=np.float32) * 1.4 - 0.2).astype(np.float32)
+    linear[0, :4, 0] = [0.0031308, 0.0031309, 0.0, 1.0]
+    c = np.clip(linear, 0.0, 1.0)
+    s = np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
+    whole = (s * 255.0 + 0.5).astype(np.uint8)
+    for threads in (1, 2, 3):
+        assert np.array_equal(to_srgb8(linear, threads), whole)

@@ -2,6 +2,7 @@
 
 Python owns validation and dtype casting; the kernels see only arrays.
 """
+import functools
 import math
 import sys
 import time
@@ -295,19 +296,32 @@ def aov_buffers(width, height, enabled):
                 cost=np.zeros((height, width), np.int64))
 
 
-def to_srgb8(linear):
+def to_srgb8(linear, threads=1):
     """Clamp and encode with the sRGB curve (IEC 61966-2-1).
 
     A band of rows at a time: on the whole image the float temporaries
     take several times what the memory check in validate() counts, so a
     big render that passed the check could fail here, after all its work.
+    The bands go to ``threads`` threads (NumPy lets go of the GIL in its
+    loops): on one, the 640x480 teapot's took 5.2 ms, a fifth of its render.
     """
     out = np.empty(linear.shape, np.uint8)
-    band = max(1, SRGB_BAND_VALUES // max(1, linear[0].size)) if len(linear) else 1
-    for y0 in range(0, len(linear), band):
-        c = np.clip(linear[y0:y0 + band], 0.0, 1.0)
-        s = np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
-        out[y0:y0 + band] = (s * 255.0 + 0.5).astype(np.uint8)
+    rows = len(linear)
+    band = max(1, SRGB_BAND_VALUES // max(1, linear[0].size)) if rows else 1
+    band = max(1, min(band, -(-rows // (2 * threads))))     # two bands a thread at least
+    starts = range(0, rows, band)
+
+    def encode(share):
+        for y0 in share:
+            c = np.clip(linear[y0:y0 + band], 0.0, 1.0)
+            s = np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
+            out[y0:y0 + band] = (s * 255.0 + 0.5).astype(np.uint8)
+    parts = max(1, min(threads, len(starts)))
+    if parts == 1:
+        encode(starts)
+    else:
+        from raytrace.kernels.threads import run_on_threads
+        run_on_threads([functools.partial(encode, starts[k::parts]) for k in range(parts)])
     return out
 
 
@@ -531,8 +545,8 @@ def _render(scene, opts, drop_meshes):
     stats["counters"] = counters_from_rows(stats_rows)
     stats["peak_memory_mb"] = {**setup.peaks, "render": peak_memory_mb()}
     result_aovs = aovs._asdict() if opts.aov else {}
-    return RenderResult(image=to_srgb8(image), linear=image, stats=derive(stats), aovs=result_aovs,
-                        structure=setup.acc)
+    return RenderResult(image=to_srgb8(image, setup.threads), linear=image, stats=derive(stats),
+                        aovs=result_aovs, structure=setup.acc)
 
 
 def base_stats(setup, scene_name):
