@@ -31,7 +31,7 @@ from raytrace.kernels.limits import MAX_BOUNCES
 from raytrace.kernels.optics import bounce_weights, reflect, refract
 from raytrace.kernels.packed import Packed, unpack
 from raytrace.kernels.ray import Hit, make_ray
-from raytrace.kernels.render import camera_ray, hit_frame, point_albedo, sky, surface_albedo
+from raytrace.kernels.render import hit_frame, point_albedo, screen_point, sky, surface_albedo
 from raytrace.kernels.wavefront import light_entries, lit, room_for_hit
 
 # A generation's rays: origin, direction and interval as cast.py takes
@@ -136,7 +136,7 @@ def shade_generation(shading, textures, wave, gen, ij, nxt, p, shadow, light, c,
         if camera:
             counters[row, SHADING_POINTS] += 1
             wave.normal[k, 0], wave.normal[k, 1], wave.normal[k, 2] = f.nx, f.ny, f.nz
-            _, sxn, syn = camera_ray(shading.cam, wave.film[k, 0], wave.film[k, 1])
+            sxn, syn = screen_point(wave.film[k, 0], wave.film[k, 1])
             rgb = surface_albedo(textures, geo, shading.cam, hit, f.mat, f.px, f.py, f.pz, sxn,
                                  syn)
         else:

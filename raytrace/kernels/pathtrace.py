@@ -57,7 +57,14 @@ from raytrace.kernels.jit import BLOCK, JIT, STAGE
 from raytrace.kernels.optics import bounce_weights, reflect, refract
 from raytrace.kernels.packed import Packed, unpack
 from raytrace.kernels.ray import Hit, make_ray
-from raytrace.kernels.render import camera_ray, hit_frame, point_albedo, sky, surface_albedo
+from raytrace.kernels.render import (
+    camera_ray,
+    hit_frame,
+    point_albedo,
+    screen_point,
+    sky,
+    surface_albedo,
+)
 from raytrace.kernels.sampling import hash_key, rand01
 from raytrace.kernels.shade import smooth_point
 from raytrace.kernels.sobol import sobol_pair01
@@ -338,7 +345,7 @@ def shade_paths(shading, textures, paths, wave, gen, ij, nxt, q, shadow, counter
         if depth == 0:
             counters[row, SHADING_POINTS] += 1
             wave.normal[k, 0], wave.normal[k, 1], wave.normal[k, 2] = f.nx, f.ny, f.nz
-            _, sxn, syn = camera_ray(shading.cam, wave.film[k, 0], wave.film[k, 1])
+            sxn, syn = screen_point(wave.film[k, 0], wave.film[k, 1])
             alb = surface_albedo(textures, geo, shading.cam, hit, f.mat, f.px, f.py, f.pz, sxn,
                                  syn)
         else:

@@ -137,13 +137,19 @@ def hit_frame(geo, ray, hit):
 
 
 @njit(**JIT)
+def screen_point(fx, fy):
+    """Film position (fx, fy) in [0,1]^2 in the pinhole's screen
+    coordinates (sxn, syn in [-1, 1], y up)."""
+    return 2.0 * fx - 1.0, 1.0 - 2.0 * fy
+
+
+@njit(**JIT)
 def camera_ray(cam, fx, fy):
     """The camera ray through film position (fx, fy) in [0,1]^2, and that
     position in the pinhole's screen coordinates (sxn, syn in [-1, 1])."""
     # Pinhole camera: eye + forward + x * right + y * up (cam holds them
     # pre-scaled by the field of view and the aspect ratio).
-    sxn = 2.0 * fx - 1.0
-    syn = 1.0 - 2.0 * fy
+    sxn, syn = screen_point(fx, fy)
     dx = cam[3] + sxn * cam[6] + syn * cam[9]
     dy = cam[4] + sxn * cam[7] + syn * cam[10]
     dz = cam[5] + sxn * cam[8] + syn * cam[11]
