@@ -17,7 +17,7 @@ from raytrace.accel.bvh.layout import BOX, BVH, WIDTH, lane_entries
 from raytrace.accel.bvh.simd import LEAF_LANES, crossing_mask, leaf_hits
 from raytrace.accel.bvh.traverse import BOX32_RANGE, NEAR_LIMIT, box_ray, child_boxes
 from raytrace.kernels.intersect import ray_triangle, ray_triangle_crossing
-from raytrace.kernels.lowlevel import frame_array, take_rows, take_ticket
+from raytrace.kernels.lowlevel import frame_array, row_window, take_rows, take_ticket
 from raytrace.kernels.ray import make_crossing_ray, make_ray
 
 
@@ -469,6 +469,28 @@ def stack_roundtrip(n):
 
 def test_frame_array():
     assert stack_roundtrip(64) == (sum(i * i + 0.5 * i for i in range(64)), 64, 64)
+
+
+@njit
+def through_window(buffer, first, rows):
+    """Rows first .. first + rows - 1 of row_window's view written as
+    100 * row + column, and the view's shape."""
+    w = row_window(buffer, first, rows)
+    for i in range(first, first + rows):
+        for a in range(3):
+            w[i, a] = 100.0 * i + a
+    return w.shape[0], w.shape[1]
+
+
+@pytest.mark.parametrize("first", [0, 1, 1021, 3 << 30])
+def test_row_window_indexes_the_buffer_by_the_call_s_rows(first):
+    """Row first of the window is the buffer's first 3 values, the next
+    row the next 3 (ray.widen_rays: a chunk of a call's rays in a thread's
+    buffer, by the call's row numbers); nothing past the rows is written."""
+    buffer = np.full(3 * 5 + 2, -1.0)
+    assert through_window(buffer, first, 5) == (first + 5, 3)
+    want = [100.0 * (first + k // 3) + k % 3 for k in range(15)] + [-1.0, -1.0]
+    assert buffer.tolist() == want
 
 
 @njit(parallel=True)

@@ -60,10 +60,17 @@ from raytrace.kernels.query import (
     occluded,
     occluded_packet,
 )
-from raytrace.kernels.ray import make_listing_ray, make_ray, no_hit, ray_ok, widen_rays
+from raytrace.kernels.ray import (
+    CHUNK,
+    WIDE,
+    make_listing_ray,
+    make_ray,
+    no_hit,
+    ray_ok,
+    widen_rays,
+)
 from raytrace.kernels.threads import run_on_threads, run_rows
 
-CHUNK = 1024
 COLUMNS = N_COUNTERS + 1   # BAD_RAYS last
 
 
@@ -77,19 +84,21 @@ def _closest_kernel(packets):
     """A thread's share of cast_closest, tracing packets where the rays
     can go as one (``packets``) or every ray alone.  rays: (origins,
     dirs, t_min, t_max); narrow: empty, or the call's float32 origins and
-    directions, widened into rays' a chunk at a time (ray.widen_rays)."""
+    directions (rays' are then empty), widened a chunk at a time
+    (ray.widen_rays)."""
     @njit(**BLOCK)
     def block(scene, rays, narrow, outs, cnt, rows, clock):
         geo, acc = unpack(scene)
-        origins, dirs, t_min, t_max = rays
+        _, _, t_min, t_max = rays
         out_t, out_prim, out_u, out_v = outs
-        n = origins.shape[0]
+        n = t_min.shape[0]
         per_ray = rows.shape[0] > 0
         n_chunks = (n + CHUNK - 1) // CHUNK
+        wide = frame_array(WIDE, np.float64), frame_array(WIDE, np.float64)
         c = take_ticket(clock)
         while c < n_chunks:
             end = min(n, (c + 1) * CHUNK)
-            widen_rays(narrow, origins, dirs, c * CHUNK, end)
+            origins, dirs = widen_rays(narrow, rays[0], rays[1], c * CHUNK, end, wide)
             try_packets = not per_ray
             for i0 in range(c * CHUNK, end, PACKET):
                 m = min(PACKET, end - i0)
@@ -121,14 +130,15 @@ def _occluded_kernel(packets):
     @njit(**BLOCK)
     def block(scene, rays, narrow, out_hit, cnt, rows, clock):
         geo, acc = unpack(scene)
-        origins, dirs, t_min, t_max = rays
-        n = origins.shape[0]
+        _, _, t_min, t_max = rays
+        n = t_min.shape[0]
         per_ray = rows.shape[0] > 0
         n_chunks = (n + CHUNK - 1) // CHUNK
+        wide = frame_array(WIDE, np.float64), frame_array(WIDE, np.float64)
         c = take_ticket(clock)
         while c < n_chunks:
             end = min(n, (c + 1) * CHUNK)
-            widen_rays(narrow, origins, dirs, c * CHUNK, end)
+            origins, dirs = widen_rays(narrow, rays[0], rays[1], c * CHUNK, end, wide)
             try_packets = not per_ray
             for i0 in range(c * CHUNK, end, PACKET):
                 m = min(PACKET, end - i0)
@@ -188,6 +198,7 @@ def run_blocks(block, args, cnt_rows, clock):
 _ONE_ROW = np.empty(0, np.int64)
 _NO_NARROW = np.empty((0, 3), np.float32)
 FLOAT64_RAYS = (_NO_NARROW, _NO_NARROW)     # a call's ``narrow``: its rays are float64
+_NO_WIDE = np.empty((0, 3))                 # a float32 call's float64 rows: none
 _FLOAT32 = np.dtype(np.float32)     # compared faster than the type
 
 
@@ -195,17 +206,17 @@ def kernel_rays(origins, dirs, t_min, t_max):
     """(rays, narrow) as the ray queries' blocks take them.
     origins, dirs: C-contiguous, aligned and writeable (n, 3) float64
     arrays, or float32 ones (or the same (n, 6) float32 rows twice), which
-    the kernel widens into scratch rows a chunk at a time (ray.widen_rays)."""
+    each thread widens a chunk at a time (ray.widen_rays).  The blocks
+    take the number of rays from t_min."""
     if origins.dtype != _FLOAT32:
         return (origins, dirs, t_min, t_max), FLOAT64_RAYS
-    n = origins.shape[0]
-    return (scratch_rows(n, 0), scratch_rows(n, 1), t_min, t_max), (origins, dirs)
+    return (_NO_WIDE, _NO_WIDE, t_min, t_max), (origins, dirs)
 
 
-# Scratch (n, 3) float64 rows each thread keeps for its next call, up to
-# this size each: a fresh array faults its pages in as it is written,
-# which cost float32 rays more than their conversion (docs/benchmarks.md,
-# "Ray queries").
+# Scratch (n, 3) float64 rows each thread keeps for its next call (rays
+# the kernels cannot read in place, converted by cast/rays.py), up to this
+# size each: a fresh array faults its pages in as it is written, which
+# cost more than the conversion (docs/benchmarks.md, "Ray queries").
 _SCRATCH_MAX_BYTES = 8 << 20
 _scratch = threading.local()
 
@@ -355,18 +366,20 @@ SLAB = 4096
 @njit(**BLOCK)
 def _listing_block(scene, rays, narrow, start, fixed, slab, outs, found, cnt, clock):
     geo, acc = unpack(scene)
-    origins, dirs, t_min, t_max = rays
+    _, _, t_min, t_max = rays
     out_t, out_prim, out_u, out_v = outs
-    n = origins.shape[0]
+    n = t_min.shape[0]
     rows = out_t.shape[0]
     n_chunks = (n + CHUNK - 1) // CHUNK
     cursor = frame_array(2, np.int64)
     saved = frame_array(N_COUNTERS, np.int64)
+    wide = frame_array(WIDE, np.float64), frame_array(WIDE, np.float64)
     pos = 0
     slab_end = 0    # no slab yet: the first ray with a hit takes one
     c = take_ticket(clock)
     while c < n_chunks:
-        widen_rays(narrow, origins, dirs, c * CHUNK, min(n, (c + 1) * CHUNK))
+        origins, dirs = widen_rays(narrow, rays[0], rays[1], c * CHUNK,
+                                   min(n, (c + 1) * CHUNK), wide)
         for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             found[i] = 0
             if not fixed:

@@ -1,7 +1,8 @@
 """What the kernels need that Numba cannot say in Python: an array in the
 caller's stack frame, a population count, trailing- and leading-zero
 counts, a 64 x 64 -> 128-bit product, a double from its bits, eight
-bytes loaded as one word, an atomic counter and a prefetch.  The
+bytes loaded as one word, an atomic counter, a prefetch and rows of a
+buffer indexed from an offset.  The
 BVH's SIMD tests live beside it (raytrace/accel/bvh/simd.py).
 
 Each is a Numba intrinsic that emits LLVM IR directly.
@@ -38,6 +39,36 @@ def frame_array(typingctx, size, dtype):
         return ary._getvalue()
 
     return arrty(size, dtype), codegen
+
+
+@intrinsic
+def row_window(typingctx, buffer, first, rows):
+    """Rows ``first`` .. ``first + rows - 1`` of a (first + rows, 3)
+    float64 array whose rows from ``first`` on are held in 1-D ``buffer``
+    (3 values a row): a C array whose data pointer lies ``first`` rows
+    before buffer's, so that a chunk of a call's rays kept in a thread's
+    buffer is indexed by the call's row numbers.  Its rows below ``first``
+    are not memory: only rows first .. are to be read or written (Numba
+    checks no bounds)."""
+    if not (isinstance(buffer, types.Array) and buffer.ndim == 1 and buffer.dtype == types.float64
+            and isinstance(first, types.Integer) and isinstance(rows, types.Integer)):
+        return None
+    arrty = types.Array(types.float64, 2, "C")
+
+    def codegen(context, builder, sig, args):
+        intp = context.get_value_type(types.intp)
+        buf = context.make_array(sig.args[0])(context, builder, args[0])
+        start = context.cast(builder, args[1], sig.args[1], types.intp)
+        count = context.cast(builder, args[2], sig.args[2], types.intp)
+        # Not inbounds: the pointer lies before the buffer (never read there).
+        data = builder.gep(buf.data, [builder.mul(start, ir.Constant(intp, -3))])
+        ary = context.make_array(arrty)(context, builder)
+        populate_array(ary, data=data, shape=[builder.add(start, count), ir.Constant(intp, 3)],
+                       strides=[ir.Constant(intp, 24), ir.Constant(intp, 8)],
+                       itemsize=ir.Constant(intp, 8), meminfo=None)
+        return ary._getvalue()
+
+    return arrty(buffer, first, rows), codegen
 
 
 @intrinsic

@@ -8,20 +8,21 @@ traversal for that class, and a kernel calling ``closest_hit(geo, acc,
 chosen at compile time (Numba's ``@overload``): a BVH render never
 compiles, or branches over, the grid's code.
 """
+import numpy as np
 from numba import njit
 from numba.core.errors import TypingError
 from numba.extending import overload
 
 from raytrace.kernels.counters import BAD_RAYS, PRIM_HITS
 from raytrace.kernels.jit import OVERLOAD, STAGE
-from raytrace.kernels.lowlevel import take_ticket
+from raytrace.kernels.lowlevel import frame_array, take_ticket
 from raytrace.kernels.prims import (
     count_unbounded_hits,
     planes_closest,
     planes_occluded,
     record_unbounded_hits,
 )
-from raytrace.kernels.ray import make_crossing_ray, ray_ok, widen_rays
+from raytrace.kernels.ray import WIDE, make_crossing_ray, ray_ok, widen_rays
 
 # What a traversal is made for, a compile-time constant of each structure's
 # one traversal loop: the closest hit; any hit (stop at the first); every
@@ -149,9 +150,10 @@ def _count_hits(geo, acc, ray, t_max, cnt):
 def count_rays(geo, acc, origins, dirs, t_min, t_max, narrow, out, cnt, clock, chunk):
     """out[i] = count_hits of ray i as a CrossingRay, for the rays in the
     chunks of ``chunk`` rays this thread takes by ticket from clock
-    (kernels/cast.py; ``narrow``: float32 rays each chunk is widened from
-    first, ray.widen_rays); a bad ray (ray_ok) gets 0 and is counted in
-    cnt[BAD_RAYS].  Through the layout's count stream if it has one
+    (kernels/cast.py; ``narrow``: float32 rays each chunk, of at most
+    ray.CHUNK, is widened from first, ray.widen_rays; origins and dirs
+    are then empty, and t_min gives the number of rays); a bad ray
+    (ray_ok) gets 0 and is counted in cnt[BAD_RAYS].  Through the layout's count stream if it has one
     (register_count_stream), else one ray at a time.  Compiled code only."""
     raise NotImplementedError("compiled code only")
 
@@ -177,17 +179,19 @@ def _count_rays(geo, acc, origins, dirs, t_min, t_max, narrow, out, cnt, clock, 
         return stream
 
     def impl(geo, acc, origins, dirs, t_min, t_max, narrow, out, cnt, clock, chunk):
-        n = origins.shape[0]
+        n = t_min.shape[0]
+        wide = frame_array(WIDE, np.float64), frame_array(WIDE, np.float64)
         c = take_ticket(clock)
         while c * chunk < n:
-            widen_rays(narrow, origins, dirs, c * chunk, min(n, (c + 1) * chunk))
+            o_rows, d_rows = widen_rays(narrow, origins, dirs, c * chunk,
+                                        min(n, (c + 1) * chunk), wide)
             for i in range(c * chunk, min(n, (c + 1) * chunk)):
-                if not ray_ok(origins, dirs, t_min, t_max, i):
+                if not ray_ok(o_rows, d_rows, t_min, t_max, i):
                     cnt[BAD_RAYS] += 1
                     out[i] = 0
                     continue
-                ray = make_crossing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
-                                        dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i])
+                ray = make_crossing_ray(o_rows[i, 0], o_rows[i, 1], o_rows[i, 2],
+                                        d_rows[i, 0], d_rows[i, 1], d_rows[i, 2], t_min[i])
                 out[i] = count_hits(geo, acc, ray, t_max[i], cnt)
             c = take_ticket(clock)
     return impl

@@ -7,6 +7,13 @@ from numba import njit
 
 from raytrace.kernels.jit import JIT
 from raytrace.kernels.limits import FROM_ORIGIN, MAX_COORD
+from raytrace.kernels.lowlevel import row_window
+
+# Rays a thread of a query takes at a time (kernels/cast.py), and the
+# float64 values of a chunk's origins or directions widened from float32
+# (widen_rays: each thread's two frame arrays of WIDE).
+CHUNK = 1024
+WIDE = 3 * CHUNK
 
 # A ray with the per-ray constants every test along it shares: the inverse
 # direction for slab tests (a zero component gives +-inf) and the axis
@@ -97,21 +104,27 @@ def closer(t, p, best):
 
 
 @njit(**JIT)
-def widen_rays(narrow, origins, dirs, lo, end):
-    """Rays lo .. end - 1 of a call's float32 origins and directions
-    (``narrow``: (n, 3) arrays, or the same (n, 6) rows twice, the origin
-    first and the direction last) into the float64 arrays the kernel
-    reads, exactly: a chunk at a time, by the thread that traces it, so
-    they are read once and still in cache when traced.  Nothing where
-    narrow is empty (the call's rays are float64 already)."""
+def widen_rays(narrow, origins, dirs, lo, end, wide):
+    """The (origins, dirs) arrays to read rays lo .. end - 1 (at most CHUNK)
+    of a call from, by the call's row numbers: ``origins`` and ``dirs``
+    themselves for a float64 call (``narrow`` empty), else wide = (two
+    frame arrays of WIDE float64, the thread's) filled with those rays of
+    the call's float32 origins and directions (``narrow``: (n, 3) arrays,
+    or the same (n, 6) rows twice, the origin first), exactly, and seen
+    through lowlevel.row_window.  The widened chunk stays in the thread's
+    cache until it is traced; widened into rows the size of the call, each
+    call wrote them to memory and read them back (docs/benchmarks.md,
+    "float32 rays widened into a thread's chunk")."""
     o32, d32 = narrow
     if o32.shape[0] == 0:
-        return
+        return origins, dirs
     col = d32.shape[1] - 3
+    wo, wd = wide
     for i in range(lo, end):
         for a in range(3):
-            origins[i, a] = o32[i, a]
-            dirs[i, a] = d32[i, col + a]
+            wo[3 * (i - lo) + a] = o32[i, a]
+            wd[3 * (i - lo) + a] = d32[i, col + a]
+    return row_window(wo, lo, end - lo), row_window(wd, lo, end - lo)
 
 
 @njit(**JIT)

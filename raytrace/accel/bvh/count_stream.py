@@ -29,7 +29,7 @@ from raytrace.kernels.jit import JIT, STAGE
 from raytrace.kernels.lowlevel import PACKET, frame_array, take_ticket
 from raytrace.kernels.prims import count_unbounded_hits
 from raytrace.kernels.query import NOT_PACKED, SPARSE, register_count_stream
-from raytrace.kernels.ray import make_crossing_ray, ray_ok, widen_rays
+from raytrace.kernels.ray import WIDE, make_crossing_ray, ray_ok, widen_rays
 
 
 @njit(**JIT)
@@ -83,8 +83,8 @@ def _count_packets(job, start, end, cnt):
 def _crossing_ray(origins, dirs, t_min, t_max, i, last):
     """Ray i as a CrossingRay and its t_max; past ``last``, the chunk's
     last ray (a slot with no ray left still holds one, never traced), the
-    last one's: not a ray of another chunk, which another thread may be
-    widening (ray.widen_rays)."""
+    last one's: a float32 call's rows past the chunk are not the thread's
+    (ray.widen_rays)."""
     i = min(i, last)
     ray = make_crossing_ray(origins[i, 0], origins[i, 1], origins[i, 2],
                             dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i])
@@ -136,18 +136,19 @@ def count_stream(geo, acc, origins, dirs, t_min, t_max, narrow, out, cnt, clock,
     Not decorated: query.count_rays compiles it as its own implementation
     for the layout, so that no wrapper adds a level of calls (each level
     compiles all the code below it again: docs/design.md, "Compile time")."""
-    n = origins.shape[0]
+    n = t_min.shape[0]
     stack_a = frame_array(COUNT_STACK_SIZE, np.int64)
     queue_a = frame_array(QUEUE_SIZE, np.int64)
     stack_b = frame_array(COUNT_STACK_SIZE, np.int64)
     queue_b = frame_array(QUEUE_SIZE, np.int64)
+    wide = frame_array(WIDE, np.float64), frame_array(WIDE, np.float64)
     unbounded = geo.pl_point.shape[0] + geo.sph_center.shape[0] > 0
-    job = CountJob(geo, acc, origins, dirs, t_min, t_max, out, cnt, clock, chunk, unbounded)
     t = Tallies(0, 0, 0, 0)
     c = take_ticket(clock)
     while c * chunk < n:
         start, end = c * chunk, min(n, (c + 1) * chunk)
-        widen_rays(narrow, origins, dirs, start, end)
+        o_rows, d_rows = widen_rays(narrow, origins, dirs, start, end, wide)
+        job = CountJob(geo, acc, o_rows, d_rows, t_min, t_max, out, cnt, clock, chunk, unbounded)
         packed = _count_packets(job, start, end, cnt)
         span = Span(start, end, packed)
         # A slot past the chunk's end still holds a ray (the last one's),
@@ -155,8 +156,8 @@ def count_stream(geo, acc, origins, dirs, t_min, t_max, narrow, out, cnt, clock,
         ia = _next_good_ray(job, start, start, end, packed, cnt)
         ib = _next_good_ray(job, ia + 1, start, end, packed, cnt)
         after = ib + 1
-        ray_a, tm_a = _crossing_ray(origins, dirs, t_min, t_max, ia, end - 1)
-        ray_b, tm_b = _crossing_ray(origins, dirs, t_min, t_max, ib, end - 1)
+        ray_a, tm_a = _crossing_ray(o_rows, d_rows, t_min, t_max, ia, end - 1)
+        ray_b, tm_b = _crossing_ray(o_rows, d_rows, t_min, t_max, ib, end - 1)
         br_a = box_ray(acc, ray_a)
         br_b = box_ray(acc, ray_b)
         sa = _count_start(acc, ia < end)
