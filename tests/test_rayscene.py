@@ -156,7 +156,7 @@ def test_one_block_in_the_calling_thread_answers_as_the_threads_do(monkeypatch, 
 
 def test_calls_of_one_ray_on_scenes_of_two_structures_keep_their_own_kernels():
     """A call of one ray runs its kernel's compiled entry point, kept per
-    prepared scene (kernels/cast.py closest_alone).  The grid's and the
+    prepared scene (kernels/cast.py _entry).  The grid's and the
     BVH's layouts are different types, so an entry kept for one scene and
     used by the other would read its arrays wrongly: calls alternating
     between the two answer ray by ray as each scene's batch call does, and
@@ -180,6 +180,37 @@ def test_calls_of_one_ray_on_scenes_of_two_structures_keep_their_own_kernels():
     scenes[0].add_mesh(SQUARE_V + [100, 0, 0], SQUARE_F)     # away from the soup
     assert scenes[0].cast_rays([100.5, 0.5, 1.0], DOWN)["geometry_id"][0] == 1
     assert scenes[0]._built() is not first and len(scenes[0]._built().entries) == 1
+
+
+def test_calls_of_many_rays_alternated_between_structures_keep_their_own_kernels():
+    """Calls of several chunks of rays, on two threads, run their kernels'
+    compiled entry points too (kernels/cast.py _entry), kept per prepared
+    scene: alternating between a BVH and a grid scene, and between float64
+    rays and float32 ones, every call answers as that scene's first did,
+    and the BVH keeps its packet kernels' entries, the grid its one-ray
+    kernels'."""
+    from raytrace.kernels import cast
+    rng = np.random.default_rng(12)
+    v, f = rng.normal(size=(60, 3)), rng.integers(0, 60, size=(40, 3))
+    o32 = (rng.normal(size=(3000, 3)) * 3).astype(np.float32)
+    d32 = (rng.normal(size=(3000, 3)) * 0.5 - o32).astype(np.float32)
+    o, d = o32.astype(np.float64), d32.astype(np.float64)
+    scenes = [RayScene((v, f), accel=a) for a in ("bvh", "grid")]
+
+    def answers(s, o, d):
+        h = s.cast_rays(o, d)
+        listed = s.list_intersections(o, d)
+        return [h["t"], h["prim_id"], s.occluded(o, d), s.count_intersections(o, d),
+                listed["ray_splits"], listed["t"]]
+    first = [answers(s, o, d) for s in scenes]
+    for rays in ((o32, d32), (o, d), (o32, d32)):
+        for s, want in zip(scenes, first):
+            for got, expected in zip(answers(s, *rays), want):
+                assert np.array_equal(got, expected)
+    assert 0 < (first[0][1] >= 0).sum() < len(o) and (first[0][3] > 1).any()
+    bvh, grid = (s._built().entries for s in scenes)
+    assert {cast._closest_block, cast._occluded_block} <= set(bvh)
+    assert cast._closest_single in grid and cast._closest_block not in grid
 
 
 def test_same_answers_as_the_one_call_functions():

@@ -26,8 +26,8 @@ class _Prepared:
         self.accel = accel
         self.acc, self.build_s = build_structure(accel, self.geo, self.obj_ranges)
         self.n_tris = self.geo.tri_v0.shape[0]
-        # The closest and any-hit kernels' compiled entry points for this
-        # scene's types (kernels/cast.py closest_alone).
+        # The query kernels' compiled entry points for this scene's types
+        # (kernels/cast.py _entry).
         self.entries = {}
         self._scenes = {}
         self._counting = None

@@ -324,17 +324,15 @@ def _closest(scene, origins, dirs, t_min, t_max, check=True, entries=None):
     """((t, prim, b1, b2), counters) for (n, 3) rays and (n,) bounds in
     ``scene`` (kernels/cast.py ray_scene's); RaytraceError if a ray is bad
     (with ``check``; else it misses).  ``entries``: the prepared scene's
-    compiled entry points (kernels/cast.py closest_alone), for rays as
-    _rays makes them."""
+    compiled entry points (kernels/cast.py _entry), for rays as _rays
+    makes them."""
     k = _kernels()
     n = len(origins)
     out = tuple(fresh_columns(n, ((np.float64, 1), (np.int64, 1), (np.float64, 1),
                                   (np.float64, 1))))
     cnt = _counter_rows(n)
-    if entries is not None and len(cnt) == 1:
-        k.closest_alone(scene, (origins, dirs, t_min, t_max), out, cnt, _clock(), entries)
-    else:
-        k.cast_closest(scene, origins, dirs, t_min, t_max, *out, cnt, _clock())
+    t, prim, b1, b2 = out
+    k.cast_closest(scene, origins, dirs, t_min, t_max, t, prim, b1, b2, cnt, _clock(), entries)
     if check:
         _check_rays(cnt, (origins, dirs, t_min, t_max))
     return out, (cnt[0] if len(cnt) == 1 else cnt.sum(axis=0))
@@ -347,10 +345,7 @@ def _any_hit(scene, origins, dirs, t_min, t_max, check=True, entries=None):
     n = len(origins)
     hit = np.empty(n, np.bool_)
     cnt = _counter_rows(n)
-    if entries is not None and len(cnt) == 1:
-        k.occluded_alone(scene, (origins, dirs, t_min, t_max), hit, cnt, _clock(), entries)
-    else:
-        k.cast_occluded(scene, origins, dirs, t_min, t_max, hit, cnt, _clock())
+    k.cast_occluded(scene, origins, dirs, t_min, t_max, hit, cnt, _clock(), entries)
     if check:
         _check_rays(cnt, (origins, dirs, t_min, t_max))
     return hit, (cnt[0] if len(cnt) == 1 else cnt.sum(axis=0))

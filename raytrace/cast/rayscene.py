@@ -298,13 +298,10 @@ def _max_hits(max_hits, prepared):
 def _counts(prepared, rays, check=True):
     """How many hits each ray has (cast_counts); RaytraceError if a ray is
     bad (with ``check``; else its count is 0)."""
-    from raytrace.kernels.cast import cast_counts, counts_alone
+    from raytrace.kernels.cast import cast_counts
     counts = np.empty(len(rays[0]), np.int64)
     cnt = _counter_rows(len(counts))
-    if len(cnt) == 1:     # a small call: its kernel's entry point (kernels/cast.py)
-        counts_alone(prepared.scene("counting"), rays, counts, cnt, _clock(), prepared.entries)
-    else:
-        cast_counts(prepared.scene("counting"), *rays, counts, cnt, _clock())
+    cast_counts(prepared.scene("counting"), *rays, counts, cnt, _clock(), prepared.entries)
     if check:
         _check_rays(cnt, rays)
     return counts
@@ -358,7 +355,7 @@ def _run_listing(prepared, rays, rows, start=None, check=True):
     # first slab leaves the others without rows.
     slab = max(1, min(SLAB, rows // (4 * len(cnt))))
     cast_listing(prepared.scene("counting"), tuple(rays), start, fixed, slab, out, found,
-                 cnt, np.zeros(2, np.int64))
+                 cnt, np.zeros(2, np.int64), prepared.entries)
     if check:
         _check_rays(cnt, rays)
     return start[:n], found, out, cnt.sum(axis=0)

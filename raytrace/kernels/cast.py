@@ -185,13 +185,17 @@ def occluded_block(acc, n_rays):
     return _occluded_block if n_rays >= PACKET_MIN and has_packets(acc) else _occluded_single
 
 
-def run_blocks(block, args, cnt_rows, clock):
+def run_blocks(block, args, cnt_rows, clock, entries=None):
     """run_rows for the closest and any-hit blocks: a thread's rays all
-    count into its row of cnt_rows (no per-ray rows)."""
-    if cnt_rows.shape[0] == 1:      # one thread's: called at once, as a call of a ray is
-        block(*args, cnt_rows, _ONE_ROW, clock)
+    count into its row of cnt_rows (no per-ray rows); through the block's
+    entry in ``entries`` if given (_entry)."""
+    # The entry looked up here, not through _entry: a call of one ray is
+    # some 9 us, and each level of Python calls a share of it.
+    call = block if entries is None else entries.get(block) or _entry(block, entries)
+    if len(cnt_rows) == 1:      # one thread's: called at once, as a call of a ray is
+        call(*args, cnt_rows, _ONE_ROW, clock)
         return
-    run_on_threads([functools.partial(block, *args, cnt_rows[b:b + 1], _ONE_ROW, clock)
+    run_on_threads([functools.partial(call, *args, cnt_rows[b:b + 1], _ONE_ROW, clock)
                     for b in range(cnt_rows.shape[0])])
 
 
@@ -235,17 +239,24 @@ def scratch_rows(n, slot):
     return buf[:n]
 
 
-def _call_entry(block, args, entries):
-    """block(*args) in the calling thread through its compiled entry point
-    (entry.py's Entry), kept in ``entries``.  So
-    ``entries`` must serve arguments of one set of types only: one
-    prepared scene's, with the rays as kernel_rays makes them, or one
-    render thread's buffers (a wrong entry would read the arrays as
+def _entry(block, entries):
+    """The block's compiled entry point (entry.py's Entry), kept in
+    ``entries``: Numba's dispatcher types every argument at every call, 60-80
+    us a thread for a query's blocks, which was most of a call of 2,048
+    rays (docs/benchmarks.md, "A query's threads through the compiled
+    entry").  So ``entries`` must serve arguments of one set of types
+    only: one prepared scene's, with the rays as kernel_rays makes them,
+    or one render thread's buffers (a wrong entry would read the arrays as
     another type)."""
     entry = entries.get(block)
     if entry is None:
         entry = entries[block] = Entry(block)
-    entry(*args)
+    return entry
+
+
+def _call_entry(block, args, entries):
+    """block(*args) in the calling thread through its entry (_entry)."""
+    _entry(block, entries)(*args)
 
 
 def ray_scene(geo, acc):
@@ -254,34 +265,24 @@ def ray_scene(geo, acc):
     return Packed((geo, acc))
 
 
-def closest_alone(scene, rays, outs, cnt, clock, entries):
-    """cast_closest of a call of one counter row ``cnt`` (1, COLUMNS), in
-    the calling thread, through _call_entry: rays (origins, dirs, t_min,
-    t_max) as kernel_rays takes them, and outs (t, prim, u, v) as
-    cast/rays.py allocates them."""
-    _call_entry(closest_block(scene.record[1], rays[0].shape[0]),
-                (scene, *kernel_rays(*rays), outs, cnt, _ONE_ROW, clock), entries)
-
-
-def occluded_alone(scene, rays, out_hit, cnt, clock, entries):
-    """cast_occluded as closest_alone is cast_closest."""
-    _call_entry(occluded_block(scene.record[1], rays[0].shape[0]),
-                (scene, *kernel_rays(*rays), out_hit, cnt, _ONE_ROW, clock), entries)
-
-
 def cast_closest(scene, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out_v,
-                 cnt_rows, clock):
+                 cnt_rows, clock, entries=None):
     """Closest hit of ray i = (origins[i], dirs[i]) with t_min[i] < t < t_max[i]
-    (rays as kernel_rays takes them) in ``scene`` (ray_scene's)."""
+    (rays as kernel_rays takes them) in ``scene`` (ray_scene's); through
+    the compiled entries kept in ``entries`` if given (a prepared scene's:
+    _entry)."""
     outs = (out_t, out_prim, out_u, out_v)
     run_blocks(closest_block(scene.record[1], origins.shape[0]),
-               (scene, *kernel_rays(origins, dirs, t_min, t_max), outs), cnt_rows, clock)
+               (scene, *kernel_rays(origins, dirs, t_min, t_max), outs), cnt_rows, clock,
+               entries)
 
 
-def cast_occluded(scene, origins, dirs, t_min, t_max, out_hit, cnt_rows, clock):
-    """Whether anything is hit with t_min[i] < t < t_max[i] (stops at the first)."""
+def cast_occluded(scene, origins, dirs, t_min, t_max, out_hit, cnt_rows, clock, entries=None):
+    """Whether anything is hit with t_min[i] < t < t_max[i] (stops at the
+    first); ``entries`` as cast_closest's."""
     run_blocks(occluded_block(scene.record[1], origins.shape[0]),
-               (scene, *kernel_rays(origins, dirs, t_min, t_max), out_hit), cnt_rows, clock)
+               (scene, *kernel_rays(origins, dirs, t_min, t_max), out_hit), cnt_rows, clock,
+               entries)
 
 
 # The renderer's calls (kernels/waves.py, path_waves.py): one thread's
@@ -419,7 +420,7 @@ def _listing_block(scene, rays, narrow, start, fixed, slab, outs, found, cnt, cl
         c = take_ticket(clock)
 
 
-def cast_listing(scene, rays, start, fixed, slab, outs, found, cnt_rows, clock):
+def cast_listing(scene, rays, start, fixed, slab, outs, found, cnt_rows, clock, entries=None):
     """Every hit of ray i = (origins[i], dirs[i]) of rays = (origins, dirs,
     t_min, t_max) (as kernel_rays takes them) with t_min[i] < t <
     t_max[i], each crossing of a closed surface once, in order of (t,
@@ -432,9 +433,9 @@ def cast_listing(scene, rays, start, fixed, slab, outs, found, cnt_rows, clock):
     in slabs of at least ``slab`` (clock[1], 0 at the call, counts the rows
     taken) and start[i] gets ray i's first row, or -1 where the rows ran
     out before its hits were written.  scene: ray_scene's, of the
-    counting layout."""
-    run_rows(_listing_block, (scene, *kernel_rays(*rays), start, fixed, slab, outs, found),
-             cnt_rows, clock)
+    counting layout; ``entries`` as cast_closest's."""
+    run_rows(_listing_block if entries is None else _entry(_listing_block, entries),
+             (scene, *kernel_rays(*rays), start, fixed, slab, outs, found), cnt_rows, clock)
 
 
 @njit(**BLOCK)
@@ -444,17 +445,12 @@ def _counts_block(scene, rays, narrow, out_count, cnt, clock):
     count_rays(geo, acc, origins, dirs, t_min, t_max, narrow, out_count, cnt, clock, CHUNK)
 
 
-def counts_alone(scene, rays, out_count, cnt, clock, entries):
-    """cast_counts of a call of one counter row ``cnt`` (1, COLUMNS) through
-    _call_entry, as closest_alone; ``scene`` of the counting layout."""
-    _call_entry(_counts_block, (scene, *kernel_rays(*rays), out_count, cnt[0], clock), entries)
-
-
-def cast_counts(scene, origins, dirs, t_min, t_max, out_count, cnt_rows, clock):
+def cast_counts(scene, origins, dirs, t_min, t_max, out_count, cnt_rows, clock, entries=None):
     """How many times ray i meets the surfaces with t_min[i] < t < t_max[i],
     each crossing of a closed surface once: one traversal that never
     narrows the interval, with the crossing triangle test (CrossingRay), a
     chunk of rays at a time (query.count_rays: the BVH keeps two rays in
-    flight); scene: ray_scene's, of the counting layout."""
-    run_rows(_counts_block, (scene, *kernel_rays(origins, dirs, t_min, t_max), out_count),
-             cnt_rows, clock)
+    flight); scene: ray_scene's, of the counting layout; ``entries`` as
+    cast_closest's."""
+    run_rows(_counts_block if entries is None else _entry(_counts_block, entries),
+             (scene, *kernel_rays(origins, dirs, t_min, t_max), out_count), cnt_rows, clock)
