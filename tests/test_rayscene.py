@@ -156,7 +156,7 @@ def test_one_block_in_the_calling_thread_answers_as_the_threads_do(monkeypatch, 
 
 def test_calls_of_one_ray_on_scenes_of_two_structures_keep_their_own_kernels():
     """A call of one ray runs its kernel's compiled entry point, kept per
-    prepared scene (kernels/cast.py _entry).  The grid's and the
+    prepared scene (kernels/entry.py entry_of).  The grid's and the
     BVH's layouts are different types, so an entry kept for one scene and
     used by the other would read its arrays wrongly: calls alternating
     between the two answer ray by ray as each scene's batch call does, and
@@ -184,11 +184,11 @@ def test_calls_of_one_ray_on_scenes_of_two_structures_keep_their_own_kernels():
 
 def test_calls_of_many_rays_alternated_between_structures_keep_their_own_kernels():
     """Calls of several chunks of rays, on two threads, run their kernels'
-    compiled entry points too (kernels/cast.py _entry), kept per prepared
-    scene: alternating between a BVH and a grid scene, and between float64
-    rays and float32 ones, every call answers as that scene's first did,
-    and the BVH keeps its packet kernels' entries, the grid its one-ray
-    kernels'."""
+    compiled entry points too (kernels/cast.py run_blocks), kept per
+    prepared scene, and so do point queries: alternating between a BVH and
+    a grid scene, and between float64 rays and float32 ones, every call
+    answers as that scene's first did, and the BVH keeps its packet
+    kernels' entries, the grid its one-ray kernels'."""
     from raytrace.kernels import cast
     rng = np.random.default_rng(12)
     v, f = rng.normal(size=(60, 3)), rng.integers(0, 60, size=(40, 3))
@@ -201,7 +201,7 @@ def test_calls_of_many_rays_alternated_between_structures_keep_their_own_kernels
         h = s.cast_rays(o, d)
         listed = s.list_intersections(o, d)
         return [h["t"], h["prim_id"], s.occluded(o, d), s.count_intersections(o, d),
-                listed["ray_splits"], listed["t"]]
+                listed["ray_splits"], listed["t"], s.distance(o), s.distance(d[:7])]
     first = [answers(s, o, d) for s in scenes]
     for rays in ((o32, d32), (o, d), (o32, d32)):
         for s, want in zip(scenes, first):

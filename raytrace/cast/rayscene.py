@@ -203,7 +203,8 @@ class RayScene:
         n = len(q)
         point, prim, u, v, d2 = fresh_columns(n, ((np.float64, 3), (np.int64, 1), (np.float64, 1),
                                                   (np.float64, 1), (np.float64, 1)))
-        closest_points(p.scene("points"), q, point, prim, u, v, d2, _blocks(n, CHUNK), _clock())
+        closest_points(p.scene("points"), q, point, prim, u, v, d2, _blocks(n, CHUNK), _clock(),
+                       p.entries)
         return point, d2, prim, u, v
 
     def distance(self, points):

@@ -45,7 +45,7 @@ import numpy as np
 from numba import njit
 
 from raytrace.kernels.counters import BAD_RAYS, N_COUNTERS
-from raytrace.kernels.entry import Entry
+from raytrace.kernels.entry import entry_of
 from raytrace.kernels.jit import BLOCK, JIT
 from raytrace.kernels.lowlevel import PACKET, frame_array, take_rows, take_ticket
 from raytrace.kernels.packed import Packed, unpack
@@ -188,10 +188,16 @@ def occluded_block(acc, n_rays):
 def run_blocks(block, args, cnt_rows, clock, entries=None):
     """run_rows for the closest and any-hit blocks: a thread's rays all
     count into its row of cnt_rows (no per-ray rows); through the block's
-    entry in ``entries`` if given (_entry)."""
-    # The entry looked up here, not through _entry: a call of one ray is
+    compiled entry point kept in ``entries`` if given (entry.py's
+    entry_of): Numba's dispatcher types every argument at every call,
+    60-80 us a thread for these blocks, which was most of a call of 2,048
+    rays (docs/benchmarks.md, "A query's threads through the compiled
+    entry").  So ``entries`` must serve arguments of one set of types
+    only: one prepared scene's, with the rays as kernel_rays makes them,
+    or one render thread's buffers."""
+    # The entry looked up here, not through entry_of: a call of one ray is
     # some 9 us, and each level of Python calls a share of it.
-    call = block if entries is None else entries.get(block) or _entry(block, entries)
+    call = block if entries is None else entries.get(block) or entry_of(block, entries)
     if len(cnt_rows) == 1:      # one thread's: called at once, as a call of a ray is
         call(*args, cnt_rows, _ONE_ROW, clock)
         return
@@ -239,24 +245,9 @@ def scratch_rows(n, slot):
     return buf[:n]
 
 
-def _entry(block, entries):
-    """The block's compiled entry point (entry.py's Entry), kept in
-    ``entries``: Numba's dispatcher types every argument at every call, 60-80
-    us a thread for a query's blocks, which was most of a call of 2,048
-    rays (docs/benchmarks.md, "A query's threads through the compiled
-    entry").  So ``entries`` must serve arguments of one set of types
-    only: one prepared scene's, with the rays as kernel_rays makes them,
-    or one render thread's buffers (a wrong entry would read the arrays as
-    another type)."""
-    entry = entries.get(block)
-    if entry is None:
-        entry = entries[block] = Entry(block)
-    return entry
-
-
 def _call_entry(block, args, entries):
-    """block(*args) in the calling thread through its entry (_entry)."""
-    _entry(block, entries)(*args)
+    """block(*args) in the calling thread through its entry (entry_of)."""
+    entry_of(block, entries)(*args)
 
 
 def ray_scene(geo, acc):
@@ -270,7 +261,7 @@ def cast_closest(scene, origins, dirs, t_min, t_max, out_t, out_prim, out_u, out
     """Closest hit of ray i = (origins[i], dirs[i]) with t_min[i] < t < t_max[i]
     (rays as kernel_rays takes them) in ``scene`` (ray_scene's); through
     the compiled entries kept in ``entries`` if given (a prepared scene's:
-    _entry)."""
+    run_blocks)."""
     outs = (out_t, out_prim, out_u, out_v)
     run_blocks(closest_block(scene.record[1], origins.shape[0]),
                (scene, *kernel_rays(origins, dirs, t_min, t_max), outs), cnt_rows, clock,
@@ -434,7 +425,7 @@ def cast_listing(scene, rays, start, fixed, slab, outs, found, cnt_rows, clock, 
     taken) and start[i] gets ray i's first row, or -1 where the rows ran
     out before its hits were written.  scene: ray_scene's, of the
     counting layout; ``entries`` as cast_closest's."""
-    run_rows(_listing_block if entries is None else _entry(_listing_block, entries),
+    run_rows(_listing_block if entries is None else entry_of(_listing_block, entries),
              (scene, *kernel_rays(*rays), start, fixed, slab, outs, found), cnt_rows, clock)
 
 
@@ -452,5 +443,5 @@ def cast_counts(scene, origins, dirs, t_min, t_max, out_count, cnt_rows, clock, 
     chunk of rays at a time (query.count_rays: the BVH keeps two rays in
     flight); scene: ray_scene's, of the counting layout; ``entries`` as
     cast_closest's."""
-    run_rows(_counts_block if entries is None else _entry(_counts_block, entries),
+    run_rows(_counts_block if entries is None else entry_of(_counts_block, entries),
              (scene, *kernel_rays(origins, dirs, t_min, t_max), out_count), cnt_rows, clock)

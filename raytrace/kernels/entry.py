@@ -63,3 +63,15 @@ class Entry:
             found = [c for sig, c in dict.items(overloads) if sig == types]
             call = _FOUND[key] = found[0].entry_point if found else self.kernel
         return call
+
+
+def entry_of(kernel, entries):
+    """``kernel``'s Entry kept in ``entries`` (a dict of the caller's), made
+    at its first use.  The caller's calls through it must give arguments of
+    one set of types only (one prepared scene's queries; one render
+    thread's buffers): a wrong entry would read the arrays as another
+    type."""
+    entry = entries.get(kernel)
+    if entry is None:
+        entry = entries[kernel] = Entry(kernel)
+    return entry

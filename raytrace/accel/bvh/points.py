@@ -13,6 +13,7 @@ import numpy as np
 from numba import njit
 
 from raytrace.accel.bvh.layout import MAX_DEPTH, WIDTH
+from raytrace.kernels.entry import entry_of
 from raytrace.kernels.jit import BLOCK, JIT
 from raytrace.kernels.lowlevel import frame_array, take_ticket
 from raytrace.kernels.packed import unpack
@@ -171,10 +172,14 @@ def _points_block(scene, points, out_point, out_prim, out_u, out_v, out_d2, cloc
         c = take_ticket(clock)
 
 
-def closest_points(scene, points, out_point, out_prim, out_u, out_v, out_d2, n_blocks, clock):
+def closest_points(scene, points, out_point, out_prim, out_u, out_v, out_d2, n_blocks, clock,
+                   entries=None):
     """The surfaces' closest point to each query point, its primitive, its
     barycentric weights (triangles) and the squared distance; n_blocks
     threads take chunks of points by ticket from clock (0 at the call).
-    scene: the geometry and a BVH packed (kernels/cast.py ray_scene)."""
-    run_on_threads([functools.partial(_points_block, scene, points, out_point, out_prim, out_u,
+    scene: the geometry and a BVH packed (kernels/cast.py ray_scene);
+    through the block's compiled entry kept in ``entries`` if given (a
+    prepared scene's, as kernels/cast.py run_blocks)."""
+    block = _points_block if entries is None else entry_of(_points_block, entries)
+    run_on_threads([functools.partial(block, scene, points, out_point, out_prim, out_u,
                                       out_v, out_d2, clock)] * n_blocks)
