@@ -81,3 +81,16 @@ def test_only_arrays_numbers_none_and_tuples_pack():
     import pytest
     with pytest.raises(TypeError, match="not <class 'str'>"):
         Packed((np.zeros(2), "text"))
+
+
+def test_a_record_type_has_one_packed_type_whose_kept_hash_is_not_pickled():
+    """typeof of every Packed of one record type is one PackedType, made
+    once, its hash kept (Numba's dispatcher types and hashes its arguments
+    at each call: made and hashed again, a record's type cost 20 us); the
+    kept hash stays out of its pickle, which Numba's cache index holds and
+    another process, whose strings hash differently, reads."""
+    first, second = typeof(Packed(_record())), typeof(Packed(_record()))
+    assert first is second and hash(first) == hash(first.key)
+    assert "_hash" in first.__dict__ and "_hash" not in first.__getstate__()
+    assert b"_hash" not in pickle.dumps(first)
+    assert pickle.loads(pickle.dumps(first)) is first

@@ -42,7 +42,7 @@ _WORD = 1 << 64
 class Packed:
     """``record`` for a compiled entry taking it as one word (module doc)."""
 
-    __slots__ = ("record", "numba_type", "table", "address")
+    __slots__ = ("record", "numba_type", "packed_type", "table", "address")
 
     def __init__(self, record):
         self.record = record
@@ -50,12 +50,13 @@ class Packed:
         _walk(record, words, shape)
         # Numba's typeof takes 20-30 us an array; the shape of the record
         # (each array's dtype, dimensions and flags, each value's class)
-        # names the same type, found again by a dictionary lookup.
+        # names the same types, found again by a dictionary lookup.
         shape = tuple(shape)
-        numba_type = _TYPES.get(shape)
-        if numba_type is None:
-            numba_type = _TYPES[shape] = typeof(record)
-        self.numba_type = numba_type
+        types_ = _TYPES.get(shape)
+        if types_ is None:
+            numba_type = typeof(record)
+            types_ = _TYPES[shape] = (numba_type, PackedType(numba_type))
+        self.numba_type, self.packed_type = types_
         self.table = np.array(words, np.int64)
         self.address = self.table.ctypes.data
 
@@ -103,12 +104,18 @@ def packed_once(made, key, make, most):
     return packed
 
 
-# Numba types of the records packed so far, by their shape (Packed.__init__).
+# Numba types of the records packed so far and their PackedTypes, by the
+# records' shape (Packed.__init__).
 _TYPES = {}
 
 
 class PackedType(types.Type):
-    """Numba's type of a Packed: its record's type, the table's address."""
+    """Numba's type of a Packed: its record's type, the table's address.
+    Made once for each record type (Packed.__init__), its hash kept: a
+    call through Numba's dispatcher types and hashes its arguments, and a
+    record's type (some hundred nested types) took 12 us to make again and
+    9 us to hash, most of a call of a few thousand rays on two threads
+    (docs/benchmarks.md, "A query's threads through the compiled entry")."""
 
     def __init__(self, record_type):
         self.record_type = record_type
@@ -117,6 +124,17 @@ class PackedType(types.Type):
     @property
     def key(self):
         return self.record_type
+
+    def __hash__(self):
+        h = self.__dict__.get("_hash")
+        if h is None:
+            h = self.__dict__["_hash"] = hash(self.key)
+        return h
+
+    def __getstate__(self):
+        # Not the kept hash: pickled into Numba's cache index, it would be
+        # another process's (strings hash differently in each).
+        return {k: v for k, v in self.__dict__.items() if k != "_hash"}
 
 
 @register_model(PackedType)
@@ -127,7 +145,7 @@ class _PackedModel(models.PrimitiveModel):
 
 @typeof_impl.register(Packed)
 def _typeof_packed(val, c):
-    return PackedType(val.numba_type)
+    return val.packed_type
 
 
 @unbox(PackedType)
