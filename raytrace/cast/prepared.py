@@ -27,7 +27,7 @@ class _Prepared:
         self.acc, self.build_s = build_structure(accel, self.geo, self.obj_ranges)
         self.n_tris = self.geo.tri_v0.shape[0]
         # The query kernels' compiled entry points for this scene's types
-        # (kernels/cast.py _entry).
+        # (kernels/entry.py entry_of).
         self.entries = {}
         self._scenes = {}
         self._counting = None

@@ -324,7 +324,7 @@ def _closest(scene, origins, dirs, t_min, t_max, check=True, entries=None):
     """((t, prim, b1, b2), counters) for (n, 3) rays and (n,) bounds in
     ``scene`` (kernels/cast.py ray_scene's); RaytraceError if a ray is bad
     (with ``check``; else it misses).  ``entries``: the prepared scene's
-    compiled entry points (kernels/cast.py _entry), for rays as _rays
+    compiled entry points (kernels/entry.py entry_of), for rays as _rays
     makes them."""
     k = _kernels()
     n = len(origins)

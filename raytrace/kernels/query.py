@@ -153,8 +153,9 @@ def count_rays(geo, acc, origins, dirs, t_min, t_max, narrow, out, cnt, clock, c
     (kernels/cast.py; ``narrow``: float32 rays each chunk, of at most
     ray.CHUNK, is widened from first, ray.widen_rays; origins and dirs
     are then empty, and t_min gives the number of rays); a bad ray
-    (ray_ok) gets 0 and is counted in cnt[BAD_RAYS].  Through the layout's count stream if it has one
-    (register_count_stream), else one ray at a time.  Compiled code only."""
+    (ray_ok) gets 0 and is counted in cnt[BAD_RAYS].  Through the layout's
+    count stream if it has one (register_count_stream), else one ray at a
+    time.  Compiled code only."""
     raise NotImplementedError("compiled code only")
 
 
