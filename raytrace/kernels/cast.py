@@ -64,20 +64,14 @@ from raytrace.kernels.ray import (
     CHUNK,
     WIDE,
     make_listing_ray,
-    make_ray,
     no_hit,
+    ray_at,
     ray_ok,
     widen_rays,
 )
 from raytrace.kernels.threads import run_on_threads, run_rows
 
 COLUMNS = N_COUNTERS + 1   # BAD_RAYS last
-
-
-@njit(**JIT)
-def _ray(origins, dirs, t_min, i):
-    return make_ray(origins[i, 0], origins[i, 1], origins[i, 2],
-                    dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i])
 
 
 def _closest_kernel(packets):
@@ -113,7 +107,7 @@ def _closest_kernel(packets):
                 for i in range(i0, i0 + m):
                     row = cnt[rows[i]] if per_ray else cnt[0]
                     if ray_ok(origins, dirs, t_min, t_max, i):
-                        hit = closest_hit(geo, acc, _ray(origins, dirs, t_min, i), t_max[i], row)
+                        hit = closest_hit(geo, acc, ray_at(origins, dirs, t_min, i), t_max[i], row)
                     else:
                         row[BAD_RAYS] += 1
                         hit = no_hit()
@@ -153,7 +147,7 @@ def _occluded_kernel(packets):
                 for i in range(i0, i0 + m):
                     row = cnt[rows[i]] if per_ray else cnt[0]
                     if ray_ok(origins, dirs, t_min, t_max, i):
-                        out_hit[i] = occluded(geo, acc, _ray(origins, dirs, t_min, i), t_max[i],
+                        out_hit[i] = occluded(geo, acc, ray_at(origins, dirs, t_min, i), t_max[i],
                                               row)
                     else:
                         row[BAD_RAYS] += 1
@@ -425,7 +419,7 @@ def cast_listing(scene, rays, start, fixed, slab, outs, found, cnt_rows, clock, 
     taken) and start[i] gets ray i's first row, or -1 where the rows ran
     out before its hits were written.  scene: ray_scene's, of the
     counting layout; ``entries`` as cast_closest's."""
-    run_rows(_listing_block if entries is None else entry_of(_listing_block, entries),
+    run_rows(entry_of(_listing_block, entries),
              (scene, *kernel_rays(*rays), start, fixed, slab, outs, found), cnt_rows, clock)
 
 
@@ -443,5 +437,5 @@ def cast_counts(scene, origins, dirs, t_min, t_max, out_count, cnt_rows, clock, 
     chunk of rays at a time (query.count_rays: the BVH keeps two rays in
     flight); scene: ray_scene's, of the counting layout; ``entries`` as
     cast_closest's."""
-    run_rows(_counts_block if entries is None else entry_of(_counts_block, entries),
+    run_rows(entry_of(_counts_block, entries),
              (scene, *kernel_rays(origins, dirs, t_min, t_max), out_count), cnt_rows, clock)

@@ -67,10 +67,13 @@ class Entry:
 
 def entry_of(kernel, entries):
     """``kernel``'s Entry kept in ``entries`` (a dict of the caller's), made
-    at its first use.  The caller's calls through it must give arguments of
+    at its first use; ``kernel`` itself (its dispatcher) where ``entries``
+    is None.  The caller's calls through an entry must give arguments of
     one set of types only (one prepared scene's queries; one render
     thread's buffers): a wrong entry would read the arrays as another
     type."""
+    if entries is None:
+        return kernel
     entry = entries.get(kernel)
     if entry is None:
         entry = entries[kernel] = Entry(kernel)

@@ -77,6 +77,13 @@ def make_ray(ox, oy, oz, dx, dy, dz, t_min=0.0):
 
 
 @njit(**JIT)
+def ray_at(origins, dirs, t_min, i):
+    """Row i of (n, 3) origins and directions, from t_min[i], as a Ray."""
+    return make_ray(origins[i, 0], origins[i, 1], origins[i, 2],
+                    dirs[i, 0], dirs[i, 1], dirs[i, 2], t_min[i])
+
+
+@njit(**JIT)
 def make_crossing_ray(ox, oy, oz, dx, dy, dz, t_min):
     r = make_ray(ox, oy, oz, dx, dy, dz, t_min)
     return CrossingRay(r.ox, r.oy, r.oz, r.dx, r.dy, r.dz, r.inv_x, r.inv_y, r.inv_z,

@@ -40,7 +40,7 @@ from raytrace.kernels.counters import (
 )
 from raytrace.kernels.jit import BLOCK, JIT, STAGE
 from raytrace.kernels.packed import Packed, unpack
-from raytrace.kernels.ray import Hit, make_ray
+from raytrace.kernels.ray import Hit, ray_at
 from raytrace.kernels.render import camera_ray, hit_frame, screen_point, sky, surface_albedo
 from raytrace.kernels.sampling import hash_key, rand01, square_sample
 from raytrace.kernels.shade import smooth_point
@@ -202,8 +202,7 @@ def shade_wave(shading, textures, wave, k0, n, rays, counters):
             continue
         # The ray camera_wave made, read back: made again, its square root
         # and divisions were a tenth of this stage's time.
-        ray = make_ray(wave.origins[k, 0], wave.origins[k, 1], wave.origins[k, 2],
-                       wave.dirs[k, 0], wave.dirs[k, 1], wave.dirs[k, 2], 0.0)
+        ray = ray_at(wave.origins, wave.dirs, wave.t_min, k)
         sxn, syn = screen_point(wave.film[k, 0], wave.film[k, 1])
         hit = Hit(wave.hit_t[k], prim, wave.hit_u[k], wave.hit_v[k])
         counters[wave.row[k], SHADING_POINTS] += 1

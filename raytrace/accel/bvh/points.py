@@ -180,6 +180,6 @@ def closest_points(scene, points, out_point, out_prim, out_u, out_v, out_d2, n_b
     scene: the geometry and a BVH packed (kernels/cast.py ray_scene);
     through the block's compiled entry kept in ``entries`` if given (a
     prepared scene's, as kernels/cast.py run_blocks)."""
-    block = _points_block if entries is None else entry_of(_points_block, entries)
+    block = entry_of(_points_block, entries)
     run_on_threads([functools.partial(block, scene, points, out_point, out_prim, out_u,
                                       out_v, out_d2, clock)] * n_blocks)
