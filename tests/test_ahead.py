@@ -1,6 +1,9 @@
 """Kernels compiled in a second process (kernels/ahead.py): when a first
 render's shading stages (renderer/ahead.py) and a first ray query's kernel
 (cast/ahead.py) start one, and how its entries join the cache."""
+import subprocess
+import sys
+
 import numba
 import pytest
 
@@ -178,6 +181,42 @@ def test_a_mirror_scenes_first_run_has_its_stages_compiled_ahead(monkeypatch, st
     assert started[0][-6:] == ["raytrace.renderer.precompile", "0", "1", "0", "-", "hard"]
     assert not ahead.compiles_rays()
     core.stop("render")
+
+
+def test_a_mirror_scene_after_cached_stages_compiles_its_two_entries_in_two_processes(
+        monkeypatch, started):
+    """The stages cached, the mirror entries not: the second process
+    compiles run_bounce_stage (last argument 0: not the shading), this one
+    run_bounce_shade meanwhile; no second process for a scene without
+    mirrors, or once the mirror entries are cached."""
+    from raytrace.scene.kinds import tiny_scene
+    monkeypatch.setattr(core.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr("raytrace.kernels.cachedir.render_kernel_cached", lambda: True)
+    monkeypatch.setattr("raytrace.kernels.cachedir.kernel_cached", lambda *globs: True)
+    ahead.start(tiny_scene(False, True), "whitted", "bvh", "hard")
+    monkeypatch.setattr("raytrace.kernels.cachedir.kernel_cached",
+                        lambda *globs: not any("run_bounce" in g for g in globs))
+    ahead.start(tiny_scene(False, False), "whitted", "bvh", "hard")
+    assert started == [] and not ahead.shades_bounces_here()
+    ahead.start(tiny_scene(False, True), "whitted", "bvh", "hard")
+    assert started[0][-7:] == ["raytrace.renderer.precompile", "0", "1", "0", "-", "hard", "0"]
+    assert ahead.shades_bounces_here() and not ahead.compiles_rays()
+    ahead.wait()
+    assert not ahead.shades_bounces_here()
+
+
+def test_the_second_process_leaves_the_mirror_shading_to_the_first():
+    """precompile.main with bounce_shade False (the job above) compiles the
+    mirror entry's other steps and not its shading; a fresh process, so
+    what this one has compiled does not count."""
+    code = ("from raytrace.renderer import precompile\n"
+            "from raytrace.kernels import bounces\n"
+            "precompile.main(False, True, False, None, 'hard', False)\n"
+            "print(len(bounces.run_bounce_stage.signatures),"
+            " len(bounces.run_bounce_shade.signatures))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.split()
+    assert out == ["1", "0"]
 
 
 def test_the_second_process_compiles_the_ray_kernels_the_render_runs():

@@ -54,7 +54,8 @@ DIGIT = np.array([3 ** (MAX_BOUNCES - d) if d >= 1 else 0 for d in range(MAX_BOU
 _REFLECTED, _REFRACTED = 1, 2
 _KINDS = np.array([_REFLECTED, _REFRACTED], np.int64)
 
-# run_bounce_stage's steps.
+# The steps of a wave with mirror and glass rays: run_bounce_stage's, and
+# SHADE, run_bounce_shade's.
 FIRST, SHADE, FINISH, GATHER = 0, 1, 2, 3
 
 
@@ -232,8 +233,24 @@ def gather(wave, n, light, c):
 
 
 @njit(**BLOCK)
+def run_bounce_shade(records, args):
+    """The SHADE step of a wave with mirror and glass rays (waves._Generations):
+    shade_generation of rays args[0] .. args[1] - 1, the next generation
+    from row args[2], light from row args[3], max_depth args[4]; returns its
+    four numbers.  records: bounce_records'.  An entry of its own, apart
+    from run_bounce_stage's other steps: a first render of mirrors after the
+    shading stages are cached compiles the two in two processes at once
+    (renderer/ahead.py), 1.6 and 1.0 s, where the one entry took 2.5."""
+    shading, textures, wave, bufs, counters = unpack(records)
+    gen, nxt, shadow, light = bufs
+    a, b, c, d, e = args
+    return shade_generation(shading, textures, wave, gen, (a, b), nxt, c, shadow, light, d,
+                            counters, e)
+
+
+@njit(**BLOCK)
 def run_bounce_stage(step, records, args):
-    """One stage of a wave with mirror and glass rays (the Python side:
+    """The other steps of a wave with mirror and glass rays (the Python side:
     waves._Generations), between wavefront.run_stage's CAMERA, which makes
     the wave's camera rays, and its FINISH over no rays, which stores the
     samples' colours: the steps both renders share are compiled once, in
@@ -241,20 +258,16 @@ def run_bounce_stage(step, records, args):
     counters), packed (packed.py: their ninety-odd arrays unboxed one by
     one cost the wrapper 0.4 s more), bufs = (this generation, the next,
     shadow rays, light); args five ints, the result four.  FIRST: the
-    wave's args[0] camera rays as generation 0; returns (rays, ...).  SHADE: shade_generation of
-    rays args[0] .. args[1] - 1, the next generation from row args[2],
-    light from row args[3], max_depth args[4]; returns its four numbers.
+    wave's args[0] camera rays as generation 0; returns (rays, ...).
     FINISH: finish_generation of rays args[0] .. args[1] - 1, light from
     row args[2]; returns (light's rows, ...).  GATHER: the colours of the
-    wave's args[0] samples from args[1] rows of light."""
+    wave's args[0] samples from args[1] rows of light.  SHADE is
+    run_bounce_shade's."""
     shading, textures, wave, bufs, counters = unpack(records)
     gen, nxt, shadow, light = bufs
     a, b, c, d, e = args
     if step == FIRST:
         return _first_generation(wave, a, gen), 0, 0, 0
-    if step == SHADE:
-        return shade_generation(shading, textures, wave, gen, (a, b), nxt, c, shadow, light, d,
-                                counters, e)
     if step == FINISH:
         return finish_generation(shading, gen, (a, b), shadow, light, c, counters), 0, 0, 0
     gather(wave, a, light, b)
@@ -262,7 +275,7 @@ def run_bounce_stage(step, records, args):
 
 
 def bounce_records(shading, textures, wave, bufs, counters):
-    """run_bounce_stage's records, packed."""
+    """run_bounce_stage's and run_bounce_shade's records, packed."""
     return Packed((shading, textures, wave, bufs, counters))
 
 

@@ -85,8 +85,9 @@ def has_cache_entries(dispatcher):
 
 def render_kernel_cached():
     """Whether any version of the render kernels (the shading stages, or
-    the mirror-and-glass kernel) is in the cache."""
-    return kernel_cached("wavefront.run_stage-*.nbi", "bounces.run_bounce_stage-*.nbi")
+    the mirror-and-glass kernels) is in the cache."""
+    return kernel_cached("wavefront.run_stage-*.nbi", "bounces.run_bounce_stage-*.nbi",
+                         "bounces.run_bounce_shade-*.nbi")
 
 
 def traversal_cached(module):

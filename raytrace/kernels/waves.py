@@ -108,6 +108,7 @@ class _Generations(_Stages):
         self.gens = [bounces.generation_buffers(size), bounces.generation_buffers(2 * size)]
         self.light = bounces.light_buffers(2 * size, size)
         self.run_bounce_stage = Entry(bounces.run_bounce_stage)
+        self.run_bounce_shade = Entry(bounces.run_bounce_shade)
         self.bounce_records = {}
 
     def stage(self, step, bufs, args):
@@ -118,6 +119,8 @@ class _Generations(_Stages):
         records = packed_once(self.bounce_records, (id(gen), id(nxt), id(light)),
                               lambda: bounces.bounce_records(self.shading, self.textures,
                                                              self.wave, bufs, self.counters), 2)
+        if step == bounces.SHADE:
+            return self.run_bounce_shade(records, args)
         return self.run_bounce_stage(step, records, args)
 
     def trace(self, top, y_end, q0, q1):
@@ -195,21 +198,26 @@ def casts_shadow_rays(render):
             or shadows.cast)
 
 
-def load_own_stages(render, band):
+def load_own_stages(render, band, bounce_shade=False):
     """Compile (or load) what of a render's stages a first run compiles in
     this process while the second one compiles the rest (load_shading):
     the path tracer's entry for the camera, shadow rays' light and the
-    film (path_waves.load); none of Whitted's."""
+    film (path_waves.load); with ``bounce_shade``, the shading of mirrors'
+    and glass's rays (bounces.run_bounce_shade, where the second process
+    compiles their other steps: renderer/ahead.py)."""
     if isinstance(render.bounces, Paths):
         from raytrace.kernels import path_waves
         stages = _stages(render, band)
         stages.counters = band.stats_rows
         path_waves.load(stages, shade=False)
+    elif bounce_shade and not isinstance(render.bounces, NoBounces):
+        _load_bounces(_stages(render, band), band, shade=True, rest=False)
 
 
-def load_shading(render, band):
+def load_shading(render, band, bounce_shade=True):
     """Compile (or load) the shading stages' entries a render uses (run_stage,
-    and bounces.run_bounce_stage for mirrors and glass) on empty buffers;
+    and bounces.run_bounce_stage and, with ``bounce_shade``,
+    run_bounce_shade for mirrors and glass) on empty buffers;
     render.lighting.acc is not read (renderer/ahead.py compiles it
     in a process of its own, structure or none)."""
     stages = _stages(render, band)
@@ -222,11 +230,22 @@ def load_shading(render, band):
     run_stage(CAMERA, stage_records(stages.shading, stages.textures, stages.wave, stages.shadow,
                                     stages.counters, band), (0, 0, 0, 0, 0))
     if isinstance(stages, _Generations):
-        gen = bounces.generation_buffers(0)
-        bounces.run_bounce_stage(bounces.FIRST, bounces.bounce_records(
-            stages.shading, stages.textures, stages.wave,
-            (gen, gen, stages.shadow, bounces.light_buffers(0, 0)), stages.counters),
-            (0, 0, 0, 0, 0))
+        _load_bounces(stages, band, shade=bounce_shade, rest=True)
+
+
+def _load_bounces(stages, band, shade, rest):
+    """Compile (or load) the mirror and glass entries on empty buffers: the
+    shading's (``shade``), the other steps' (``rest``)."""
+    stages.counters = band.stats_rows
+    stages.wave, stages.shadow = wave_buffers(0), shadow_buffers(0, 0)
+    gen = bounces.generation_buffers(0)
+    records = bounces.bounce_records(stages.shading, stages.textures, stages.wave,
+                                     (gen, gen, stages.shadow, bounces.light_buffers(0, 0)),
+                                     stages.counters)
+    if rest:
+        bounces.run_bounce_stage(bounces.FIRST, records, (0, 0, 0, 0, 0))
+    if shade:
+        bounces.run_bounce_shade(records, (0, 0, 0, 0, 0))
 
 
 def _stages(render, band):

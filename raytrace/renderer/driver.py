@@ -478,7 +478,7 @@ def render_band(payload, cam, y0, y1, threads, aovs=None, image=None, stats_rows
         rays_ahead = ahead.compiles_rays()
         if not rays_ahead:
             load_rays(render, band)
-        load_own_stages(render, band)
+        load_own_stages(render, band, ahead.shades_bounces_here())
         if rays_ahead:
             load_shading(render, band)
         ahead.wait()

@@ -13,7 +13,7 @@ import sys
 import numpy as np
 
 
-def load_kernels(scene, opts=None, accel=None):
+def load_kernels(scene, opts=None, accel=None, bounce_shade=True):
     """Compile (or load) the shading stages a render of ``scene`` uses or,
     given structure ``accel``, its ray kernels, and nothing else: no
     structure is built (renderer/ahead.py)."""
@@ -50,12 +50,12 @@ def load_kernels(scene, opts=None, accel=None):
     band = Band(image=np.empty((0, width, 3), np.float32), aovs=aov_buffers(width, height, False),
                 stats_rows=np.zeros((0, N_COUNTERS), np.int64), row0=0)
     if acc is None:
-        load_shading(render, band)
+        load_shading(render, band, bounce_shade)
     else:
         load_rays(render, band)
 
 
-def main(textures, mirrors, path=False, accel=None, shadows="hard"):
+def main(textures, mirrors, path=False, accel=None, shadows="hard", bounce_shade=True):
     from raytrace.renderer.driver import RenderOptions
     from raytrace.scene.kinds import tiny_scene
     # The path tracer's shading entry (the render compiles its other one
@@ -63,11 +63,11 @@ def main(textures, mirrors, path=False, accel=None, shadows="hard"):
     # tiny scene with mirrors, one sample).
     opts = (RenderOptions(integrator="path", spp=1, shadows=shadows) if path
             else RenderOptions(shadows=shadows))
-    load_kernels(tiny_scene(textures, mirrors or path), opts, accel)
+    load_kernels(tiny_scene(textures, mirrors or path), opts, accel, bounce_shade)
 
 
 if __name__ == "__main__":
     main(*(bool(int(a)) for a in sys.argv[1:4]), None if sys.argv[4] == "-" else sys.argv[4],
-         sys.argv[5])
+         sys.argv[5], len(sys.argv) < 7 or sys.argv[6] == "1")
     from raytrace.kernels.ahead import finish
     finish()
