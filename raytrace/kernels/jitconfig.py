@@ -39,6 +39,13 @@ def _unwritable(path):
     return None
 
 
+# Helpers compiled to IR only, optimised and made machine code once, in the
+# kernel that links them (linked_only.py); RAYTRACE_LINKED_ONLY=0 leaves
+# Numba's compile as it is (to compare, or should a Numba release differ).
+if os.environ.get("RAYTRACE_LINKED_ONLY", "") != "0":
+    from raytrace.kernels.linked_only import install as _install_linked_only
+    _install_linked_only()
+
 numba.config.CACHE_DIR = str(cache_dir(numba.__version__))
 _why = _unwritable(Path(numba.config.CACHE_DIR))
 # Whether kernels are cached (kernels/jit.py's cache=).
