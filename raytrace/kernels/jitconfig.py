@@ -39,9 +39,9 @@ def _unwritable(path):
     return None
 
 
-# Helpers compiled to IR only, optimised and made machine code once, in the
-# kernel that links them (linked_only.py); RAYTRACE_LINKED_ONLY=0 leaves
-# Numba's compile as it is (to compare, or should a Numba release differ).
+# Helpers get no machine code of their own: the kernel that links their IR
+# makes it, once (linked_only.py).  RAYTRACE_LINKED_ONLY=0 leaves Numba's
+# compile as it is (to compare, or should a Numba release misbehave).
 if os.environ.get("RAYTRACE_LINKED_ONLY", "") != "0":
     from raytrace.kernels.linked_only import install as _install_linked_only
     _install_linked_only()
