@@ -92,29 +92,32 @@ def test_numba_functions_not_of_raytrace_are_left_as_numba_has_them():
 _ANSWERS = """
 import json, sys, numpy as np
 sys.path.insert(0, {tests!r})
-from test_linked_only import _scene_and_rays
-from raytrace.kernels import jitconfig  # noqa: F401 -- installs linked_only, as the kernels do
-from raytrace.kernels import linked_only
-from raytrace.renderer.driver import render
-from raytrace.scene.builtin import spheres
-hits = _scene_and_rays()[0].cast_rays(*_scene_and_rays()[1:])
-image = render(spheres(), accel="bvh", shadows="hard", width=24, height=16).linear
-print(json.dumps([linked_only.installed(), hits.t.tobytes().hex(), hits.prim_id.tolist(),
-                  hits.u.tobytes().hex(), image.tobytes().hex()]))
+from test_linked_only import _answers
+print(json.dumps(_answers()))
 """
 
 
+def _answers():
+    """This process's patch flag, and the hits of _scene_and_rays' rays and a
+    small spheres render as hex strings."""
+    from raytrace.renderer.driver import render
+    from raytrace.scene.builtin import spheres
+    scene, o, d = _scene_and_rays()
+    hits = scene.cast_rays(o, d)
+    image = render(spheres(), accel="bvh", shadows="hard", width=24, height=16).linear
+    return [linked_only.installed(), hits.t.tobytes().hex(), hits.prim_id.tolist(),
+            hits.u.tobytes().hex(), image.tobytes().hex()]
+
+
 def test_answers_are_the_bits_of_numbas_own_compile(tmp_path):
-    """The same rays and render in two fresh processes, one compiling as
-    Numba does (RAYTRACE_LINKED_ONLY=0), each with an empty cache: the same
-    hits, distances, barycentrics and image, bit for bit."""
-    tests = os.path.dirname(__file__)
-    out = []
-    for flag in ("1", "0"):
-        env = dict(os.environ, RAYTRACE_LINKED_ONLY=flag, RAYTRACE_QUIET="1",
-                   NUMBA_CACHE_DIR=str(tmp_path / flag), RAYTRACE_COMPILE_AHEAD="0")
-        run = subprocess.run([sys.executable, "-c", _ANSWERS.format(tests=tests)], env=env,
-                             capture_output=True, text=True, check=True)
-        out.append(json.loads(run.stdout.splitlines()[-1]))
-    assert out[0][0] is True and out[1][0] is False
-    assert out[0][1:] == out[1][1:]
+    """The same rays and render here (helpers without machine code) and in a
+    fresh process compiling as Numba does (RAYTRACE_LINKED_ONLY=0, an empty
+    cache): the same hits, distances, barycentrics and image, bit for bit."""
+    env = dict(os.environ, RAYTRACE_LINKED_ONLY="0", RAYTRACE_QUIET="1",
+               NUMBA_CACHE_DIR=str(tmp_path), RAYTRACE_COMPILE_AHEAD="0")
+    run = subprocess.run([sys.executable, "-c", _ANSWERS.format(tests=os.path.dirname(__file__))],
+                         env=env, capture_output=True, text=True, check=True)
+    theirs = json.loads(run.stdout.splitlines()[-1])
+    ours = _answers()
+    assert ours[0] is True and theirs[0] is False
+    assert ours[1:] == theirs[1:]
