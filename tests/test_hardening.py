@@ -307,6 +307,25 @@ def test_16_ctrl_c_python_dropped_still_stops_the_render(tmp_path):
     assert not (tmp_path / "x.png").exists()
 
 
+def test_16_a_ctrl_c_a_c_extension_prints_while_importing_stays_quiet(tmp_path):
+    """A Ctrl-C that lands while a C extension imports (NumPy's import_array
+    in Numba's extensions) is printed by it with PyErr_Print, and the import
+    fails with an ImportError: the command still says one line."""
+    rc, err = _command(tmp_path, "import raytrace.cli.main as cli\n"
+                                 "def entry():\n"
+                                 "    import ctypes\n"
+                                 "    from raytrace.renderer import interrupt\n"
+                                 "    try:\n"
+                                 "        interrupt.on_sigint(2, None)\n"
+                                 "    except KeyboardInterrupt:\n"
+                                 # C code that prints the error it meets (PyErr_Print)
+                                 "        ctypes.pythonapi.PyRun_SimpleString(b'raise KeyboardInterrupt')\n"
+                                 "    raise ImportError('numpy._core.multiarray failed to import')\n"
+                                 "cli.entry = entry\n")
+    assert rc == 130, (rc, err)
+    assert one_line(err) == "interrupted: no image written"
+
+
 def test_16_errors_a_ctrl_c_leaves_in_library_callbacks_stay_quiet(tmp_path):
     """A callback the Ctrl-C cut short leaves its library's state broken and
     the next call of it fails (distributed's GC timer asserts): once the
