@@ -239,11 +239,6 @@ def scratch_rows(n, slot):
     return buf[:n]
 
 
-def _call_entry(block, args, entries):
-    """block(*args) in the calling thread through its entry (entry_of)."""
-    entry_of(block, entries)(*args)
-
-
 def ray_scene(geo, acc):
     """The ray queries' blocks' ``scene``: geometry and layout packed
     (packed.py), made once for the calls on them."""
@@ -272,7 +267,7 @@ def cast_occluded(scene, origins, dirs, t_min, t_max, out_hit, cnt_rows, clock, 
 
 # The renderer's calls (kernels/waves.py, path_waves.py): one thread's
 # rays through the same compiled kernels as cast_closest and cast_occluded,
-# in the calling thread; ``entries``: the thread's, as _call_entry's.  On
+# in the calling thread, through the thread's ``entries`` (entry_of).  On
 # a structure with packets, the packet kernels: with a ``tally``
 # (ray_tally's row) every ray counts into it, and its counts then go to
 # row rows[0] of cnt: a call's rays lie in one strip of one band, so each
@@ -294,11 +289,11 @@ def _render_call(packet_block, single_block, args, cnt, rows, entries, tally):
     """A renderer's call of args' rays (the scene first) through the packet
     kernel (a structure with packets) or the one-ray kernel, counting as
     ray_tally's comment says."""
-    block = packet_block if has_packets(args[0].record[1]) else single_block
+    call = entry_of(packet_block if has_packets(args[0].record[1]) else single_block, entries)
     if tally is None:
-        _call_entry(block, (*args, cnt, rows, np.zeros(1, np.int64)), entries)
+        call(*args, cnt, rows, np.zeros(1, np.int64))
         return
-    _call_entry(block, (*args, tally, _ONE_ROW, np.zeros(1, np.int64)), entries)
+    call(*args, tally, _ONE_ROW, np.zeros(1, np.int64))
     _settle(tally, cnt, rows)
 
 
