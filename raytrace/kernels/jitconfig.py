@@ -25,6 +25,7 @@ import numba
 
 from raytrace.kernels import compile_clock  # noqa: F401 -- counts from the first kernel on
 from raytrace.kernels.cachedir import cache_dir
+from raytrace.kernels.inline_copy import install as _install_inline_copy
 
 
 def _unwritable(path):
@@ -45,6 +46,10 @@ def _unwritable(path):
 if os.environ.get("RAYTRACE_LINKED_ONLY", "") != "0":
     from raytrace.kernels.linked_only import install as _install_linked_only
     _install_linked_only()
+
+# Numba copies an inlined stage's IR one block at a time, the whole scope
+# with each; ours are copied once (inline_copy.py: the same IR, sooner).
+_install_inline_copy()
 
 numba.config.CACHE_DIR = str(cache_dir(numba.__version__))
 _why = _unwritable(Path(numba.config.CACHE_DIR))
