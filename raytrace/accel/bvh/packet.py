@@ -153,16 +153,33 @@ def _ray(pk, r):
 @njit(**JIT)
 def _push_children(lane_entry, node, masks, near, active, stack, stack_mask, stack_t, sp,
                    ordered):
-    """Push node's children that some ray of ``active`` enters (masks,
-    near: packet_aabb4's), each with its rays and nearest entry; with
-    ``ordered`` (a compile-time constant) the nearest on top.  Indices
-    unsigned (traverse._unsigned): sp never goes below 0."""
+    """The children of node that some ray of ``active`` enters (masks,
+    near: packet_aabb4's): the one visited next is returned with its rays,
+    not pushed (traverse._push_children: a push and a pop of the same slot
+    cost a store and a load on the way to the next node); the others are
+    pushed with their rays and nearest entries.  With ``ordered`` (a
+    compile-time constant) the one returned is the child of least entry
+    and the pushed are nearest on top; else the one returned is the last
+    in lane order, the others pushed in lane order: in both, the order a
+    push of all of them then a pop would leave.  Returns (sp, the next
+    child's lane_entry word or _DONE, its rays).  Indices unsigned
+    (traverse._unsigned): sp never goes below 0."""
     base = sp
+    next_entry = _DONE
+    next_rays = 0
+    next_d = np.inf
     for lane in range(WIDTH):
         rays = masks[lane] & active
         if rays:
             entry = lane_entry[_unsigned(node), lane]
             dl = near[lane] if ordered else 0.0
+            if next_entry == _DONE:
+                next_entry, next_rays, next_d = entry, rays, dl
+                continue
+            if not ordered or dl <= next_d:
+                entry, next_entry = next_entry, entry
+                rays, next_rays = next_rays, rays
+                dl, next_d = next_d, dl
             k = sp
             while ordered and k > base and stack_t[_unsigned(k - 1)] < dl:
                 stack[_unsigned(k)] = stack[_unsigned(k - 1)]
@@ -173,7 +190,7 @@ def _push_children(lane_entry, node, masks, near, active, stack, stack_mask, sta
             stack_mask[_unsigned(k)] = rays
             stack_t[_unsigned(k)] = dl
             sp += 1
-    return sp
+    return sp, next_entry, next_rays
 
 
 @njit(**JIT)
@@ -384,13 +401,12 @@ def _packet_traversal(mode):
                 n_inner += popcount(rays)
                 visits += 1
                 masks, near = packet_aabb4(node_box, entry, nx, ny, nz, consts, t_far)
-                base = sp
-                sp = _push_children(lane_entry, entry, masks, near, rays, stack, stack_mask,
-                                    stack_t, sp, mode == CLOSEST)
-                if sp > base:
-                    sp -= 1
-                    entry = stack[_unsigned(sp)]
-                    rays = stack_mask[_unsigned(sp)]
+                sp, child, child_rays = _push_children(lane_entry, entry, masks, near, rays,
+                                                       stack, stack_mask, stack_t, sp,
+                                                       mode == CLOSEST)
+                if child != _DONE:
+                    entry = child
+                    rays = child_rays
                     if mode == ANY_HIT:
                         rays &= alive
                     continue

@@ -5,11 +5,12 @@ The tree is the 4-wide layout of ``raytrace.accel.bvh.build.BVH``: the binned-SA
 binary tree collapsed so each node holds the boxes of up to 4 children.  At
 a node all 4 child boxes are tested at once (``ray_aabb4``, SIMD, in
 float32 with margins that keep it conservative: ``box_ray``); the
-children the ray enters go on a fixed-size stack with their entry
-distances, sorted so the nearest is on top, and the nearest is visited
-next.  A popped entry is skipped when a hit closer than its entry distance
-has been found since.  Leaves are children too: a stack entry below zero is
-a leaf's lane_entry word, ``~(first slot << 32 | count)``.  A leaf's
+nearest child the ray enters is visited next, kept in registers, and the
+others go on a fixed-size stack with their entry distances, sorted so the
+nearest is on top.  A popped entry is skipped when a hit closer than its
+entry distance has been found since.  Leaves are children too: a stack
+entry below zero is a leaf's lane_entry word, ``~(first slot << 32 |
+count)``.  A leaf's
 triangles are tested 4 at a time (``leaf_hits``) from the tree's copy of
 them in leaf order (``leaf_tris``), exactly as the scalar test tests each.
 Any hit is the same loop stopped at the first hit (tinybvh's and
@@ -28,9 +29,10 @@ The stack lives in the function's frame (``frame_array``, an alloca), not
 in ``np.empty``: that would need the reference-counted runtime and a heap
 allocation per ray, and a stack passed in as an argument makes LLVM assume
 its stores may alias the node arrays and slows every ray
-(docs/benchmarks.md, "BVH").  Each node pushes at most 3 entries beyond the
-one it pops, and a 4-wide node lies at most MAX_DEPTH - 1 levels down, so
-the stack never holds more than 3 * (MAX_DEPTH - 1) + 4 entries.
+(docs/benchmarks.md, "BVH").  Each node pushes at most 3 entries (the
+child it keeps is not pushed), and a 4-wide node lies at most MAX_DEPTH - 1
+levels down, so the stack never holds more than 3 * (MAX_DEPTH - 1) + 4
+entries.
 
 Conventions shared with every structure (prims.py), so the result is
 bit-identical to brute force.  Counters are kept in locals and added to
@@ -137,28 +139,44 @@ def child_boxes(node_box, node, br, t_box):
 
 @njit(**JIT)
 def _push_children(node_box, lane_entry, node, br, t_box, stack, stack_t, sp):
-    """Test node's 4 child boxes; push the ones the ray enters (their
-    lane_entry words), nearest on top (insertion into the entries pushed
-    here, usually 1 or 2).  Returns the new stack pointer.  Lanes are
-    chosen by the mask's bits rather than by their distances (and a node
-    whose children all miss skips the loop), which is faster
-    (docs/benchmarks.md, "BVH").  Indices unsigned: sp never goes below 0."""
+    """Test node's 4 child boxes: returns (the new stack pointer, the
+    lane_entry word of the nearest child the ray enters, or _DONE if none).
+    The nearest is not pushed: the traversal visits it next, its word in a
+    register, where a push then a pop put a store and a load of the same
+    slot between one node's test and the next (4-10% of an incoherent
+    ray's time: docs/benchmarks.md, "The next child kept, not pushed").
+    The others are pushed nearest on top (insertion into the entries pushed
+    here, usually 0 to 2), in the order a push of all of them would leave
+    under the nearest: among equal distances the later lane is nearer the
+    top, and the last of the nearest is the one kept.  Lanes are chosen by
+    the mask's bits rather than by their distances (and a node whose
+    children all miss skips the loop), which is faster (docs/benchmarks.md,
+    "BVH").  Indices unsigned: sp never goes below 0."""
     mask, d = child_boxes(node_box, node, br, t_box)
+    near = _DONE
     if mask == 0:
-        return sp
+        return sp, near
     base = sp
+    near_d = np.inf
     for lane in range(WIDTH):
         dl = d[lane]
         if mask & (1 << lane):
+            word = lane_entry[_unsigned(node), lane]
+            if near == _DONE:
+                near, near_d = word, dl
+                continue
+            if dl <= near_d:        # this lane is kept; the one kept so far is pushed
+                word, near = near, word
+                dl, near_d = near_d, dl
             k = sp
             while k > base and stack_t[_unsigned(k - 1)] < dl:
                 stack[_unsigned(k)] = stack[_unsigned(k - 1)]
                 stack_t[_unsigned(k)] = stack_t[_unsigned(k - 1)]
                 k -= 1
-            stack[_unsigned(k)] = lane_entry[_unsigned(node), lane]
+            stack[_unsigned(k)] = word
             stack_t[_unsigned(k)] = dl
             sp += 1
-    return sp
+    return sp, near
 
 
 @njit(**JIT)
@@ -247,14 +265,11 @@ def _traversal(mode):
         while entry != _DONE:
             if entry >= 0:
                 n_inner += 1
-                base = sp
-                sp = _push_children(node_box, lane_entry, entry, br, min(best.t, t_max), stack,
-                                    stack_t, sp)
-                if sp > base:
-                    # The nearest child was just pushed: its entry is within
-                    # best.t, so it is taken without the check below.
-                    sp -= 1
-                    entry = stack[_unsigned(sp)]
+                sp, near = _push_children(node_box, lane_entry, entry, br, min(best.t, t_max),
+                                          stack, stack_t, sp)
+                if near != _DONE:
+                    # Its entry is within best.t: taken without the check below.
+                    entry = near
                     continue
             else:
                 n_leaves += 1
