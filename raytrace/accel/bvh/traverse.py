@@ -160,8 +160,8 @@ def _push_children(node_box, lane_entry, node, br, t_box, stack, stack_t, sp):
     near_d = np.inf
     for lane in range(WIDTH):
         dl = d[lane]
+        word = lane_entry[_unsigned(node), lane]     # before the test: as packet._push_children
         if mask & (1 << lane):
-            word = lane_entry[_unsigned(node), lane]
             if near == _DONE:
                 near, near_d = word, dl
                 continue
