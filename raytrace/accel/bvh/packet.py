@@ -9,8 +9,9 @@ visited with the rays that enter it: for the closest hit nearest first by
 the least of their entries, for any hit in lane order (most shadow rays
 are blocked by nothing, so the order buys little and costs a sort).  A
 leaf's triangles are tested against its rays at once where they share
-their watertight axes (``simd_packets.packet_triangle``, <16 x double>), one
-ray at a time otherwise; a leaf entered by only one or two of the rays
+their watertight axes (``simd_packets.packet_triangle``, <8 x double> for
+each half of the packet some ray of which entered), one ray at a time
+otherwise; a leaf entered by only one or two of the rays
 (deep in a big tree, where they have spread apart) is tested by each ray
 alone, 4 triangles at a time, with the single-ray leaf test (ALONE_MAX).  Neighbouring camera and shadow
 rays enter nearly the same nodes, so a node's loads, box arithmetic and
@@ -49,7 +50,7 @@ from numba.cpython.unsafe.numbers import trailing_zeros
 
 from raytrace.accel.bvh.layout import BVH, WIDTH
 from raytrace.accel.bvh.simd import LEAF_LANES, leaf_hits
-from raytrace.accel.bvh.simd_packets import packet_aabb4, packet_rays, packet_triangle
+from raytrace.accel.bvh.simd_packets import HALF, packet_aabb4, packet_rays, packet_triangle
 from raytrace.accel.bvh.traverse import (
     _DONE,
     BOX32_MARGIN,
@@ -101,6 +102,8 @@ _CONST_ROWS = 12 * PACKET
 # 4.0-5.1 ms instead of 3.1-3.6 (docs/benchmarks.md, "Packets that share
 # too few nodes").
 SHARED_MIN = 2
+# A half's rays in a packet's mask (packet_triangle tests a half at a time).
+HALF_MASK = (1 << HALF) - 1
 
 
 @njit(**JIT)
@@ -424,12 +427,16 @@ def _packet_traversal(mode):
                     p = prim_ids[_unsigned(k)]
                     todo = rays
                     if p < n_tris and shared_axes:
-                        # All the rays at once; the scalar test only for
-                        # the hits' distances.
+                        # All the rays at once, a half of the packet at a
+                        # time where some of its rays are here; the scalar
+                        # test only for the hits' distances.
                         n_tests += popcount(rays)
-                        hits = rays & packet_triangle(acc.leaf_tris, k,
-                                                      axes[0], axes[PACKET], axes[2 * PACKET],
-                                                      fields, far)
+                        hits = 0
+                        for half in range(2):
+                            if (rays >> (HALF * half)) & HALF_MASK:
+                                hits |= packet_triangle(acc.leaf_tris, k, axes[0], axes[PACKET],
+                                                        axes[2 * PACKET], fields, far, half)
+                        hits &= rays
                         n_hits += popcount(hits)
                         todo = 0
                         if mode == ANY_HIT:

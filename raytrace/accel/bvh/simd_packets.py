@@ -15,10 +15,13 @@ from raytrace.kernels.lowlevel import PACKET
 _F32_ROW = types.Array(types.float32, 1, "C")
 
 
-def _packet_row(builder, data, k, vec):
+def _packet_row(builder, data, k, vec, first=0):
     """Row k of a packet's rows (PACKET values from k * PACKET on) as one
-    vector of type ``vec``."""
-    p = builder.gep(data, [ir.Constant(ir.IntType(64), k * PACKET)])
+    vector of type ``vec``: its values from the row's ``first`` on (an
+    LLVM int64, or 0)."""
+    p = builder.gep(data, [builder.add(ir.Constant(ir.IntType(64), k * PACKET), first)
+                           if isinstance(first, ir.Value) else
+                           ir.Constant(ir.IntType(64), k * PACKET + first)])
     return builder.load(builder.bitcast(p, vec.as_pointer()), align=4)
 
 
@@ -104,12 +107,21 @@ def packet_aabb4(typingctx, node_box, node, nx, ny, nz, consts, t_far):
 _F64_ROW = types.Array(types.float64, 1, "C")
 
 
+# packet_triangle's rays at once: half a packet.  Its test in <16 x double>
+# for a whole packet held two registers of 512 bits a value and spilled;
+# most leaves a packet tests at 118k triangles and more are entered by
+# rays of one half only (70-85%, the suite's shadow and camera rays), and
+# skip the other (docs/benchmarks.md, "Half a packet's triangle test").
+HALF = PACKET // 2
+
+
 @intrinsic
-def packet_triangle(typingctx, leaf_tris, k, kx, ky, kz, fields, far):
+def packet_triangle(typingctx, leaf_tris, k, kx, ky, kz, fields, far, half):
     """The watertight triangle test (intersect._triangle, not the crossing
     variant) of the triangle in slot k of the tree's ``leaf_tris`` (its
-    corners, row 3 * corner + axis: accel/bvh/layout.py) against a
-    packet's PACKET rays at once, in <PACKET x double>, where the rays
+    corners, row 3 * corner + axis: accel/bvh/layout.py) against rays
+    half * HALF .. half * HALF + HALF - 1 of a packet at once, in <HALF x
+    double>, where the rays
     share their axes kx, ky, kz: each lane's arithmetic is the scalar
     test's, operation for operation (no fused multiply-adds), so a lane
     hits exactly where the scalar test hits.  Read from the slot, not
@@ -118,19 +130,19 @@ def packet_triangle(typingctx, leaf_tris, k, kx, ky, kz, fields, far):
 
     ``fields``: the packet's rows (accel/bvh/packet.py), of which rows 9-15
     are each ray's sx, sy, sz, okx, oky, okz and t_min; ``far``: each ray's
-    t_max.  Returns the mask of the rays that hit; the scalar test gives a
-    hit's distance and barycentrics.
+    t_max.  Returns the mask of the rays that hit, as bits of the whole
+    packet; the scalar test gives a hit's distance and barycentrics.
     """
-    ints = (k, kx, ky, kz)
+    ints = (k, kx, ky, kz, half)
     if leaf_tris != VERTICES or not all(isinstance(a, types.Integer) for a in ints) \
             or fields != _F64_ROW or far != _F64_ROW:
         return None
-    sig = types.int64(leaf_tris, k, kx, ky, kz, fields, far)
+    sig = types.int64(leaf_tris, k, kx, ky, kz, fields, far, half)
 
     def codegen(context, builder, sig, llargs):
         i64 = ir.IntType(64)
         f64 = ir.DoubleType()
-        vec = ir.VectorType(f64, PACKET)
+        vec = ir.VectorType(f64, HALF)
         corners_ary = context.make_array(sig.args[0])(context, builder, value=llargs[0])
         data = corners_ary.data
         stride = builder.extract_value(corners_ary.shape, 1)
@@ -139,9 +151,11 @@ def packet_triangle(typingctx, leaf_tris, k, kx, ky, kz, fields, far):
         rows = context.make_array(sig.args[5])(context, builder, value=llargs[5]).data
         far_data = context.make_array(sig.args[6])(context, builder, value=llargs[6]).data
 
-        sx, sy, sz, okx, oky, okz, t_min = [_packet_row(builder, rows, j, vec)
+        first = builder.mul(context.cast(builder, llargs[7], sig.args[7], types.int64),
+                            ir.Constant(i64, HALF))
+        sx, sy, sz, okx, oky, okz, t_min = [_packet_row(builder, rows, j, vec, first)
                                             for j in range(9, 16)]
-        t_max = _packet_row(builder, far_data, 0, vec)
+        t_max = _packet_row(builder, far_data, 0, vec, first)
 
         def coordinate(corner, axis, origin):
             row = builder.add(ir.Constant(i64, 3 * corner), axis)
@@ -153,7 +167,7 @@ def packet_triangle(typingctx, leaf_tris, k, kx, ky, kz, fields, far):
         edges, mixed = edge_functions(builder, corners, sx, sy)
         keep = builder.and_(builder.not_(mixed),
                             within_interval(builder, edges, corners, sz, t_min, t_max)[0])
-        return builder.zext(builder.bitcast(keep, ir.IntType(PACKET)), i64)
+        return builder.shl(builder.zext(builder.bitcast(keep, ir.IntType(HALF)), i64), first)
 
     return sig, codegen
 
