@@ -10,10 +10,11 @@ the least of their entries, for any hit in lane order (most shadow rays
 are blocked by nothing, so the order buys little and costs a sort).  A
 leaf's triangles are tested against its rays at once where they share
 their watertight axes (``simd_packets.packet_triangle``, <8 x double> for
-each half of the packet some ray of which entered), one ray at a time
-otherwise; a leaf entered by only one or two of the rays
-(deep in a big tree, where they have spread apart) is tested by each ray
-alone, 4 triangles at a time, with the single-ray leaf test (ALONE_MAX).  Neighbouring camera and shadow
+each half of the packet some ray of which entered).  A leaf entered by
+only one or two of the rays (deep in a big tree, where they have spread
+apart: ALONE_MAX), and every leaf of a packet whose rays' axes differ
+(shadow rays whose direction crosses a diagonal), is tested by each ray
+alone, 4 triangles at a time, with the single-ray leaf test.  Neighbouring camera and shadow
 rays enter nearly the same nodes, so a node's loads, box arithmetic and
 branches serve many rays (docs/benchmarks.md, "BVH").
 
@@ -158,15 +159,11 @@ def _push_children(lane_entry, node, masks, near, active, stack, stack_mask, sta
                    ordered):
     """The children of node that some ray of ``active`` enters (masks,
     near: packet_aabb4's): the one visited next is returned with its rays,
-    not pushed (traverse._push_children: a push and a pop of the same slot
-    cost a store and a load on the way to the next node); the others are
-    pushed with their rays and nearest entries.  With ``ordered`` (a
-    compile-time constant) the one returned is the child of least entry
-    and the pushed are nearest on top; else the one returned is the last
-    in lane order, the others pushed in lane order: in both, the order a
-    push of all of them then a pop would leave.  Returns (sp, the next
-    child's lane_entry word or _DONE, its rays).  Indices unsigned
-    (traverse._unsigned): sp never goes below 0."""
+    not pushed (as in traverse._push_children), the others pushed with
+    their rays and nearest entries, in the order a push of all then a pop
+    would leave: with ``ordered`` (a compile-time constant) nearest on
+    top, else in lane order.  Returns (sp, the next child's lane_entry
+    word or _DONE, its rays).  Indices unsigned: sp never goes below 0."""
     base = sp
     next_entry = _DONE
     next_rays = 0
@@ -354,9 +351,9 @@ def _slot_hit(geo, acc, ray, k, p, t_max):
     just loaded, not from the geometry's rows through the id; a lane it
     cannot decide (a NaN determinant: a sphere's slot) takes the scalar
     test, as traverse._test_slots does.  For closest hits only, whose
-    hits come here: an any-hit packet's rays stop at a hit, only rays
-    whose axes differ take a scalar test there, and this second copy of
-    the leaf test cost the any-hit kernel's first compile 0.2 s."""
+    hits come here: an any-hit packet's rays stop at a hit, only a
+    sphere's slot takes a scalar test there, and this second copy of the
+    leaf test cost the any-hit kernel's first compile 0.2 s."""
     m, ts, us, vs = leaf_hits(acc.leaf_tris, k, ray, t_max)
     if m & 1:
         return ts[0], us[0], vs[0]
@@ -415,7 +412,9 @@ def _packet_traversal(mode):
                     if mode == ANY_HIT:
                         rays &= alive
                     continue
-            elif popcount(rays) <= ALONE_MAX:
+            elif popcount(rays) <= ALONE_MAX or not shared_axes:
+                # Rays whose axes differ took the scalar test triangle by
+                # triangle; alone, 4 at a time (shadow rays 10% faster).
                 n_leaves += popcount(rays)
                 alive, tests, hits = _rays_alone(geo, acc, pk, rays, alive, entry, mode == ANY_HIT)
                 n_tests += tests
@@ -426,7 +425,7 @@ def _packet_traversal(mode):
                 while k < end and rays != 0:
                     p = prim_ids[_unsigned(k)]
                     todo = rays
-                    if p < n_tris and shared_axes:
+                    if p < n_tris:
                         # All the rays at once, a half of the packet at a
                         # time where some of its rays are here; the scalar
                         # test only for the hits' distances.
@@ -489,7 +488,8 @@ def _verdict(ray_visits, visits):
 @njit(**JIT)
 def _shared_axes(axes):
     """Whether the packet's rays share their watertight axes kx, ky, kz
-    (packet_triangle tests them together only then)."""
+    (packet_triangle tests them together only then; otherwise each ray
+    tests a leaf alone)."""
     same = True
     for r in range(1, PACKET):
         same &= ((axes[r] == axes[0]) & (axes[PACKET + r] == axes[PACKET])
