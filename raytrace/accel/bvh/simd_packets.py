@@ -107,11 +107,12 @@ def packet_aabb4(typingctx, node_box, node, nx, ny, nz, consts, t_far):
 _F64_ROW = types.Array(types.float64, 1, "C")
 
 
-# packet_triangle's rays at once: half a packet.  Its test in <16 x double>
-# for a whole packet held two registers of 512 bits a value and spilled;
-# most leaves a packet tests at 118k triangles and more are entered by
-# rays of one half only (70-85%, the suite's shadow and camera rays), and
-# skip the other (docs/benchmarks.md, "Half a packet's triangle test").
+# packet_triangle's rays at once: half a packet.  Most leaves a packet
+# tests at 118k triangles and more are entered by rays of one half only
+# (70-85% of the suite's shadow and camera rays), which now skip the other;
+# at 1k, where most hold rays of both halves, two half tests are no slower
+# than one <16 x double> test (docs/benchmarks.md, "Half a packet's
+# triangle test").
 HALF = PACKET // 2
 
 
@@ -120,11 +121,11 @@ def packet_triangle(typingctx, leaf_tris, k, kx, ky, kz, fields, far, half):
     """The watertight triangle test (intersect._triangle, not the crossing
     variant) of the triangle in slot k of the tree's ``leaf_tris`` (its
     corners, row 3 * corner + axis: accel/bvh/layout.py) against rays
-    half * HALF .. half * HALF + HALF - 1 of a packet at once, in <HALF x
-    double>, where the rays
-    share their axes kx, ky, kz: each lane's arithmetic is the scalar
-    test's, operation for operation (no fused multiply-adds), so a lane
-    hits exactly where the scalar test hits.  Read from the slot, not
+    half * HALF .. half * HALF + HALF - 1 of a packet at once, in
+    <HALF x double>, where the rays share their axes kx, ky, kz: each
+    lane's arithmetic is the scalar test's, operation for operation (no
+    fused multiply-adds), so a lane hits exactly where the scalar test
+    hits.  Read from the slot, not
     through prim_ids from the geometry's vertices: the corners' loads do
     not wait on the id's.
 
