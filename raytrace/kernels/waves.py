@@ -207,11 +207,9 @@ def load_own_stages(render, band, bounce_shade=False):
     compiles their other steps: renderer/ahead.py)."""
     if isinstance(render.bounces, Paths):
         from raytrace.kernels import path_waves
-        stages = _stages(render, band)
-        stages.counters = band.stats_rows
-        path_waves.load(stages, shade=False)
+        path_waves.load(_empty_stages(render, band), shade=False)
     elif bounce_shade and not isinstance(render.bounces, NoBounces):
-        _load_bounces(_stages(render, band), band, shade=True, rest=False)
+        _load_bounces(_empty_stages(render, band), shade=True, rest=False)
 
 
 def load_shading(render, band, bounce_shade=True):
@@ -220,24 +218,31 @@ def load_shading(render, band, bounce_shade=True):
     run_bounce_shade for mirrors and glass) on empty buffers;
     render.lighting.acc is not read (renderer/ahead.py compiles it
     in a process of its own, structure or none)."""
-    stages = _stages(render, band)
-    stages.counters = band.stats_rows
+    stages = _empty_stages(render, band)
     if isinstance(render.bounces, Paths):
         from raytrace.kernels import path_waves
         path_waves.load(stages, shade=True)
         return
-    stages.wave, stages.shadow = wave_buffers(0), shadow_buffers(0, 0)
     run_stage(CAMERA, stage_records(stages.shading, stages.textures, stages.wave, stages.shadow,
                                     stages.counters, band), (0, 0, 0, 0, 0))
     if isinstance(stages, _Generations):
-        _load_bounces(stages, band, shade=bounce_shade, rest=True)
+        _load_bounces(stages, shade=bounce_shade, rest=True)
 
 
-def _load_bounces(stages, band, shade, rest):
-    """Compile (or load) the mirror and glass entries on empty buffers: the
-    shading's (``shade``), the other steps' (``rest``)."""
+def _empty_stages(render, band):
+    """A render's stages as the loads above compile them: counting into
+    band's rows, and (but the path tracer's) on empty wave and shadow
+    buffers."""
+    stages = _stages(render, band)
     stages.counters = band.stats_rows
-    stages.wave, stages.shadow = wave_buffers(0), shadow_buffers(0, 0)
+    if not isinstance(render.bounces, Paths):
+        stages.wave, stages.shadow = wave_buffers(0), shadow_buffers(0, 0)
+    return stages
+
+
+def _load_bounces(stages, shade, rest):
+    """Compile (or load) the mirror and glass entries on _empty_stages'
+    buffers: the shading's (``shade``), the other steps' (``rest``)."""
     gen = bounces.generation_buffers(0)
     records = bounces.bounce_records(stages.shading, stages.textures, stages.wave,
                                      (gen, gen, stages.shadow, bounces.light_buffers(0, 0)),
