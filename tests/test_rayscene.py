@@ -384,7 +384,7 @@ def test_float32_rays_are_read_in_place_with_the_float64_answers(monkeypatch, ac
                cast._occluded_single, cast._counts_block, cast._listing_block)
     compiled = [len(k.signatures) for k in kernels]
     copied = []
-    monkeypatch.setattr(rays, "_kernel_rows", lambda a, slot: copied.append(slot))
+    monkeypatch.setattr(rays, "_kernel_rows", lambda o, d: copied.append((o, d)))
     for args in ((o32, d32), (np.concatenate([o32, d32], axis=1), None)):
         h = s.cast_rays(*args, t_max=t_max)
         for k in ("t", "prim_id", "u", "v"):
@@ -396,6 +396,41 @@ def test_float32_rays_are_read_in_place_with_the_float64_answers(monkeypatch, ac
             assert np.array_equal(listed[k], ref_list[k]), k
     assert copied == [] and [len(k.signatures) for k in kernels] == compiled
     assert ref.hit.any() and not ref.hit.all() or n == 1
+
+
+def test_rays_in_other_layouts_are_copied_on_two_threads_with_the_same_answers(monkeypatch):
+    """Rays the kernels cannot read in place (slices of (n, 6) rows,
+    Fortran order, rows reversed, integers, one origin for all) give the
+    answers of C float64 arrays, bit for bit; a large call's two copies
+    run on two threads at once when the query has two."""
+    import numba
+
+    from raytrace.cast import rays
+    from raytrace.kernels import threads
+    rng = np.random.default_rng(7)
+    v, f = rng.normal(size=(90, 3)), rng.integers(0, 90, size=(60, 3))
+    n = rays.PARALLEL_COPY_MIN
+    o = np.round(rng.normal(size=(n, 3)) * 3)
+    d = rng.normal(size=(n, 3))
+    s = RayScene((v, f), accel="bvh")
+    ref = s.cast_rays(o, d)
+    assert ref.hit.any() and not ref.hit.all()
+    both = np.concatenate([o, d], axis=1)
+    flipped = (o[::-1].copy()[::-1], d[::-1].copy()[::-1])
+    runs = []
+    real = threads.run_on_threads
+    monkeypatch.setattr(threads, "run_on_threads", lambda jobs: (runs.append(
+        [getattr(job, "func", None) is rays._copy_rows for job in jobs]), real(jobs)))
+    for args in ((both[:, :3], both[:, 3:]), (np.asfortranarray(o), np.asfortranarray(d)), flipped,
+                 (o.astype(np.int64), d), (o[0], d)):
+        h = s.cast_rays(*args)
+        want = ref if args[0].ndim == 2 else s.cast_rays(np.tile(o[0], (n, 1)), d)
+        for k in ("t", "prim_id", "u", "v"):
+            assert np.array_equal(h[k].view(np.int64), want[k].view(np.int64)), k
+        assert np.array_equal(s.occluded(*args), want.hit)
+    # Slices, Fortran order and reversed rows copy both arrays: 3 layouts,
+    # 2 queries each.  An integer or single origin is one copy, done at once.
+    assert runs.count([True, True]) == (6 if numba.get_num_threads() > 1 else 0)
 
 
 def test_a_bad_float32_ray_is_named():

@@ -2,6 +2,8 @@
 values checked (a bad one named by argument and row), query points put in
 Morton order, and the batch kernels called over counter rows."""
 
+import functools
+
 import numpy as np
 
 from raytrace.errors import RaytraceError
@@ -139,7 +141,7 @@ def _rays(origins, directions, t_min, t_max):
     tmin = _interval_end("t_min", t_min, n, shape)
     tmax = _interval_end("t_max", t_max, n, shape)
     if kept is None:
-        kept = _kernel_rows(o, 0), _kernel_rows(d, 1)
+        kept = _kernel_rows(o, d)
     return (*kept, tmin, tmax), shape, (o, d)
 
 
@@ -147,15 +149,42 @@ def _rays(origins, directions, t_min, t_max):
 # do not read them in place, Open3D's (..., 6) float64 rows, one origin for
 # all) are copied for the kernels into scratch rows each thread keeps
 # (kernels/cast.py scratch_rows).
-def _kernel_rows(a, slot):
-    """(n, 3) rows ``a`` as a C float64 array: ``a`` itself when it is one,
-    else a copy, into this thread's scratch ``slot`` (0 origins, 1
-    directions).  float32 and integers convert exactly."""
-    if _kernel_ready(a, _FLOAT64):
-        return a
-    out = _kernels().scratch_rows(a.shape[0], slot)
-    np.copyto(out, a, casting="unsafe")
-    return out
+def _kernel_rows(o, d):
+    """(n, 3) origins and directions as C float64 arrays: each itself when
+    it is one, else a copy, into this thread's scratch rows (slot 0
+    origins, 1 directions).  float32 and integers convert exactly.  Two
+    copies of PARALLEL_COPY_MIN rows or more run on two threads at once
+    when the query has two: NumPy's copy lets go of the GIL, and the
+    copies of 307,200 rows from (n, 6) rows took 3.3 ms one after the
+    other, a third of a 118k-triangle camera query (docs/benchmarks.md,
+    "Rays in other layouts")."""
+    pair = [o, d]
+    jobs = []
+    for slot, a in enumerate(pair):
+        if not _kernel_ready(a, _FLOAT64):
+            pair[slot] = _kernels().scratch_rows(a.shape[0], slot)
+            jobs.append(functools.partial(_copy_rows, pair[slot], a))
+    if len(jobs) == 2 and len(o) >= PARALLEL_COPY_MIN and _blocks(len(o)) > 1:
+        from raytrace.kernels.threads import run_on_threads
+        run_on_threads(jobs)
+    else:
+        for job in jobs:
+            job()
+    return tuple(pair)
+
+
+PARALLEL_COPY_MIN = 65_536
+
+
+def _copy_rows(out, a):
+    """out[:] = a, converted.  Column by column when a's rows are not its
+    outer stride (Fortran order, one origin broadcast): NumPy's copy of
+    such an (n, 3) array walked it three times slower."""
+    if abs(a.strides[0]) < abs(a.strides[1]):
+        for axis in range(3):
+            np.copyto(out[:, axis], a[:, axis], casting="unsafe")
+    else:
+        np.copyto(out, a, casting="unsafe")
 
 
 def _check_rays(cnt, rays):
