@@ -361,10 +361,11 @@ def test_a_trimesh_scene_is_its_meshes_where_its_nodes_place_them():
 
 @pytest.mark.parametrize("accel", STRUCTURES)
 @pytest.mark.parametrize("n", [1, 40, 3000])
-def test_float32_rays_are_read_in_place_with_the_float64_answers(monkeypatch, accel, n):
-    """float32 origins and directions, (n, 3) or Open3D's (n, 6) rows, go
+def test_float32_rays_and_rows_of_six_are_read_in_place(monkeypatch, accel, n):
+    """float32 origins and directions, (n, 3) or Open3D's (n, 6) rows, and
+    float64 rows of 6 (create_rays_pinhole's), whole or sliced in two, go
     to the ray queries' kernels as they are (kernels/ray.py widen_rays),
-    not copied to float64 first: the answers are those of the same rays in
+    not copied first: the answers are those of the same rays in
     float64, bit for bit, one ray alone, in packets (PACKET_MIN rays or
     more) and over three chunks; no kernel compiles again for them."""
     from raytrace.cast import rays
@@ -385,7 +386,12 @@ def test_float32_rays_are_read_in_place_with_the_float64_answers(monkeypatch, ac
     compiled = [len(k.signatures) for k in kernels]
     copied = []
     monkeypatch.setattr(rays, "_kernel_rows", lambda o, d: copied.append((o, d)))
-    for args in ((o32, d32), (np.concatenate([o32, d32], axis=1), None)):
+    rows32 = np.concatenate([o32, d32], axis=1)
+    rows64 = np.concatenate([o64, d64], axis=1)
+    # float32 (n, 3) arrays, and float32 or float64 rows of 6, whole or as
+    # the two slices of one array of rows.
+    for args in ((o32, d32), (rows32, None), (rows32[:, :3], rows32[:, 3:]), (rows64, None),
+                 (rows64[:, :3], rows64[:, 3:])):
         h = s.cast_rays(*args, t_max=t_max)
         for k in ("t", "prim_id", "u", "v"):
             assert np.array_equal(h[k].view(np.int64), ref[k].view(np.int64)), k
@@ -399,8 +405,8 @@ def test_float32_rays_are_read_in_place_with_the_float64_answers(monkeypatch, ac
 
 
 def test_rays_in_other_layouts_are_copied_on_two_threads_with_the_same_answers(monkeypatch):
-    """Rays the kernels cannot read in place (slices of (n, 6) rows,
-    Fortran order, rows reversed, integers, one origin for all) give the
+    """Rays the kernels cannot read in place (slices of rows of 7, Fortran
+    order, rows reversed, integers, one origin for all) give the
     answers of C float64 arrays, bit for bit; a large call's two copies
     run on two threads at once when the query has two."""
     import numba
@@ -415,28 +421,30 @@ def test_rays_in_other_layouts_are_copied_on_two_threads_with_the_same_answers(m
     s = RayScene((v, f), accel="bvh")
     ref = s.cast_rays(o, d)
     assert ref.hit.any() and not ref.hit.all()
-    both = np.concatenate([o, d], axis=1)
+    seven = np.concatenate([o, np.zeros((n, 1)), d], axis=1)    # rows with a column between
     flipped = (o[::-1].copy()[::-1], d[::-1].copy()[::-1])
     runs = []
     real = threads.run_on_threads
     monkeypatch.setattr(threads, "run_on_threads", lambda jobs: (runs.append(
         [getattr(job, "func", None) is rays._copy_rows for job in jobs]), real(jobs)))
-    for args in ((both[:, :3], both[:, 3:]), (np.asfortranarray(o), np.asfortranarray(d)), flipped,
+    for args in ((seven[:, :3], seven[:, 4:]), (np.asfortranarray(o), np.asfortranarray(d)), flipped,
                  (o.astype(np.int64), d), (o[0], d)):
         h = s.cast_rays(*args)
         want = ref if args[0].ndim == 2 else s.cast_rays(np.tile(o[0], (n, 1)), d)
         for k in ("t", "prim_id", "u", "v"):
             assert np.array_equal(h[k].view(np.int64), want[k].view(np.int64)), k
         assert np.array_equal(s.occluded(*args), want.hit)
-    # Slices, Fortran order and reversed rows copy both arrays: 3 layouts,
+    # Slices of 7, Fortran order and reversed rows copy both arrays: 3 layouts,
     # 2 queries each.  An integer or single origin is one copy, done at once.
     assert runs.count([True, True]) == (6 if numba.get_num_threads() > 1 else 0)
 
 
-def test_a_bad_float32_ray_is_named():
-    """A bad ray among float32 rows read in place is named as a float64
-    one is: the direction's NaN by its row, not the origin's."""
-    rows = np.tile(np.array([0.5, 0.5, 1.0, 0.0, 0.0, -1.0], np.float32), (3000, 1))
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_a_bad_ray_among_rows_of_six_is_named(dtype):
+    """A bad ray among float32 or float64 rows of 6, read in place, is named
+    as one of (n, 3) arrays is: the direction's NaN by its row, not the
+    origin's."""
+    rows = np.tile(np.array([0.5, 0.5, 1.0, 0.0, 0.0, -1.0], dtype), (3000, 1))
     rows[1700, 4] = np.nan
     with pytest.raises(RaytraceError, match=r"directions\[1700\]: NaN or infinite value"):
         two_squares().cast_rays(rows)

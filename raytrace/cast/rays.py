@@ -117,11 +117,12 @@ def _rays(origins, directions, t_min, t_max):
     ``directions`` None: ``origins`` holds (origin, direction) rows of 6.
     float32 origins and directions stay float32, read in place by the
     kernels (kernels/cast.py kernel_rays): both C-contiguous (n, 3) arrays,
-    or (n, 6) rows, passed as both."""
+    or (n, 6) rows, passed as both; float64 (n, 6) rows are passed as both
+    too (ray.widen_rays).  Other layouts are copied (_kernel_rows)."""
     if directions is None:
         rows, shape = _ray_rows("rays", origins, 6)
         o, d = rows[:, :3], rows[:, 3:]
-        kept = (rows, rows) if _kernel_ready(rows, _FLOAT32) else None
+        kept = (rows, rows) if _kernel_ready(rows, _FLOAT32) or _kernel_ready(rows, _FLOAT64) else None
     else:
         o, o_shape = _ray_rows("origins", origins)
         d, d_shape = _ray_rows("directions", directions)
@@ -141,8 +142,27 @@ def _rays(origins, directions, t_min, t_max):
     tmin = _interval_end("t_min", t_min, n, shape)
     tmax = _interval_end("t_max", t_max, n, shape)
     if kept is None:
-        kept = _kernel_rows(o, d)
+        rows = _rows_of_six(o, d)
+        kept = (rows, rows) if rows is not None else _kernel_rows(o, d)
     return (*kept, tmin, tmax), shape, (o, d)
+
+
+def _rows_of_six(o, d):
+    """The C (n, 6) float32 or float64 rows whose first and last 3 columns
+    are ``o`` and ``d`` (rays[:, :3] and rays[:, 3:] of one array of rows),
+    which the kernels read in place as they read such rows given whole; or
+    None."""
+    if o.dtype != d.dtype or o.dtype not in (_FLOAT32, _FLOAT64) or o.ndim != 2 \
+            or o.shape != d.shape:
+        return None
+    size = o.itemsize
+    if o.strides != (6 * size, size) or d.strides != o.strides \
+            or d.__array_interface__["data"][0] != o.__array_interface__["data"][0] + 3 * size:
+        return None
+    # Its last element is d's last: within memory that d's view spans.
+    rows = np.lib.stride_tricks.as_strided(o, (len(o), 6), (6 * size, size),
+                                           writeable=o.flags.writeable)
+    return rows if _kernel_ready(rows, o.dtype) else None
 
 
 # Rays that are not C float64 arrays already (float32 for the queries that

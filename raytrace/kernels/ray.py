@@ -114,23 +114,32 @@ def closer(t, p, best):
 def widen_rays(narrow, origins, dirs, lo, end, wide):
     """The (origins, dirs) arrays to read rays lo .. end - 1 (at most CHUNK)
     of a call from, by the call's row numbers: ``origins`` and ``dirs``
-    themselves for a float64 call (``narrow`` empty), else wide = (two
-    frame arrays of WIDE float64, the thread's) filled with those rays of
-    the call's float32 origins and directions (``narrow``: (n, 3) arrays,
-    or the same (n, 6) rows twice, the origin first), exactly, and seen
-    through lowlevel.row_window.  The widened chunk stays in the thread's
-    cache until it is traced; widened into rows the size of the call, each
-    call wrote them to memory and read them back (docs/benchmarks.md,
-    "float32 rays widened into a thread's chunk")."""
+    themselves for a float64 call of (n, 3) arrays (``narrow`` empty), else
+    wide = (two frame arrays of WIDE float64, the thread's) filled with
+    those rays, exactly, and seen through lowlevel.row_window: from the
+    call's float32 origins and directions (``narrow``: (n, 3) arrays, or
+    the same (n, 6) rows twice, the origin first), or from the same
+    float64 (n, 6) rows passed as ``origins`` and ``dirs`` (create_rays_pinhole's
+    layout, read in place rather than copied before the call: 6 ns a ray,
+    docs/benchmarks.md, "Rays in other layouts").  The widened chunk stays
+    in the thread's cache until it is traced; widened into rows the size
+    of the call, each call wrote them to memory and read them back
+    (docs/benchmarks.md, "float32 rays widened into a thread's chunk")."""
     o32, d32 = narrow
-    if o32.shape[0] == 0:
-        return origins, dirs
-    col = d32.shape[1] - 3
     wo, wd = wide
-    for i in range(lo, end):
-        for a in range(3):
-            wo[3 * (i - lo) + a] = o32[i, a]
-            wd[3 * (i - lo) + a] = d32[i, col + a]
+    if o32.shape[0] == 0:
+        if dirs.shape[1] == 3:
+            return origins, dirs
+        for i in range(lo, end):
+            for a in range(3):
+                wo[3 * (i - lo) + a] = origins[i, a]
+                wd[3 * (i - lo) + a] = dirs[i, 3 + a]
+    else:
+        col = d32.shape[1] - 3
+        for i in range(lo, end):
+            for a in range(3):
+                wo[3 * (i - lo) + a] = o32[i, a]
+                wd[3 * (i - lo) + a] = d32[i, col + a]
     return row_window(wo, lo, end - lo), row_window(wd, lo, end - lo)
 
 
