@@ -6,6 +6,7 @@ import functools
 
 import numpy as np
 
+from raytrace.cast import ordering
 from raytrace.errors import RaytraceError
 from raytrace.kernels.counters import BAD_RAYS
 from raytrace.kernels.limits import FROM_ORIGIN
@@ -95,6 +96,19 @@ _FILLED_MAX = 4                  # arrays kept
 
 
 _FILLED_MAX_BYTES = 8 << 20      # each
+
+
+def _prims(scene):
+    """The primitives a ray scene's structure holds (triangles, spheres)."""
+    geo = scene.record[0]
+    return geo.tri_v0.shape[0] + geo.sph_center.shape[0]
+
+
+def _uniform(t_min, t_max):
+    """Whether both bounds were given as numbers (_filled's arrays, every
+    row the same)."""
+    kept = _FILLED.values()
+    return any(t_min is a for a in kept) and any(t_max is a for a in kept)
 
 
 def _filled(n, value):
@@ -379,9 +393,15 @@ def _closest(scene, origins, dirs, t_min, t_max, check=True, entries=None):
     n = len(origins)
     out = tuple(fresh_columns(n, ((np.float64, 1), (np.int64, 1), (np.float64, 1),
                                   (np.float64, 1))))
-    cnt = _counter_rows(n)
-    t, prim, b1, b2 = out
-    k.cast_closest(scene, origins, dirs, t_min, t_max, t, prim, b1, b2, cnt, _clock(), entries)
+    key = ordering.decide(origins, dirs, n, _prims(scene)) if n >= ordering.ORDER_MIN else None
+    if key is not None:
+        def trace(rays, answers, row):
+            k.cast_closest(scene, *rays, *answers, row, _clock(), entries)
+        cnt = ordering.trace_in_order(key, trace, (origins, dirs, t_min, t_max),
+                                      _uniform(t_min, t_max), out, _blocks(n))
+    else:
+        cnt = _counter_rows(n)
+        k.cast_closest(scene, origins, dirs, t_min, t_max, *out, cnt, _clock(), entries)
     if check:
         _check_rays(cnt, (origins, dirs, t_min, t_max))
     return out, (cnt[0] if len(cnt) == 1 else cnt.sum(axis=0))
@@ -393,8 +413,15 @@ def _any_hit(scene, origins, dirs, t_min, t_max, check=True, entries=None):
     k = _kernels()
     n = len(origins)
     hit = np.empty(n, np.bool_)
-    cnt = _counter_rows(n)
-    k.cast_occluded(scene, origins, dirs, t_min, t_max, hit, cnt, _clock(), entries)
+    key = ordering.decide(origins, dirs, n, _prims(scene)) if n >= ordering.ORDER_MIN else None
+    if key is not None:
+        def trace(rays, answers, row):
+            k.cast_occluded(scene, *rays, *answers, row, _clock(), entries)
+        cnt = ordering.trace_in_order(key, trace, (origins, dirs, t_min, t_max),
+                                      _uniform(t_min, t_max), (hit,), _blocks(n))
+    else:
+        cnt = _counter_rows(n)
+        k.cast_occluded(scene, origins, dirs, t_min, t_max, hit, cnt, _clock(), entries)
     if check:
         _check_rays(cnt, (origins, dirs, t_min, t_max))
     return hit, (cnt[0] if len(cnt) == 1 else cnt.sum(axis=0))

@@ -58,6 +58,9 @@ def _queries(accel):
             rays.list_intersections(o, d)
             rays.contains(o)
             rays.distance(o)
+        # Large calls of rays in an incoherent order are sorted first.
+        from raytrace.cast import ordering
+        ordering.warm()
     return run
 
 

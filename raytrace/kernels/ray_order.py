@@ -1,0 +1,189 @@
+"""Rays put in a coherent order for a query, and its answers put back: the
+kernels of cast/ordering.py, which decides when and runs them, a window
+of rays a thread.
+
+A ray's key is a Morton code (bits interleaved) of the coordinates that
+vary over the call's rays, quantised within their range: the origin's x,
+y, z and the direction's two coordinates on the cube face it points
+through, the face in the top bits (Garanzha & Loop 2010, "Fast Ray
+Sorting and Breadth-First Packet Traversal for GPU Ray Tracing", key the
+origin and direction; Morton codes by table, one row a coordinate with
+its bits already spread).  Rays sorted by key lie near their neighbours
+in position and direction, so packets of neighbouring rays share their
+nodes, and single rays find their neighbours' nodes in cache.
+
+Each kernel works on one window of the call's rays, lo .. lo + m - 1, on
+the thread that holds the window; origins and dirs are (n, 3) rows or the
+same (n, 6) rows twice (the direction the last 3 columns), float32 or
+float64, as the queries' kernels read them.
+"""
+import numpy as np
+from numba import njit
+
+from raytrace.kernels.jit import BLOCK, JIT
+from raytrace.kernels.lowlevel import frame_array, prefetch
+
+KEY_BITS = 19          # the Morton code's; the face (0-5) in the 3 bits above them
+HALF = 7               # a cell's bits a table row spreads: cells of up to 14 bits
+AHEAD = 16             # rays: a gather or scatter asks for ray i + AHEAD's lines at ray i
+_DIGIT = 11            # bits a pass of the sort: 2 passes for the 22-bit key
+_BUCKETS = 1 << _DIGIT
+
+
+@njit(**JIT)
+def _cell(x, lo, scale, top):
+    """x's cell, 0 .. top, in a range starting at lo of cells 1 / scale
+    wide (scale 0: always 0); NaN goes to cell 0.  Selects, not branches:
+    a shuffled set's rays go either way at random."""
+    q = (x - lo) * scale
+    q = q if q > 0.0 else 0.0
+    return int(q if q < top else np.float64(top))
+
+
+@njit(**JIT)
+def _spread(tables, c, q, high_shift):
+    """Cell q of coordinate c with its bits spread: two rows of 2^HALF
+    entries (small enough to stay in the first-level cache), its high
+    half's moved up by high_shift."""
+    return (tables[c, q >> HALF] << high_shift) | tables[c, q & ((1 << HALF) - 1)]
+
+
+@njit(**JIT)
+def _keys(origins, dirs, lo, keys, low, scale, tables, top, high_shift):
+    """keys[i] of ray lo + i: the face its direction points through (0-5:
+    +x, -x, +y, -y, +z, -z) above its five coordinates' cells (at most
+    ``top``) with their bits spread (``_spread``), each cell taken from
+    ``low`` and ``scale`` (origin x, y, z, then the direction's two
+    coordinates on the face, each divided by the major one)."""
+    col = dirs.shape[1] - 3
+    for i in range(keys.shape[0]):
+        r = lo + i
+        key = np.uint32(0)
+        for k in range(3):
+            if scale[k] != 0.0:      # a coordinate that varies
+                key |= _spread(tables, k, _cell(np.float64(origins[r, k]), low[k], scale[k], top),
+                               high_shift)
+        dx, dy, dz = (np.float64(dirs[r, col]), np.float64(dirs[r, col + 1]),
+                      np.float64(dirs[r, col + 2]))
+        ax, ay, az = abs(dx), abs(dy), abs(dz)
+        # The major axis by selects (the first of equal ones).
+        on_x = (ax >= ay) & (ax >= az)
+        on_y = (not on_x) & (ay >= az)
+        inv = 1.0 / (ax if on_x else (ay if on_y else az))
+        a = dy if on_x else dx
+        b = dy if not (on_x | on_y) else dz
+        negative = dx < 0.0 if on_x else (dy < 0.0 if on_y else dz < 0.0)
+        face = (0 if on_x else (2 if on_y else 4)) + negative
+        # A product by the inverse, not two divisions: a key only has to be
+        # the same for the same ray, the order is the sample's only roughly.
+        key |= _spread(tables, 3, _cell(a * inv, low[3], scale[3], top), high_shift)
+        key |= _spread(tables, 4, _cell(b * inv, low[4], scale[4], top), high_shift)
+        keys[i] = key | (np.uint32(face) << np.uint32(KEY_BITS))
+
+
+@njit(**JIT)
+def _sort(keys, spare, order, spare_order):
+    """The window's order by key (stable): a radix sort, least significant
+    digit first, 2 passes of 11 bits (both digits counted in one sweep),
+    skipping a pass whose digit all keys share.  keys is overwritten; the
+    order ends in ``order`` (copied there if the last pass left it in
+    spare_order)."""
+    n = keys.shape[0]
+    low = frame_array(_BUCKETS, np.int64)
+    high = frame_array(_BUCKETS, np.int64)
+    for j in range(_BUCKETS):
+        low[j] = 0
+        high[j] = 0
+    for i in range(n):
+        low[keys[i] & (_BUCKETS - 1)] += 1
+        high[(keys[i] >> _DIGIT) & (_BUCKETS - 1)] += 1
+    moved = 0
+    src, dst, src_order, dst_order = keys, spare, order, spare_order
+    for shift in (0, _DIGIT):
+        count = low if shift == 0 else high
+        if n == 0 or count[(src[0] >> shift) & (_BUCKETS - 1)] == n:
+            continue
+        total = 0
+        for j in range(_BUCKETS):
+            c = count[j]
+            count[j] = total
+            total += c
+        for i in range(n):
+            digit = (src[i] >> shift) & (_BUCKETS - 1)
+            at = count[digit]
+            dst[at] = src[i]
+            dst_order[at] = i if moved == 0 else src_order[i]
+            count[digit] = at + 1
+        src, dst, src_order, dst_order = dst, src, dst_order, src_order
+        moved += 1
+    if moved == 0:
+        for i in range(n):
+            order[i] = i
+    elif moved == 1:
+        for i in range(n):
+            order[i] = spare_order[i]
+
+
+@njit(**BLOCK)
+def order_window(rays, lo, key, sorting, out):
+    """Rays lo .. lo + m - 1 of ``rays`` = (origins, dirs, the same as 1-D
+    views, t_min, t_max) in key order, ``key`` = (low, scale, tables, top,
+    high_shift) as _keys takes them, ``sorting`` = (keys, spare, order,
+    spare_order) of m rows each (m: the window's rays): order[i] is the
+    window's ray at row i of out = (origins, dirs: float64 (m, 3); t_min,
+    t_max: (m,), or empty where the bounds are one number for every ray and
+    need no order).  The rows are read at random: each read asks for the
+    lines of the read AHEAD rays on (from the 1-D views)."""
+    origins, dirs, flat_o, flat_d, t_min, t_max = rays
+    low, scale, tables, top, high_shift = key
+    keys, spare, order, spare_order = sorting
+    to_origins, to_dirs, to_t_min, to_t_max = out
+    _keys(origins, dirs, lo, keys, low, scale, tables, top, high_shift)
+    _sort(keys, spare, order, spare_order)
+    m = keys.shape[0]
+    col = dirs.shape[1] - 3
+    width_o, width_d = origins.shape[1], dirs.shape[1]
+    bounds = to_t_min.shape[0] > 0
+    for i in range(m):
+        if i + AHEAD < m:
+            ahead = lo + order[i + AHEAD]
+            prefetch(flat_o, ahead * width_o)
+            prefetch(flat_d, ahead * width_d + col)
+            if bounds:
+                prefetch(t_min, ahead)
+                prefetch(t_max, ahead)
+        j = lo + order[i]
+        for a in range(3):
+            to_origins[i, a] = origins[j, a]
+            to_dirs[i, a] = dirs[j, col + a]
+        if bounds:
+            to_t_min[i] = t_min[j]
+            to_t_max[i] = t_max[j]
+
+
+@njit(**BLOCK)
+def put_back_closest(order, lo, t, prim, u, v, to_t, to_prim, to_u, to_v):
+    """Answer i of the ordered window back to ray lo + order[i]."""
+    m = order.shape[0]
+    for i in range(m):
+        if i + AHEAD < m:
+            ahead = lo + order[i + AHEAD]
+            prefetch(to_t, ahead)
+            prefetch(to_prim, ahead)
+            prefetch(to_u, ahead)
+            prefetch(to_v, ahead)
+        j = lo + order[i]
+        to_t[j] = t[i]
+        to_prim[j] = prim[i]
+        to_u[j] = u[i]
+        to_v[j] = v[i]
+
+
+@njit(**BLOCK)
+def put_back_flags(order, lo, flags, to_flags):
+    """put_back_closest's for any hit's flags."""
+    m = order.shape[0]
+    for i in range(m):
+        if i + AHEAD < m:
+            prefetch(to_flags, lo + order[i + AHEAD])
+        to_flags[lo + order[i]] = flags[i]
