@@ -293,8 +293,8 @@ def test_a_first_query_starts_one_second_process_for_its_kernel(monkeypatch, sta
     assert started == []
     monkeypatch.setattr("raytrace.kernels.cachedir.kernel_cached", lambda *names: False)
     query_ahead.start("grid", "occluded", 1000)
-    assert len(started) == 1 and started[0][-4:] == ["raytrace.cast.precompile", "grid",
-                                                     "occluded", "1"]
+    assert len(started) == 1 and started[0][-5:] == ["raytrace.cast.precompile", "grid",
+                                                     "occluded", "1", "0"]
     query_ahead.start("grid", "closest", 1)     # once a process
     assert len(started) == 1
     core.stop("query")
@@ -382,8 +382,22 @@ def test_a_first_kdtree_query_after_another_structures_compiles_ahead(monkeypatc
     query_ahead.start("grid", "closest", 1)
     assert started == []
     query_ahead.start("kdtree", "closest", 1)
-    assert len(started) == 1 and started[0][-4:] == ["raytrace.cast.precompile", "kdtree",
-                                                     "closest", "0"]
+    assert len(started) == 1 and started[0][-5:] == ["raytrace.cast.precompile", "kdtree",
+                                                     "closest", "0", "0"]
+    core.stop("query")
+
+
+def test_a_first_large_query_has_the_second_process_compile_the_ordering_too(monkeypatch, started):
+    """A first call of ORDER_MIN rays or more may be put in order
+    (cast/ordering.py): the second process compiles those kernels after
+    its job, off this process's path."""
+    from raytrace.cast import ahead as query_ahead
+    from raytrace.cast.ordering import ORDER_MIN
+    monkeypatch.setattr(core.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr("raytrace.kernels.cachedir.kernel_cached", lambda *names: False)
+    query_ahead.start("bvh", "closest", ORDER_MIN)
+    assert len(started) == 1 and started[0][-5:] == ["raytrace.cast.precompile", "bvh",
+                                                     "builder", "1", "1"]
     core.stop("query")
 
 
@@ -483,7 +497,7 @@ def test_a_first_query_sends_the_shorter_compile_to_the_second_process(monkeypat
         events.clear()
         call(RayScene(mesh, accel=accel))
         here = accel == "bvh" and (query in ("count", "list") or call is calls[2][2])
-        assert [c[-3:-1] for c in started] == [[accel, "builder" if here else query]], query
+        assert [c[-4:-2] for c in started] == [[accel, "builder" if here else query]], query
         assert events[:3] == (["build", ("here", accel, query, call is calls[2][2]), "wait"]
                               if here else ["build", "wait"]), (accel, query)
         assert query_ahead._pending == {}

@@ -46,7 +46,8 @@ def calls(monkeypatch):
 def _answers(s, o, d, **kw):
     h = s.cast_rays(o, d, **kw)
     return [h[k].view(np.int64) if h[k].dtype == np.float64 else h[k]
-            for k in ("t", "prim_id", "u", "v")] + [s.occluded(o, d, **kw)]
+            for k in ("t", "prim_id", "u", "v")] + [s.occluded(o, d, **kw),
+                                                     s.count_intersections(o, d, **kw)]
 
 
 @pytest.mark.parametrize("layout", ["rows of 3", "rows of 6", "float32 rows of 6"])
@@ -63,10 +64,11 @@ def test_rays_put_in_order_get_the_answers_of_the_order_given(calls, layout):
     assert made and all(w >= 1 for w in made)
     off()
     given = _answers(s, o, d)
-    assert len(made) == 2            # both queries ordered, then none
+    assert len(made) == 3            # the three queries ordered, then none
     for a, b in zip(ordered, given):
         assert np.array_equal(a, b)
     assert given[1].min() == -1 and given[1].max() >= 0     # misses and hits
+    assert given[-1].max() >= 2                             # rays through the teapot
 
 
 def test_bounds_over_the_rays_go_with_their_rays(calls):
@@ -80,7 +82,7 @@ def test_bounds_over_the_rays_go_with_their_rays(calls):
     ordered = _answers(s, o, d, t_min=t_min, t_max=t_max)
     off()
     given = _answers(s, o, d, t_min=t_min, t_max=t_max)
-    assert len(made) == 2
+    assert len(made) == 3
     for a, b in zip(ordered, given):
         assert np.array_equal(a, b)
     assert (given[1] != s.cast_rays(o, d).prim_id).any()     # the bounds matter
@@ -137,7 +139,7 @@ def test_warm_compiles_what_an_ordered_call_runs():
     """After ordering.warm (raytrace warmup's queries step), ordered calls
     of float64 and float32 rays add no specialisation to its kernels."""
     from raytrace.kernels import ray_order
-    kernels = (ray_order.order_window, ray_order.put_back_closest, ray_order.put_back_flags)
+    kernels = (ray_order.order_window, ray_order.put_back_closest, ray_order.put_back_column)
     ordering.warm()
     compiled = [set(map(str, k.signatures)) for k in kernels]
     v, f = _teapot()
@@ -146,4 +148,5 @@ def test_warm_compiles_what_an_ordered_call_runs():
     for rays in ((o, d), (np.concatenate([o, d], axis=1).astype(np.float32), None)):
         s.cast_rays(*rays)
         s.occluded(*rays, t_max=np.full(N, 2.0))
+        s.count_intersections(*rays)
     assert [set(map(str, k.signatures)) for k in kernels] == compiled

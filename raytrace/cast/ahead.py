@@ -43,11 +43,14 @@ def start(accel, query, n_rays):
     from raytrace.kernels.cachedir import kernel_cached
     if kernel_cached(_INDEX[query]) and (query == "points" or not get(accel).first_rays_ahead()):
         return
+    from raytrace.cast.ordering import ORDER_MIN
     from raytrace.kernels.cast import PACKET_MIN
     packets = int(n_rays >= PACKET_MIN)
     here = get(accel).long_query_kernels and _long_kernel(query, packets)
     job = "builder" if here else query
-    ahead.launch(_KEY, "raytrace.cast.precompile", [accel, job, packets])
+    # A call that may be put in order (cast/ordering.py): its kernels too.
+    ahead.launch(_KEY, "raytrace.cast.precompile", [accel, job, packets,
+                                                     int(n_rays >= ORDER_MIN)])
     if ahead.pending(_KEY):
         _pending["query"] = job
         if here:

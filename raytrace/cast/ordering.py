@@ -128,36 +128,16 @@ def plan(origins, dirs, n):
     return given, sorted_, (lo, scale, tables, top, high_shift)
 
 
-_CHECK_ROWS = {}       # n -> _worth_a_look's rows for a call of n rays
-
-
 def _worth_a_look(origins, dirs, n):
     """Whether ordering might pay, from CHECK_RUNS runs of CHECK_RUN
-    consecutive rays (some 20 NumPy operations on 128 rays, 30-40 us):
-    neighbours in the given order lie far apart (the median step between
-    neighbours' origins or unit directions, the largest coordinate's,
-    exceeds 1/64 of the sample's extent: camera and shadow rays in image
-    order stop here), and n rays are enough to fill SORTED_MIN levels of
-    cells over the coordinates that vary (rays from points spread in space
-    in all directions, 5 coordinates, would need 2^30: they stop here)."""
-    rows = _CHECK_ROWS.get(n)
-    if rows is None:
-        starts = np.linspace(0, n - CHECK_RUN, CHECK_RUNS).astype(np.int64)
-        rows = (starts[:, None] + np.arange(CHECK_RUN)).ravel()
-        if len(_CHECK_ROWS) >= 8:
-            _CHECK_ROWS.clear()
-        _CHECK_ROWS[n] = rows
-    x = np.empty((len(rows), 6))
-    x[:, :3] = origins[rows, :3]
-    d = dirs[rows, -3:]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        x[:, 3:] = d / np.sqrt((d * d).sum(axis=1))[:, None]
-        extent = x.max(axis=0) - x.min(axis=0)
-        steps = np.abs(np.diff(x.reshape(CHECK_RUNS, CHECK_RUN, 6), axis=1)).reshape(-1, 6)
-        middle = len(steps) // 2
-        far = (np.sort(steps[:, :3].max(axis=1))[middle] > extent[:3].max() / 64
-               or np.sort(steps[:, 3:].max(axis=1))[middle] > extent[3:].max() / 64)
-    dims = min(int((extent[:3] > 0).sum()), 3) + min(int((extent[3:] > 0).sum()), 2)
+    consecutive rays (kernels/ray_order.py neighbours_apart, a few us):
+    neighbours in the given order lie far apart (camera and shadow rays in
+    image order stop here), and n rays are enough to fill SORTED_MIN
+    levels of cells over the coordinates that vary (rays from points
+    spread in space in all directions, 5 coordinates, would need 2^30:
+    they stop here)."""
+    from raytrace.kernels import ray_order
+    far, dims = ray_order.neighbours_apart(origins, dirs, n, CHECK_RUNS, CHECK_RUN)
     return bool(far) and np.log2(n) >= SORTED_MIN * max(dims, 1)
 
 
@@ -215,7 +195,8 @@ def trace_in_order(key, trace, rays, uniform, answers, threads):
     window by window in key order on ``threads`` threads: each window's
     rays sorted and gathered (ray_order.order_window), traced by
     ``trace(window rays, window answers, counter row)``, and its answers
-    put back into ``answers`` (the call's: (t, prim, u, v) or (flags,)).
+    put back into ``answers`` (the call's: (t, prim, u, v) of closest hits,
+    or one array: any hit's flags, counts).
     ``uniform``: t_min and t_max are one number for every ray, so they are
     not gathered.  Returns the counter rows, one a window."""
     from raytrace.kernels import cast, ray_order
@@ -229,8 +210,7 @@ def trace_in_order(key, trace, rays, uniform, answers, threads):
     per_ray = [((1,), np.uint32), ((1,), np.uint32), ((1,), np.int64), ((1,), np.int64),
                ((1, 3), np.float64), ((1, 3), np.float64)]
     per_ray += [((1,), np.float64)] * (0 if uniform else 2)
-    per_ray += ([((1,), np.float64), ((1,), np.int64), ((1,), np.float64), ((1,), np.float64)]
-                if closest else [((1,), np.bool_)])
+    per_ray += [((1,), a.dtype) for a in answers]
     widest = max(hi - lo for lo, hi in spans)
     slot = sum(-(-widest * int(np.prod(s)) * np.dtype(t).itemsize // 64) * 64 for s, t in per_ray)
     buf = _buffer(slot * threads)
@@ -254,19 +234,22 @@ def trace_in_order(key, trace, rays, uniform, answers, threads):
             if closest:
                 ray_order.put_back_closest(order, lo, *out, *answers)
             else:
-                ray_order.put_back_flags(order, lo, out[0], answers[0])
+                ray_order.put_back_column(order, lo, out[0], answers[0])
     run_on_threads([functools.partial(work, t) for t in range(threads)])
     return cnt
 
 
-def warm():
-    """Compile the ordering's kernels (``raytrace warmup``'s queries step)
-    for rays in float64 and in float32, the types trace_in_order passes."""
+def warm(dtypes=(np.float64, np.float32)):
+    """Compile the ordering's kernels (``raytrace warmup``'s queries step,
+    and a first large query's second process: cast/precompile.py) for rays
+    of ``dtypes``, the types trace_in_order passes."""
     from raytrace.kernels import ray_order
     m = 2
+    for dtype in dtypes:
+        ray_order.neighbours_apart(np.zeros((m, 3), dtype), np.ones((m, 3), dtype), m, 1, m)
     key = (np.zeros(5), np.zeros(5), _tables([0]), 1, 0)
     order = np.zeros(m, np.int64)
-    for dtype in (np.float64, np.float32):
+    for dtype in dtypes:
         rows = np.zeros((m, 3), dtype)
         bounds = np.zeros(m), np.zeros(m)
         ray_order.order_window((rows, rows, rows.reshape(-1), rows.reshape(-1), *bounds), 0, key,
@@ -275,5 +258,6 @@ def warm():
                                (np.zeros((m, 3)), np.zeros((m, 3)), *bounds))
     t, prim = np.zeros(m), np.zeros(m, np.int64)
     ray_order.put_back_closest(order, 0, t, prim, t, t, t.copy(), prim.copy(), t.copy(), t.copy())
-    flags = np.zeros(m, np.bool_)
-    ray_order.put_back_flags(order, 0, flags, flags.copy())
+    for dtype in (np.bool_, np.int64):      # any hit's flags, counts
+        column = np.zeros(m, dtype)
+        ray_order.put_back_column(order, 0, column, column.copy())

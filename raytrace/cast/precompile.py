@@ -3,10 +3,11 @@ kernel, for a structure's empty layout and a one-triangle scene's geometry
 (the types of any RayScene's), in the second process or in this one; or,
 in the second process, the structure's builder, on that scene.
 
-    python -m raytrace.cast.precompile ACCEL QUERY PACKETS
+    python -m raytrace.cast.precompile ACCEL QUERY PACKETS [LARGE]
     (QUERY closest, occluded, count, list or points; PACKETS 1 for closest
     and any-hit calls of PACKET_MIN rays or more; or QUERY builder: the
-    structure's builder, and a BVH's for counting, on that scene)
+    structure's builder, and a BVH's for counting, on that scene; LARGE 1:
+    then cast/ordering.py's kernels, for a call of ORDER_MIN rays or more)
 """
 import sys
 
@@ -57,5 +58,8 @@ def main(accel, query, packets):
 
 if __name__ == "__main__":
     main(sys.argv[1], sys.argv[2], sys.argv[3] == "1")
+    if sys.argv[4:] == ["1"]:
+        from raytrace.cast import ordering
+        ordering.warm((np.float64,))     # float32 rays compile theirs at their first call
     from raytrace.kernels.ahead import finish
     finish()

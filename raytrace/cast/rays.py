@@ -98,6 +98,22 @@ _FILLED_MAX = 4                  # arrays kept
 _FILLED_MAX_BYTES = 8 << 20      # each
 
 
+def in_order(scene, rays, answers, trace):
+    """The counter rows of a query traced in order (cast/ordering.py) where
+    its rays are worth it: ``trace(window's rays, window's answers,
+    counter row)`` runs the query's kernel on a window, and ``answers``
+    (the call's arrays) get each window's put back.  None where the rays
+    are to be traced as given."""
+    origins, dirs, t_min, t_max = rays
+    n = len(t_min)
+    if n < ordering.ORDER_MIN:
+        return None
+    key = ordering.decide(origins, dirs, n, _prims(scene))
+    if key is None:
+        return None
+    return ordering.trace_in_order(key, trace, rays, _uniform(t_min, t_max), answers, _blocks(n))
+
+
 def _prims(scene):
     """The primitives a ray scene's structure holds (triangles, spheres)."""
     geo = scene.record[0]
@@ -393,13 +409,9 @@ def _closest(scene, origins, dirs, t_min, t_max, check=True, entries=None):
     n = len(origins)
     out = tuple(fresh_columns(n, ((np.float64, 1), (np.int64, 1), (np.float64, 1),
                                   (np.float64, 1))))
-    key = ordering.decide(origins, dirs, n, _prims(scene)) if n >= ordering.ORDER_MIN else None
-    if key is not None:
-        def trace(rays, answers, row):
-            k.cast_closest(scene, *rays, *answers, row, _clock(), entries)
-        cnt = ordering.trace_in_order(key, trace, (origins, dirs, t_min, t_max),
-                                      _uniform(t_min, t_max), out, _blocks(n))
-    else:
+    cnt = in_order(scene, (origins, dirs, t_min, t_max), out, lambda rays, answers, row:
+                   k.cast_closest(scene, *rays, *answers, row, _clock(), entries))
+    if cnt is None:
         cnt = _counter_rows(n)
         k.cast_closest(scene, origins, dirs, t_min, t_max, *out, cnt, _clock(), entries)
     if check:
@@ -413,13 +425,9 @@ def _any_hit(scene, origins, dirs, t_min, t_max, check=True, entries=None):
     k = _kernels()
     n = len(origins)
     hit = np.empty(n, np.bool_)
-    key = ordering.decide(origins, dirs, n, _prims(scene)) if n >= ordering.ORDER_MIN else None
-    if key is not None:
-        def trace(rays, answers, row):
-            k.cast_occluded(scene, *rays, *answers, row, _clock(), entries)
-        cnt = ordering.trace_in_order(key, trace, (origins, dirs, t_min, t_max),
-                                      _uniform(t_min, t_max), (hit,), _blocks(n))
-    else:
+    cnt = in_order(scene, (origins, dirs, t_min, t_max), (hit,), lambda rays, answers, row:
+                   k.cast_occluded(scene, *rays, *answers, row, _clock(), entries))
+    if cnt is None:
         cnt = _counter_rows(n)
         k.cast_occluded(scene, origins, dirs, t_min, t_max, hit, cnt, _clock(), entries)
     if check:

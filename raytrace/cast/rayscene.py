@@ -25,6 +25,7 @@ from raytrace.cast.rays import (
     _shaped,
     _unsorted,
     fresh_columns,
+    in_order,
 )
 from raytrace.cast.results import ClosestPoints, HitList, RayHits
 from raytrace.errors import RaytraceError
@@ -301,8 +302,12 @@ def _counts(prepared, rays, check=True):
     bad (with ``check``; else its count is 0)."""
     from raytrace.kernels.cast import cast_counts
     counts = np.empty(len(rays[0]), np.int64)
-    cnt = _counter_rows(len(counts))
-    cast_counts(prepared.scene("counting"), *rays, counts, cnt, _clock(), prepared.entries)
+    scene, entries = prepared.scene("counting"), prepared.entries
+    cnt = in_order(scene, rays, (counts,), lambda window, answers, row:
+                   cast_counts(scene, *window, *answers, row, _clock(), entries))
+    if cnt is None:
+        cnt = _counter_rows(len(counts))
+        cast_counts(scene, *rays, counts, cnt, _clock(), entries)
     if check:
         _check_rays(cnt, rays)
     return counts

@@ -28,6 +28,7 @@ HALF = 7               # a cell's bits a table row spreads: cells of up to 14 bi
 AHEAD = 16             # rays: a gather or scatter asks for ray i + AHEAD's lines at ray i
 _DIGIT = 11            # bits a pass of the sort: 2 passes for the 22-bit key
 _BUCKETS = 1 << _DIGIT
+SAMPLE_MAX = 256       # rays neighbours_apart looks at, at most
 
 
 @njit(**JIT)
@@ -180,10 +181,78 @@ def put_back_closest(order, lo, t, prim, u, v, to_t, to_prim, to_u, to_v):
 
 
 @njit(**BLOCK)
-def put_back_flags(order, lo, flags, to_flags):
-    """put_back_closest's for any hit's flags."""
+def put_back_column(order, lo, values, to_values):
+    """put_back_closest's for one array: any hit's flags, counts."""
     m = order.shape[0]
     for i in range(m):
         if i + AHEAD < m:
-            prefetch(to_flags, lo + order[i + AHEAD])
-        to_flags[lo + order[i]] = flags[i]
+            prefetch(to_values, lo + order[i + AHEAD])
+        to_values[lo + order[i]] = values[i]
+
+
+@njit(**JIT)
+def _middle(values, m):
+    """The median (upper middle) of values[:m], sorting them in place (m
+    is small: insertion sort)."""
+    for i in range(1, m):
+        x = values[i]
+        j = i
+        while j > 0 and values[j - 1] > x:
+            values[j] = values[j - 1]
+            j -= 1
+        values[j] = x
+    return values[m // 2]
+
+
+@njit(**BLOCK)
+def neighbours_apart(origins, dirs, n, runs, run):
+    """cast/ordering.py's first look at a call's rays: ``runs`` runs of
+    ``run`` consecutive rays spread over the call (runs * run at most
+    SAMPLE_MAX, the frame's arrays).  Returns (whether
+    neighbours in the given order lie far apart: the median step between
+    neighbours' origins, or unit directions, the largest coordinate's,
+    exceeds 1/64 of the sample's extent; how many of the origin's 3
+    coordinates vary over the sample, and of the unit direction's, at
+    most 2).  Compiled: the same in NumPy took 20 operations, 50 us back
+    to back and 180 us after a query had filled the caches."""
+    col = dirs.shape[1] - 3
+    lo = frame_array(6, np.float64)
+    hi = frame_array(6, np.float64)
+    cur = frame_array(6, np.float64)
+    prev = frame_array(6, np.float64)
+    for a in range(6):
+        lo[a] = np.inf
+        hi[a] = -np.inf
+    steps_o = frame_array(SAMPLE_MAX, np.float64)
+    steps_d = frame_array(SAMPLE_MAX, np.float64)
+    k = 0
+    for r in range(runs):
+        start = (n - run) * r // max(runs - 1, 1)
+        for j in range(run):
+            i = start + j
+            for a in range(3):
+                cur[a] = origins[i, a]
+                cur[3 + a] = dirs[i, col + a]
+            norm = np.sqrt(cur[3] * cur[3] + cur[4] * cur[4] + cur[5] * cur[5])
+            for a in range(3, 6):
+                cur[a] = cur[a] / norm
+            for a in range(6):
+                lo[a] = min(lo[a], cur[a])
+                hi[a] = max(hi[a], cur[a])
+            if j > 0:
+                so = 0.0
+                sd = 0.0
+                for a in range(3):
+                    so = max(so, abs(cur[a] - prev[a]))
+                    sd = max(sd, abs(cur[3 + a] - prev[3 + a]))
+                steps_o[k] = so
+                steps_d[k] = sd
+                k += 1
+            for a in range(6):
+                prev[a] = cur[a]
+    extent_o = max(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2])
+    extent_d = max(hi[3] - lo[3], hi[4] - lo[4], hi[5] - lo[5])
+    far = (_middle(steps_o, k) > extent_o / 64) | (_middle(steps_d, k) > extent_d / 64)
+    varying_o = (hi[0] > lo[0]) + (hi[1] > lo[1]) + (hi[2] > lo[2])
+    varying_d = min((hi[3] > lo[3]) + (hi[4] > lo[4]) + (hi[5] > lo[5]), 2)
+    return far, varying_o + varying_d
