@@ -205,10 +205,10 @@ def trace_in_order(key, trace, rays, uniform, answers, threads):
     n = len(t_min)
     spans = windows(n, threads)
     cnt = np.zeros((len(spans), cast.COLUMNS), np.int64)
-    flat_o, flat_d = origins.reshape(-1), dirs.reshape(-1)
     closest = len(answers) == 4
+    width = 6 if uniform else 8         # a record: origin, direction, and the bounds
     per_ray = [((1,), np.uint32), ((1,), np.uint32), ((1,), np.int64), ((1,), np.int64),
-               ((1, 3), np.float64), ((1, 3), np.float64)]
+               ((1, width), np.float64), ((1, 3), np.float64), ((1, 3), np.float64)]
     per_ray += [((1,), np.float64)] * (0 if uniform else 2)
     per_ray += [((1,), a.dtype) for a in answers]
     widest = max(hi - lo for lo, hi in spans)
@@ -224,11 +224,12 @@ def trace_in_order(key, trace, rays, uniform, answers, threads):
             lo, hi = spans[w]
             m = hi - lo
             specs = [((m,) + s[1:], d) for s, d in per_ray]
-            (keys, spare, order, spare_order, to_o, to_d, *rest), _ = _carve(buf, t * slot, specs)
+            (keys, spare, order, spare_order, records, to_o, to_d, *rest), _ = _carve(
+                buf, t * slot, specs)
             bounds = (t_min[:m], t_max[:m]) if uniform else tuple(rest[:2])
             out = rest[0 if uniform else 2:]
-            ray_order.order_window((origins, dirs, flat_o, flat_d, t_min, t_max), lo, key,
-                                   (keys, spare, order, spare_order),
+            ray_order.order_window((origins, dirs, t_min, t_max), lo, key,
+                                   (keys, spare, order, spare_order, records, records.reshape(-1)),
                                    (to_o, to_d, *((none, none) if uniform else bounds)))
             trace((to_o, to_d, *bounds), out, cnt[w:w + 1])
             if closest:
@@ -252,9 +253,10 @@ def warm(dtypes=(np.float64, np.float32)):
     for dtype in dtypes:
         rows = np.zeros((m, 3), dtype)
         bounds = np.zeros(m), np.zeros(m)
-        ray_order.order_window((rows, rows, rows.reshape(-1), rows.reshape(-1), *bounds), 0, key,
+        records = np.zeros((m, 8))
+        ray_order.order_window((rows, rows, *bounds), 0, key,
                                (np.zeros(m, np.uint32), np.zeros(m, np.uint32), order,
-                                np.zeros(m, np.int64)),
+                                np.zeros(m, np.int64), records, records.reshape(-1)),
                                (np.zeros((m, 3)), np.zeros((m, 3)), *bounds))
     t, prim = np.zeros(m), np.zeros(m, np.int64)
     ray_order.put_back_closest(order, 0, t, prim, t, t, t.copy(), prim.copy(), t.copy(), t.copy())

@@ -50,15 +50,26 @@ def _spread(tables, c, q, high_shift):
 
 
 @njit(**JIT)
-def _keys(origins, dirs, lo, keys, low, scale, tables, top, high_shift):
-    """keys[i] of ray lo + i: the face its direction points through (0-5:
-    +x, -x, +y, -y, +z, -z) above its five coordinates' cells (at most
-    ``top``) with their bits spread (``_spread``), each cell taken from
-    ``low`` and ``scale`` (origin x, y, z, then the direction's two
-    coordinates on the face, each divided by the major one)."""
+def _keys(rays, lo, keys, records, low, scale, tables, top, high_shift):
+    """keys[i] of ray lo + i of rays = (origins, dirs, t_min, t_max): the
+    face its direction points through (0-5: +x, -x, +y, -y, +z, -z) above
+    its five coordinates' cells (at most ``top``) with their bits spread
+    (``_spread``), each cell taken from ``low`` and ``scale`` (origin x, y,
+    z, then the direction's two coordinates on the face, each divided by
+    the major one).  Row i of ``records`` gets the ray as float64: origin,
+    direction, t_min and t_max, one 64-byte line (the bounds only where
+    records has 8 columns)."""
+    origins, dirs, t_min, t_max = rays
     col = dirs.shape[1] - 3
+    bounds = records.shape[1] == 8
     for i in range(keys.shape[0]):
         r = lo + i
+        for a in range(3):
+            records[i, a] = origins[r, a]
+            records[i, 3 + a] = dirs[r, col + a]
+        if bounds:
+            records[i, 6] = t_min[r]
+            records[i, 7] = t_max[r]
         key = np.uint32(0)
         for k in range(3):
             if scale[k] != 0.0:      # a coordinate that varies
@@ -127,39 +138,35 @@ def _sort(keys, spare, order, spare_order):
 
 @njit(**BLOCK)
 def order_window(rays, lo, key, sorting, out):
-    """Rays lo .. lo + m - 1 of ``rays`` = (origins, dirs, the same as 1-D
-    views, t_min, t_max) in key order, ``key`` = (low, scale, tables, top,
-    high_shift) as _keys takes them, ``sorting`` = (keys, spare, order,
-    spare_order) of m rows each (m: the window's rays): order[i] is the
+    """Rays lo .. lo + m - 1 of ``rays`` = (origins, dirs, t_min, t_max) in
+    key order, ``key`` = (low, scale, tables, top, high_shift) as _keys
+    takes them, ``sorting`` = (keys, spare, order, spare_order, records,
+    the same records as 1-D) of m rows each (m: the window's rays; records
+    (m, 8), or (m, 6) where the bounds need no order): order[i] is the
     window's ray at row i of out = (origins, dirs: float64 (m, 3); t_min,
-    t_max: (m,), or empty where the bounds are one number for every ray and
-    need no order).  The rows are read at random: each read asks for the
-    lines of the read AHEAD rays on (from the 1-D views)."""
-    origins, dirs, flat_o, flat_d, t_min, t_max = rays
+    t_max: (m,), or empty where the bounds are one number for every ray).
+    The rays are first copied in their order, a record of one cache line a
+    ray (_keys), so the reads in key order that follow wait on one line a
+    ray, not on two or four from the call's arrays; each read asks for
+    the line of the read AHEAD rays on."""
     low, scale, tables, top, high_shift = key
-    keys, spare, order, spare_order = sorting
+    keys, spare, order, spare_order, records, flat = sorting
     to_origins, to_dirs, to_t_min, to_t_max = out
-    _keys(origins, dirs, lo, keys, low, scale, tables, top, high_shift)
+    _keys(rays, lo, keys, records, low, scale, tables, top, high_shift)
     _sort(keys, spare, order, spare_order)
     m = keys.shape[0]
-    col = dirs.shape[1] - 3
-    width_o, width_d = origins.shape[1], dirs.shape[1]
+    width = records.shape[1]
     bounds = to_t_min.shape[0] > 0
     for i in range(m):
         if i + AHEAD < m:
-            ahead = lo + order[i + AHEAD]
-            prefetch(flat_o, ahead * width_o)
-            prefetch(flat_d, ahead * width_d + col)
-            if bounds:
-                prefetch(t_min, ahead)
-                prefetch(t_max, ahead)
-        j = lo + order[i]
+            prefetch(flat, order[i + AHEAD] * width)
+        j = order[i]
         for a in range(3):
-            to_origins[i, a] = origins[j, a]
-            to_dirs[i, a] = dirs[j, col + a]
+            to_origins[i, a] = records[j, a]
+            to_dirs[i, a] = records[j, 3 + a]
         if bounds:
-            to_t_min[i] = t_min[j]
-            to_t_max[i] = t_max[j]
+            to_t_min[i] = records[j, 6]
+            to_t_max[i] = records[j, 7]
 
 
 @njit(**BLOCK)
