@@ -150,3 +150,10 @@ def test_warm_compiles_what_an_ordered_call_runs():
         s.occluded(*rays, t_max=np.full(N, 2.0))
         s.count_intersections(*rays)
     assert [set(map(str, k.signatures)) for k in kernels] == compiled
+
+
+def test_a_windows_buffer_starts_on_a_cache_line():
+    """So that a record of 8 float64s (a ray and its bounds) is one line."""
+    for nbytes in (100, 1 << 20, ordering._KEPT_MAX_BYTES + 8):
+        buf = ordering._buffer(nbytes)
+        assert buf.__array_interface__["data"][0] % 64 == 0 and len(buf) == nbytes

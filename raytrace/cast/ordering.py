@@ -157,14 +157,21 @@ _kept = threading.local()
 
 
 def _buffer(nbytes):
-    """An uninitialised uint8 array of nbytes, this thread's kept one when
-    it fits."""
+    """An uninitialised uint8 array of nbytes starting on a 64-byte line,
+    this thread's kept one when it fits."""
     if nbytes > _KEPT_MAX_BYTES:
-        return np.empty(nbytes, np.uint8)
+        return _on_a_line(np.empty(nbytes + 64, np.uint8), nbytes)
     buf = getattr(_kept, "buffer", None)
-    if buf is None or len(buf) < nbytes:
-        buf = _kept.buffer = np.empty(max(nbytes, 1 << 20), np.uint8)
-    return buf[:nbytes]
+    if buf is None or len(buf) < nbytes + 64:
+        buf = _kept.buffer = np.empty(max(nbytes, 1 << 20) + 64, np.uint8)
+    return _on_a_line(buf, nbytes)
+
+
+def _on_a_line(buf, nbytes):
+    """nbytes of buf from its first 64-byte boundary (a record of 8
+    float64s is then one cache line)."""
+    skip = -buf.__array_interface__["data"][0] % 64
+    return buf[skip:skip + nbytes]
 
 
 def _carve(buf, lo, specs):
