@@ -139,7 +139,8 @@ def test_warm_compiles_what_an_ordered_call_runs():
     """After ordering.warm (raytrace warmup's queries step), ordered calls
     of float64 and float32 rays add no specialisation to its kernels."""
     from raytrace.kernels import ray_order
-    kernels = (ray_order.order_window, ray_order.put_back_closest, ray_order.put_back_column)
+    kernels = (ray_order.order_window, ray_order.put_back_closest, ray_order.put_back_column,
+               ray_order.neighbours_apart, ray_order.sample_coords, ray_order.sample_keys)
     ordering.warm()
     compiled = [set(map(str, k.signatures)) for k in kernels]
     v, f = _teapot()

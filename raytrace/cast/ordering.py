@@ -37,26 +37,7 @@ WINDOW_MAX = 1 << 18   # rays a window: a thread's share of the call, cut to thi
 PRIMS_MIN = 256        # a structure of fewer primitives is traced as given
 
 
-def _face_coords(d):
-    """(face, a / m, b / m) of direction rows d, as ray_keys takes them."""
-    ad = np.abs(d)
-    major = np.argmax(ad, axis=1)      # the first of equal ones, as ray_keys
-    rows = np.arange(len(d))
-    m = ad[rows, major]
-    a_axis = np.where(major == 0, 1, 0)
-    b_axis = np.where(major == 2, 1, 2)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        a = d[rows, a_axis] / m
-        b = d[rows, b_axis] / m
-    face = 2 * major + (d[rows, major] < 0)
-    return face, a, b
-
-
-def _coords(o, d):
-    face, a, b = _face_coords(d)
-    return face, np.column_stack([o[:, 0], o[:, 1], o[:, 2], a, b])
-
-
+@functools.lru_cache(maxsize=32)
 def _tables(varying):
     """ray_keys' rows of spread bits for each of the 5 coordinates: entry
     q of coordinate c's row has q's HALF bits at every len(varying)-th
@@ -70,19 +51,6 @@ def _tables(varying):
     return tables
 
 
-def _keys(face, coords, lo, scale, tables, top, high_shift):
-    """ray_keys' keys, in NumPy, for the sample."""
-    with np.errstate(invalid="ignore"):
-        q = (coords - lo) * scale
-    q = np.where(q > 0.0, q, 0.0)
-    cells = np.minimum(q, top).astype(np.int64)
-    key = np.zeros(len(face), np.uint32)
-    for c in range(5):
-        key |= ((tables[c, cells[:, c] >> HALF] << high_shift)
-                | tables[c, cells[:, c] & ((1 << HALF) - 1)])
-    return key | (face.astype(np.uint32) << KEY_BITS)
-
-
 def _shared_bits(a, b):
     """Leading bits that keys a and b (of KEY_BITS + 3 bits) share."""
     x = (a ^ b).astype(np.uint64)
@@ -91,19 +59,24 @@ def _shared_bits(a, b):
     return KEY_BITS + 3 - length
 
 
-def _sample(origins, dirs, rows):
-    return _coords(np.asarray(origins[rows, :3], np.float64),
-                   np.asarray(dirs[rows, -3:], np.float64))
+@functools.lru_cache(maxsize=8)
+def _plan_rows(n):
+    """plan's sample of a call of n rays: RUNS runs of RUN consecutive
+    rays, then RUNS * RUN spread evenly."""
+    starts = np.linspace(0, n - RUN, RUNS).astype(np.int64)
+    runs = (starts[:, None] + np.arange(RUN)).ravel()
+    spread = np.linspace(0, n - 1, RUNS * RUN).astype(np.int64)
+    return np.concatenate([runs, spread])
 
 
 def plan(origins, dirs, n):
     """The key's ranges and tables and the sample's verdict: (given,
     sorted) shared levels, and (lo, scale, tables), for rays origins, dirs
     ((n, 3) rows, or (n, 6) rows twice)."""
-    starts = np.linspace(0, n - RUN, RUNS).astype(np.int64)
-    runs = (starts[:, None] + np.arange(RUN)).ravel()
-    spread = np.linspace(0, n - 1, RUNS * RUN).astype(np.int64)
-    face, coords = _sample(origins, dirs, np.concatenate([runs, spread]))
+    from raytrace.kernels import ray_order
+    rows = _plan_rows(n)
+    coords, face = np.empty((len(rows), 5)), np.empty(len(rows), np.int64)
+    ray_order.sample_coords(origins, dirs, rows, coords, face)
     with np.errstate(invalid="ignore"):
         lo = np.fmin.reduce(coords, axis=0)
         hi = np.fmax.reduce(coords, axis=0)
@@ -113,12 +86,13 @@ def plan(origins, dirs, n):
     span = np.where(hi > lo, hi - lo, 1.0)
     scale = np.where(hi > lo, (1 << bits) / span, 0.0)
     lo = np.where(np.isfinite(lo), lo, 0.0)
-    tables = _tables(varying)
+    tables = _tables(tuple(varying))
     # A cell of more than HALF bits takes a second row, its bits above the
     # first row's; with fewer the second row reads entry 0 (no bits), and
     # a shift past 31 is left out.
     top, high_shift = (1 << bits) - 1, HALF * dims if bits > HALF else 0
-    key = _keys(face, coords, lo, scale, tables, top, high_shift)
+    key = np.empty(len(rows), np.uint32)
+    ray_order.sample_keys(coords, face, (lo, scale, tables, top, high_shift), key)
     by_run = key[:RUNS * RUN].reshape(RUNS, RUN)
     skip = 3 + KEY_BITS - bits * dims     # the face's bits and the unused ones
     given = (float(np.median(_shared_bits(by_run[:, 1:], by_run[:, :-1]))) - skip) / dims
@@ -255,8 +229,13 @@ def warm(dtypes=(np.float64, np.float32)):
     m = 2
     for dtype in dtypes:
         ray_order.neighbours_apart(np.zeros((m, 3), dtype), np.ones((m, 3), dtype), m, 1, m)
-    key = (np.zeros(5), np.zeros(5), _tables([0]), 1, 0)
+    key = (np.zeros(5), np.zeros(5), _tables((0,)), 1, 0)
     order = np.zeros(m, np.int64)
+    coords, face = np.zeros((m, 5)), np.zeros(m, np.int64)
+    for dtype in dtypes:
+        ray_order.sample_coords(np.zeros((m, 3), dtype), np.ones((m, 3), dtype), order, coords,
+                                face)
+    ray_order.sample_keys(coords, face, key, np.zeros(m, np.uint32))
     for dtype in dtypes:
         rows = np.zeros((m, 3), dtype)
         bounds = np.zeros(m), np.zeros(m)

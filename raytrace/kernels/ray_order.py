@@ -75,22 +75,55 @@ def _keys(rays, lo, keys, records, low, scale, tables, top, high_shift):
             if scale[k] != 0.0:      # a coordinate that varies
                 key |= _spread(tables, k, _cell(np.float64(origins[r, k]), low[k], scale[k], top),
                                high_shift)
-        dx, dy, dz = (np.float64(dirs[r, col]), np.float64(dirs[r, col + 1]),
-                      np.float64(dirs[r, col + 2]))
-        ax, ay, az = abs(dx), abs(dy), abs(dz)
-        # The major axis by selects (the first of equal ones).
-        on_x = (ax >= ay) & (ax >= az)
-        on_y = (not on_x) & (ay >= az)
-        inv = 1.0 / (ax if on_x else (ay if on_y else az))
-        a = dy if on_x else dx
-        b = dy if not (on_x | on_y) else dz
-        negative = dx < 0.0 if on_x else (dy < 0.0 if on_y else dz < 0.0)
-        face = (0 if on_x else (2 if on_y else 4)) + negative
-        # A product by the inverse, not two divisions: a key only has to be
-        # the same for the same ray, the order is the sample's only roughly.
-        key |= _spread(tables, 3, _cell(a * inv, low[3], scale[3], top), high_shift)
-        key |= _spread(tables, 4, _cell(b * inv, low[4], scale[4], top), high_shift)
+        face, a, b = _on_face(np.float64(dirs[r, col]), np.float64(dirs[r, col + 1]),
+                              np.float64(dirs[r, col + 2]))
+        key |= _spread(tables, 3, _cell(a, low[3], scale[3], top), high_shift)
+        key |= _spread(tables, 4, _cell(b, low[4], scale[4], top), high_shift)
         keys[i] = key | (np.uint32(face) << np.uint32(KEY_BITS))
+
+
+@njit(**JIT)
+def _on_face(dx, dy, dz):
+    """(the face of the cube a direction points through, 0-5: +x, -x, +y,
+    -y, +z, -z; its two other coordinates over the major one's size).
+    The major axis by selects (the first of equal ones), and a product by
+    the inverse, not two divisions: a key only has to be the same for the
+    same ray."""
+    ax, ay, az = abs(dx), abs(dy), abs(dz)
+    on_x = (ax >= ay) & (ax >= az)
+    on_y = (not on_x) & (ay >= az)
+    inv = 1.0 / (ax if on_x else (ay if on_y else az))
+    a = dy if on_x else dx
+    b = dy if not (on_x | on_y) else dz
+    negative = dx < 0.0 if on_x else (dy < 0.0 if on_y else dz < 0.0)
+    return (0 if on_x else (2 if on_y else 4)) + negative, a * inv, b * inv
+
+
+@njit(**BLOCK)
+def sample_coords(origins, dirs, rows, coords, face):
+    """The key's five coordinates of rays ``rows`` (cast/ordering.py's
+    sample): coords[k] = origin x, y, z and _on_face's two, face[k] its
+    face."""
+    col = dirs.shape[1] - 3
+    for k in range(rows.shape[0]):
+        r = rows[k]
+        for a in range(3):
+            coords[k, a] = origins[r, a]
+        face[k], coords[k, 3], coords[k, 4] = _on_face(
+            np.float64(dirs[r, col]), np.float64(dirs[r, col + 1]), np.float64(dirs[r, col + 2]))
+
+
+@njit(**BLOCK)
+def sample_keys(coords, face, key, keys):
+    """_keys' keys of the sample's coordinates (sample_coords), ``key`` =
+    (low, scale, tables, top, high_shift)."""
+    low, scale, tables, top, high_shift = key
+    for k in range(keys.shape[0]):
+        bits = np.uint32(0)
+        for c in range(5):
+            if scale[c] != 0.0:
+                bits |= _spread(tables, c, _cell(coords[k, c], low[c], scale[c], top), high_shift)
+        keys[k] = bits | (np.uint32(face[k]) << np.uint32(KEY_BITS))
 
 
 @njit(**JIT)
