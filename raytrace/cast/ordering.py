@@ -39,9 +39,10 @@ PRIMS_MIN = 256        # a structure of fewer primitives is traced as given
 
 @functools.lru_cache(maxsize=32)
 def _tables(varying):
-    """ray_keys' rows of spread bits for each of the 5 coordinates: entry
-    q of coordinate c's row has q's HALF bits at every len(varying)-th
-    position; zero rows for coordinates that do not vary."""
+    """The keys' rows of spread bits (ray_order._spread), one for each of
+    the 5 coordinates: entry q of coordinate c's row has q's HALF bits at
+    every len(varying)-th position; zero rows for coordinates that do not
+    vary.  Cached: the kernels only read them."""
     tables = np.zeros((5, 1 << HALF), np.uint32)
     q = np.arange(1 << HALF, dtype=np.uint32)
     dims = len(varying)
@@ -70,9 +71,10 @@ def _plan_rows(n):
 
 
 def plan(origins, dirs, n):
-    """The key's ranges and tables and the sample's verdict: (given,
-    sorted) shared levels, and (lo, scale, tables), for rays origins, dirs
-    ((n, 3) rows, or (n, 6) rows twice)."""
+    """The sample's verdict and the key's constants: (given, sorted)
+    shared levels, and (lo, scale, tables, top, high_shift) as
+    ray_order's keys take them, for rays origins, dirs ((n, 3) rows, or
+    (n, 6) rows twice)."""
     from raytrace.kernels import ray_order
     rows = _plan_rows(n)
     coords, face = np.empty((len(rows), 5)), np.empty(len(rows), np.int64)
