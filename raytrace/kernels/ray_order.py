@@ -72,14 +72,23 @@ def _keys(rays, lo, keys, records, low, scale, tables, top, high_shift):
             records[i, 7] = t_max[r]
         key = np.uint32(0)
         for k in range(3):
-            if scale[k] != 0.0:      # a coordinate that varies
-                key |= _spread(tables, k, _cell(np.float64(origins[r, k]), low[k], scale[k], top),
-                               high_shift)
+            key |= _coordinate_bits(tables, k, np.float64(origins[r, k]), low, scale, top,
+                                    high_shift)
         face, a, b = _on_face(np.float64(dirs[r, col]), np.float64(dirs[r, col + 1]),
                               np.float64(dirs[r, col + 2]))
-        key |= _spread(tables, 3, _cell(a, low[3], scale[3], top), high_shift)
-        key |= _spread(tables, 4, _cell(b, low[4], scale[4], top), high_shift)
+        key |= _coordinate_bits(tables, 3, a, low, scale, top, high_shift)
+        key |= _coordinate_bits(tables, 4, b, low, scale, top, high_shift)
         keys[i] = key | (np.uint32(face) << np.uint32(KEY_BITS))
+
+
+@njit(**JIT)
+def _coordinate_bits(tables, c, x, low, scale, top, high_shift):
+    """Coordinate c's cell of value x with its bits spread (``_spread``),
+    taken from low[c] and scale[c]; no bits where c does not vary over the
+    call (scale 0)."""
+    if scale[c] == 0.0:
+        return np.uint32(0)
+    return _spread(tables, c, _cell(x, low[c], scale[c], top), high_shift)
 
 
 @njit(**JIT)
@@ -121,8 +130,7 @@ def sample_keys(coords, face, key, keys):
     for k in range(keys.shape[0]):
         bits = np.uint32(0)
         for c in range(5):
-            if scale[c] != 0.0:
-                bits |= _spread(tables, c, _cell(coords[k, c], low[c], scale[c], top), high_shift)
+            bits |= _coordinate_bits(tables, c, coords[k, c], low, scale, top, high_shift)
         keys[k] = bits | (np.uint32(face[k]) << np.uint32(KEY_BITS))
 
 
